@@ -1,0 +1,73 @@
+"""Atomic file writes: a failed run never leaves half a file or overwrites a good one."""
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+
+from core.errors import RoboCalError
+
+
+def ensure_writable_dir(folder: str | Path) -> Path:
+    """Create `folder` if needed and check that files can be written in it."""
+    folder = Path(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise RoboCalError(f"cannot create the folder ({exc.strerror})", source=folder,
+                           hint="Choose a folder you can write to.") from exc
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise RoboCalError("the folder is not writable", source=folder,
+                           hint="Choose a folder you can write to.")
+    return folder
+
+
+def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
+    """Write `data` to `path` through a temporary file in the same folder and a rename."""
+    path = Path(path)
+    folder = ensure_writable_dir(path.parent if str(path.parent) else Path("."))
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(data)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise RoboCalError(f"cannot write the file ({exc.strerror})", source=path,
+                           hint="Check the disk space and permissions.") from exc
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def atomic_write_text(path: str | Path, text: str) -> Path:
+    return atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def atomic_write_json(path: str | Path, data) -> Path:
+    return atomic_write_text(path, json.dumps(data, indent=2, ensure_ascii=False) + "\n")
+
+
+def read_json(path: str | Path) -> dict:
+    """Read a JSON object, with a clear message for a missing or malformed file."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError as exc:
+        raise RoboCalError("file not found", source=path, hint="Check the path.") from exc
+    except OSError as exc:
+        raise RoboCalError(f"cannot read the file ({exc.strerror})", source=path) from exc
+    except UnicodeDecodeError as exc:
+        raise RoboCalError("not a text file", source=path, hint="Give a JSON file.") from exc
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise RoboCalError(f"not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})",
+                           source=path, hint="Fix the syntax or re-export the file.") from exc
+    if not isinstance(data, dict):
+        raise RoboCalError("expected a JSON object at the top level", source=path)
+    return data

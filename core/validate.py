@@ -1,0 +1,62 @@
+"""Field checks for reading files: each failure names the file, the field and the fix."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+from core.errors import RoboCalError
+
+
+def check_format(data: dict, family: str, major: int, source: str | Path) -> int:
+    """Check a `"format": "family/major[.minor]"` tag; return the minor version (0 if none)."""
+    tag = data.get("format")
+    if tag is None:
+        raise RoboCalError("missing", source=source, field="format",
+                           hint=f'Add "format": "{family}/{major}".')
+    if not isinstance(tag, str) or "/" not in tag:
+        raise RoboCalError(f"expected text like '{family}/{major}', got {tag!r}", source=source, field="format")
+    name, _, version = tag.partition("/")
+    if name != family:
+        raise RoboCalError(f"this is a '{name}' file, expected '{family}'", source=source, field="format",
+                           hint="Check that you opened the right file.")
+    major_text, _, minor_text = version.partition(".")
+    if not major_text.isdigit() or (minor_text and not minor_text.isdigit()):
+        raise RoboCalError(f"bad version '{version}'", source=source, field="format",
+                           hint=f"Use '{family}/{major}'.")
+    if int(major_text) != major:
+        raise RoboCalError(f"unknown format version {major_text} (this RoboCal reads version {major})",
+                           source=source, field="format",
+                           hint="Use a RoboCal release that reads this version, or re-export the file.")
+    return int(minor_text or 0)
+
+
+def require(data: dict, key: str, source, field: str | None = None) -> Any:
+    if not isinstance(data, dict) or key not in data:
+        raise RoboCalError("missing", source=source, field=field or key,
+                           hint="Add it (see docs/file-formats.md).")
+    return data[key]
+
+
+def number(value: Any, source, field: str, unit: str = "") -> float:
+    """A finite number (bools and text are refused)."""
+    what = f"a number{' in ' + unit if unit else ''}"
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        shown = f"the text {value!r}" if isinstance(value, str) else repr(value)
+        raise RoboCalError(f"expected {what}, got {shown}", source=source, field=field,
+                           hint="Write a plain number without quotes or units.")
+    if not math.isfinite(value):
+        raise RoboCalError(f"expected {what}, got {value!r}", source=source, field=field)
+    return float(value)
+
+
+def vector(value: Any, length: int, source, field: str, unit: str = "") -> list[float]:
+    if not isinstance(value, (list, tuple)) or len(value) != length:
+        raise RoboCalError(f"expected a list of {length} numbers, got {value!r}", source=source, field=field)
+    return [number(v, source, f"{field}[{i}]", unit) for i, v in enumerate(value)]
+
+
+def text(value: Any, source, field: str) -> str:
+    if not isinstance(value, str):
+        raise RoboCalError(f"expected text, got {value!r}", source=source, field=field)
+    return value
