@@ -1,0 +1,1 @@
+"""Benchmarks: measured figures printed beside their targets (`make bench`)."""
