@@ -1,0 +1,156 @@
+"""A RoboCal project: a folder holding `project.json` and the outputs of the wizard's steps.
+
+```
+my-robot/
+  project.json        {"format": "robocal.project/1", "name", "robot", "mode", "created", ...}
+  robot.json          the nominal robot model (Setup)
+  stereo.yaml         stereo calibration (Stereo calibration)
+  poses.csv           pose sequence (Pose sequence)
+  measurements.csv    measured marker positions (Measurement)
+  calibrated.json     identified robot model (Identification)
+```
+The project file names the robot file (relative to the folder) and the mode: "virtual-lab"
+(simulated robot and cameras) or "hardware". No Qt here: the wizard and the command line
+share this module.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path, PurePath
+
+from core.errors import RoboCalError
+from core.files import atomic_write_json, ensure_writable_dir, read_json
+from core.kinematics import RobotModel
+from core.validate import check_format, require, text
+
+FORMAT_FAMILY = "robocal.project"
+FORMAT_MAJOR = 1
+FORMAT = f"{FORMAT_FAMILY}/{FORMAT_MAJOR}"
+PROJECT_FILE = "project.json"
+
+VIRTUAL_LAB = "virtual-lab"
+HARDWARE = "hardware"
+MODES = (VIRTUAL_LAB, HARDWARE)
+
+#: the step outputs kept beside project.json
+OUTPUT_FILES = {
+    "robot": "robot.json",
+    "stereo": "stereo.yaml",
+    "poses": "poses.csv",
+    "measurements": "measurements.csv",
+    "calibrated": "calibrated.json",
+}
+
+
+@dataclass
+class Project:
+    folder: Path
+    name: str
+    mode: str = VIRTUAL_LAB
+    robot: str | None = None          # robot file name, relative to the folder
+    robot_source: str | None = None   # where it came from ("preset:ur5", a path), for the user
+    created: str = ""                 # ISO 8601, UTC
+
+    @property
+    def file(self) -> Path:
+        return self.folder / PROJECT_FILE
+
+    def path(self, output: str) -> Path:
+        """Path of a step output ("robot", "stereo", "poses", "measurements", "calibrated")."""
+        if output == "robot" and self.robot:
+            return self.folder / self.robot
+        try:
+            return self.folder / OUTPUT_FILES[output]
+        except KeyError:
+            raise RoboCalError(f"unknown project output {output!r}",
+                               hint=f"Use one of {', '.join(OUTPUT_FILES)}.") from None
+
+    def has(self, output: str) -> bool:
+        return self.path(output).is_file()
+
+    def to_dict(self) -> dict:
+        return {"format": FORMAT, "name": self.name, "robot": self.robot,
+                "robot_source": self.robot_source, "mode": self.mode, "created": self.created}
+
+
+def _now() -> str:
+    return datetime.now(timezone.utc).isoformat(timespec="seconds")
+
+
+def _check_mode(mode, source) -> str:
+    if mode not in MODES:
+        raise RoboCalError(f"unknown mode {mode!r}", source=source, field="mode",
+                           hint=f"Use {' or '.join(repr(m) for m in MODES)}.")
+    return mode
+
+
+def create_project(folder: str | Path, *, name: str | None = None, mode: str = VIRTUAL_LAB) -> Project:
+    """Make `folder` (created if needed) a new project; refuses a folder that already is one."""
+    folder = Path(folder)
+    if (folder / PROJECT_FILE).exists():
+        raise RoboCalError("this folder already holds a project", source=folder / PROJECT_FILE,
+                           hint="Open it instead, or choose another folder.")
+    if folder.exists() and not folder.is_dir():
+        raise RoboCalError("not a folder", source=folder, hint="Choose a folder for the project.")
+    _check_mode(mode, "<new project>")
+    ensure_writable_dir(folder)
+    project = Project(folder=folder, name=name or folder.resolve().name or "project", mode=mode,
+                      created=_now())
+    save_project(project)
+    return project
+
+
+def open_project(path: str | Path) -> Project:
+    """Open a project from its folder or from its project.json."""
+    path = Path(path)
+    file = path / PROJECT_FILE if path.is_dir() or path.name != PROJECT_FILE else path
+    if not file.exists():
+        raise RoboCalError("no project here (project.json is missing)", source=file.parent,
+                           hint="Choose a folder made with New project.")
+    data = read_json(file)
+    check_format(data, FORMAT_FAMILY, FORMAT_MAJOR, file)
+    name = text(require(data, "name", file), file, "name")
+    mode = _check_mode(data.get("mode", VIRTUAL_LAB), file)
+    robot = data.get("robot")
+    if robot is not None:
+        robot = text(robot, file, "robot")
+        pure = PurePath(robot)
+        if pure.is_absolute() or ".." in pure.parts or not robot.strip():
+            raise RoboCalError(f"expected a file name inside the project folder, got {robot!r}",
+                               source=file, field="robot")
+    source = data.get("robot_source")
+    if source is not None:
+        source = text(source, file, "robot_source")
+    created = text(data.get("created", ""), file, "created")
+    return Project(folder=file.parent, name=name, mode=mode, robot=robot, robot_source=source,
+                   created=created)
+
+
+def save_project(project: Project) -> Path:
+    """Write project.json atomically."""
+    return atomic_write_json(project.file, project.to_dict())
+
+
+def save_robot(project: Project, model: RobotModel, source: str | None = None) -> Path:
+    """Write the robot model into the project (robot.json) and record it in project.json."""
+    from core.robot_file import write_robot
+
+    project.robot = project.robot or OUTPUT_FILES["robot"]
+    path = write_robot(model, project.path("robot"))
+    project.robot_source = source
+    save_project(project)
+    return path
+
+
+def load_robot(project: Project) -> RobotModel | None:
+    """The project's robot model, or None if none was chosen yet."""
+    from core.robot_file import read_robot
+
+    if not project.robot:
+        return None
+    path = project.path("robot")
+    if not path.exists():
+        raise RoboCalError("the project's robot file is missing", source=path,
+                           hint="Choose the robot again in the Setup step.")
+    return read_robot(path)

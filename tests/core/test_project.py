@@ -1,0 +1,109 @@
+"""Project folders: project.json and the step outputs beside it (no Qt here)."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from core import project as proj
+from core.errors import RoboCalError
+from core.kinematics import robot_path
+from core.robot_file import read_robot
+
+
+@pytest.fixture
+def model():
+    return read_robot(robot_path("educational_6r"))
+
+
+def test_create_writes_a_versioned_project_file(tmp_path):
+    p = proj.create_project(tmp_path / "cell-3", mode="virtual-lab")
+    data = json.loads((tmp_path / "cell-3" / "project.json").read_text())
+    assert data["format"] == "robocal.project/1"
+    assert data["name"] == "cell-3"
+    assert data["mode"] == "virtual-lab"
+    assert data["robot"] is None
+    assert data["created"].endswith("+00:00")
+    assert p.folder == tmp_path / "cell-3"
+
+
+def test_open_round_trip_with_robot(tmp_path, model):
+    p = proj.create_project(tmp_path, name="Lab arm")
+    proj.save_robot(p, model, source="preset:educational_6r")
+    assert (tmp_path / "robot.json").is_file() and p.has("robot")
+    for where in (tmp_path, tmp_path / "project.json"):
+        q = proj.open_project(where)
+        assert (q.name, q.mode, q.robot, q.robot_source) == ("Lab arm", "virtual-lab", "robot.json",
+                                                             "preset:educational_6r")
+        loaded = proj.load_robot(q)
+        assert loaded.dof == 6
+        assert np.allclose(loaded.fk(np.full(6, 0.3)), model.fk(np.full(6, 0.3)))
+
+
+def test_output_paths_sit_beside_the_project_file(tmp_path):
+    p = proj.create_project(tmp_path)
+    assert p.path("stereo") == tmp_path / "stereo.yaml"
+    assert p.path("measurements") == tmp_path / "measurements.csv"
+    assert p.path("poses") == tmp_path / "poses.csv"
+    assert p.path("calibrated") == tmp_path / "calibrated.json"
+    assert not p.has("stereo")
+    with pytest.raises(RoboCalError, match="unknown project output"):
+        p.path("nonsense")
+
+
+def test_load_robot_without_robot_is_none(tmp_path):
+    assert proj.load_robot(proj.create_project(tmp_path)) is None
+
+
+def test_create_refuses_an_existing_project(tmp_path):
+    proj.create_project(tmp_path)
+    with pytest.raises(RoboCalError, match="already holds a project") as info:
+        proj.create_project(tmp_path)
+    assert "Open it instead" in info.value.message
+
+
+def test_create_refuses_a_file_and_unknown_mode(tmp_path):
+    (tmp_path / "f").write_text("x")
+    with pytest.raises(RoboCalError, match="not a folder"):
+        proj.create_project(tmp_path / "f")
+    with pytest.raises(RoboCalError, match="unknown mode"):
+        proj.create_project(tmp_path / "p", mode="teleport")
+    assert not (tmp_path / "p").exists()
+
+
+def test_create_in_an_unwritable_place_names_the_folder(tmp_path):
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(RoboCalError) as info:
+        proj.create_project(tmp_path / "file" / "sub")
+    assert "file" in info.value.message
+
+
+@pytest.mark.parametrize("content, field", [
+    ({"format": "robocal.project/2", "name": "x"}, "format"),
+    ({"format": "robocal.robot/1", "name": "x"}, "format"),
+    ({"name": "x"}, "format"),
+    ({"format": "robocal.project/1"}, "name"),
+    ({"format": "robocal.project/1", "name": "x", "mode": "teleport"}, "mode"),
+    ({"format": "robocal.project/1", "name": "x", "robot": "../elsewhere.json"}, "robot"),
+    ({"format": "robocal.project/1", "name": "x", "robot": 3}, "robot"),
+])
+def test_open_rejects_bad_project_files_naming_the_field(tmp_path, content, field):
+    (tmp_path / "project.json").write_text(json.dumps(content))
+    with pytest.raises(RoboCalError) as info:
+        proj.open_project(tmp_path)
+    assert info.value.field == field
+    assert "project.json" in info.value.message
+
+
+def test_open_a_folder_that_is_no_project(tmp_path):
+    with pytest.raises(RoboCalError, match="project.json is missing"):
+        proj.open_project(tmp_path)
+
+
+def test_missing_robot_file_is_reported(tmp_path, model):
+    p = proj.create_project(tmp_path)
+    proj.save_robot(p, model)
+    (tmp_path / "robot.json").unlink()
+    with pytest.raises(RoboCalError, match="robot file is missing"):
+        proj.load_robot(proj.open_project(tmp_path))
