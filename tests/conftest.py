@@ -1,0 +1,108 @@
+"""Suite-wide test settings.
+
+- Qt runs offscreen unless told otherwise (QT_QPA_PLATFORM).
+- napari style: a GUI test (one that uses qtbot or qapp) fails when it leaves a QThread
+  running, a busy TaskRunner, or a visible top-level window behind. Leftovers are cleaned up
+  before failing, so one leak does not cascade into the following tests.
+
+Qt is imported only for GUI tests: tests/core never loads it.
+"""
+from __future__ import annotations
+
+import os
+import sys
+
+import pytest
+
+os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+
+GUI_FIXTURES = {"qtbot", "qapp"}
+
+
+def visible_top_level_windows() -> list:
+    from PySide6.QtWidgets import QApplication
+
+    app = QApplication.instance()
+    if app is None:
+        return []
+    return [w for w in app.topLevelWidgets() if w.isVisible() and w.isWindow()
+            and w.windowType() not in _popup_types()]
+
+
+def _popup_types():
+    from PySide6.QtCore import Qt
+    return (Qt.WindowType.Popup, Qt.WindowType.ToolTip)
+
+
+def busy_runners() -> list:
+    if "app.worker" not in sys.modules:
+        return []
+    return [r for r in sys.modules["app.worker"].live_runners() if r.busy]
+
+
+class QThreadTracker:
+    """Records every QThread started from Python (QThread.start patched), like napari."""
+
+    def __init__(self, monkeypatch):
+        from PySide6.QtCore import QThread
+
+        self.threads: list = []
+        original = QThread.start
+        tracker = self
+
+        def start(thread, *args, **kwargs):
+            tracker.threads.append(thread)
+            return original(thread, *args, **kwargs)
+
+        monkeypatch.setattr(QThread, "start", start)
+
+    def running(self) -> list:
+        alive = []
+        for t in self.threads:
+            try:
+                if t.isRunning():
+                    alive.append(t)
+            except RuntimeError:   # the C++ object is gone: not running
+                pass
+        return alive
+
+
+@pytest.fixture(autouse=True)
+def _no_qt_leftovers(request, monkeypatch):
+    if not GUI_FIXTURES & set(request.fixturenames):
+        yield
+        return
+    request.getfixturevalue("qapp")
+    tracker = QThreadTracker(monkeypatch)
+    yield
+    # runs after qtbot's teardown (autouse fixtures are set up first, torn down last),
+    # so widgets registered with qtbot.addWidget are already closed.
+    from PySide6.QtWidgets import QApplication
+
+    QApplication.processEvents()
+    problems = []
+    runners = busy_runners()
+    if runners:
+        problems.append(f"{len(runners)} TaskRunner(s) still busy: "
+                        + ", ".join(repr(h) for r in runners for h in r.running_tasks()))
+        for r in runners:
+            r.shutdown(5000)
+    threads = tracker.running()
+    if threads:
+        problems.append(f"{len(threads)} QThread(s) still running")
+        for t in threads:
+            t.quit()
+            t.wait(5000)
+    windows = visible_top_level_windows()
+    if windows:
+        problems.append("top-level window(s) left open: "
+                        + ", ".join(f"{type(w).__name__}({w.objectName() or w.windowTitle()!r})"
+                                    for w in windows))
+        for w in windows:
+            w.close()
+            w.deleteLater()
+        QApplication.processEvents()
+    if problems:
+        pytest.fail("test left Qt objects behind: " + "; ".join(problems)
+                    + " (close windows with qtbot.addWidget, wait for threads and runners)",
+                    pytrace=False)
