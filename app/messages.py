@@ -1,0 +1,73 @@
+"""Errors shown to the user: a message box in the wizard, one line on stderr when nobody is
+there to click (autopilot, screenshots runs). Also the top-level exception hook."""
+from __future__ import annotations
+
+import sys
+import traceback
+
+from PySide6.QtWidgets import QMessageBox, QWidget
+
+#: True while the wizard runs on its own (--autopilot): no modal box may block it.
+NON_INTERACTIVE = False
+
+
+def set_non_interactive(value: bool) -> None:
+    global NON_INTERACTIVE
+    NON_INTERACTIVE = bool(value)
+
+
+def show_error(parent: QWidget | None, message: str, title: str = "RoboCal") -> None:
+    """One clear message. Tests patch `QMessageBox.critical` to see it without blocking."""
+    if NON_INTERACTIVE:
+        sys.stderr.write(f"robocal gui: {title}: {message}\n")
+        return
+    QMessageBox.critical(parent, title, message)
+
+
+def show_info(parent: QWidget | None, message: str, title: str = "RoboCal") -> None:
+    if NON_INTERACTIVE:
+        sys.stdout.write(f"robocal gui: {message}\n")
+        return
+    QMessageBox.information(parent, title, message)
+
+
+def install_excepthook(parent_getter=lambda: None, on_fatal=None):
+    """Route uncaught exceptions (e.g. in a slot) to a message box instead of killing the app.
+
+    The traceback goes to stderr; the user sees ``Type: message``. When non-interactive,
+    `on_fatal(exc)` is called instead (the autopilot fails with exit code 1).
+    Returns a function that restores the previous hook."""
+    from core.errors import RoboCalError
+
+    previous = sys.excepthook
+
+    def hook(exc_type, exc, tb):
+        if issubclass(exc_type, KeyboardInterrupt):
+            previous(exc_type, exc, tb)
+            return
+        if isinstance(exc, RoboCalError):
+            text = exc.message
+        else:
+            text = f"{exc_type.__name__}: {exc}" if str(exc) else exc_type.__name__
+            sys.stderr.write("".join(traceback.format_exception(exc_type, exc, tb)))
+        if NON_INTERACTIVE:
+            sys.stderr.write(f"robocal gui: unexpected error: {text}\n")
+            if on_fatal is not None:
+                on_fatal(exc)
+            return
+        try:
+            box = QMessageBox(QMessageBox.Icon.Critical, "RoboCal: unexpected error",
+                              f"{text}\n\nRoboCal keeps running, but the action that failed did not "
+                              "finish. Please report this problem with the details below.",
+                              parent=parent_getter())
+            box.setDetailedText("".join(traceback.format_exception(exc_type, exc, tb)))
+            box.exec()
+        except Exception:  # noqa: BLE001 - the hook itself must never raise
+            previous(exc_type, exc, tb)
+
+    sys.excepthook = hook
+
+    def restore():
+        sys.excepthook = previous
+
+    return restore

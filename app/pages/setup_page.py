@@ -1,0 +1,282 @@
+"""Step 1, Setup: project folder, robot model (DH table), robot connection, cameras."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from PySide6.QtCore import Qt
+from PySide6.QtWidgets import (QButtonGroup, QComboBox, QFileDialog, QFormLayout, QGroupBox,
+                               QHBoxLayout, QLabel, QPushButton, QRadioButton, QVBoxLayout)
+
+from app import project_actions
+from app.pages.base import WizardPage
+from app.pages.steps import Step
+from core import project as projects
+from core.errors import RoboCalError
+from core.files import read_json
+from core.kinematics import RobotModel, preset_names, robot_path
+from widgets.dh_table import DHTable
+
+DEMO_PRESET = "educational_6r"
+HARDWARE_LATER = "arrives with a hardware issue"
+
+
+def preset_title(name: str) -> str:
+    """The display name written in a preset file (its file name if unreadable)."""
+    try:
+        return str(read_json(robot_path(name)).get("name", name))
+    except RoboCalError:
+        return name
+
+
+def robot_summary(model: RobotModel) -> str:
+    kinds = {j.type for j in model.joints}
+    kind = next(iter(kinds)) if len(kinds) == 1 else "mixed"
+    parts = [f"{model.dof} {kind} joints" if kind != "mixed" else f"{model.dof} joints"]
+    for name, p in model.targets.items():
+        parts.append(f"target “{name}” at ({', '.join(f'{v:g}' for v in np.round(p, 2))}) mm "
+                     "in the tool frame")
+    parallel = model.parallel_axis_joints()
+    if parallel:
+        pairs = ", ".join(f"J{i + 1}∥J{i + 2}" for i in parallel)
+        parts.append(f"nearly parallel axes {pairs}: Hayati's β is identified there instead of d")
+    return " · ".join(parts)
+
+
+class SetupPage(WizardPage):
+    step = Step.SETUP
+
+    def __init__(self, state, tasks, **kwargs):
+        super().__init__(state, tasks, **kwargs)
+        self._syncing = False
+
+        # -- project -------------------------------------------------------------------
+        self.project_folder = QLabel()
+        self.project_folder.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
+        self.project_folder.setWordWrap(True)
+        self.project_details = QLabel()
+        self.project_details.setObjectName("hint")
+        self.new_button = QPushButton("New project…")
+        self.open_button = QPushButton("Open project…")
+        self.new_button.clicked.connect(lambda: self.new_project())
+        self.open_button.clicked.connect(lambda: self.open_project())
+        project_box = QGroupBox("Project")
+        row = QHBoxLayout()
+        text_col = QVBoxLayout()
+        text_col.addWidget(self.project_folder)
+        text_col.addWidget(self.project_details)
+        row.addLayout(text_col, 1)
+        row.addWidget(self.new_button)
+        row.addWidget(self.open_button)
+        project_box.setLayout(row)
+
+        # -- robot model ---------------------------------------------------------------
+        self.preset_combo = QComboBox()
+        self.preset_combo.setObjectName("presetCombo")
+        self.preset_combo.addItem("— choose a preset —", None)
+        for name in preset_names():
+            self.preset_combo.addItem(preset_title(name), name)
+        self.preset_combo.setMinimumContentsLength(30)
+        self.preset_combo.currentIndexChanged.connect(self._preset_picked)
+        self.load_button = QPushButton("Load robot.json…")
+        self.load_button.clicked.connect(lambda: self.load_robot_file())
+        self.robot_name = QLabel()
+        self.robot_name.setObjectName("robotName")
+        self.robot_summary = QLabel()
+        self.robot_summary.setWordWrap(True)
+        self.robot_summary.setObjectName("hint")
+        self.dh_table = DHTable()
+        robot_box = QGroupBox("Robot model (nominal DH parameters, eq. 1)")
+        rl = QVBoxLayout(robot_box)
+        pick = QHBoxLayout()
+        pick.addWidget(QLabel("Preset:"))
+        pick.addWidget(self.preset_combo, 1)
+        pick.addWidget(QLabel("or"))
+        pick.addWidget(self.load_button)
+        rl.addLayout(pick)
+        rl.addWidget(self.robot_name)
+        rl.addWidget(self.dh_table)
+        rl.addWidget(self.robot_summary)
+
+        # -- connection and cameras ----------------------------------------------------
+        self.virtual_robot = QRadioButton("Virtual lab (simulated robot)")
+        self.serial_robot = QRadioButton(f"Serial robot — {HARDWARE_LATER}")
+        self.serial_robot.setEnabled(False)
+        self.connection_status = QLabel()
+        self.connection_status.setObjectName("hint")
+        self.connection_status.setWordWrap(True)
+        self._robot_group = QButtonGroup(self)
+        for b in (self.virtual_robot, self.serial_robot):
+            self._robot_group.addButton(b)
+        connection_box = QGroupBox("Robot connection")
+        cl = QVBoxLayout(connection_box)
+        cl.addWidget(self.virtual_robot)
+        cl.addWidget(self.serial_robot)
+        cl.addWidget(self.connection_status)
+
+        self.virtual_cameras = QRadioButton("Virtual lab cameras (simulated stereo pair)")
+        self.real_cameras = QRadioButton(f"USB / GigE cameras — {HARDWARE_LATER}")
+        self.real_cameras.setEnabled(False)
+        self._camera_group = QButtonGroup(self)
+        for b in (self.virtual_cameras, self.real_cameras):
+            self._camera_group.addButton(b)
+        self.camera_status = QLabel("Two simulated cameras with parallel optical axes look at "
+                                    "the robot; the marker is rendered where the robot puts it.")
+        self.camera_status.setObjectName("hint")
+        self.camera_status.setWordWrap(True)
+        camera_box = QGroupBox("Cameras")
+        kl = QVBoxLayout(camera_box)
+        kl.addWidget(self.virtual_cameras)
+        kl.addWidget(self.real_cameras)
+        kl.addWidget(self.camera_status)
+
+        hw = QHBoxLayout()
+        hw.addWidget(connection_box, 1)
+        hw.addWidget(camera_box, 1)
+
+        self.status = QLabel()
+        self.status.setObjectName("pageStatus")
+        self.status.setWordWrap(True)
+
+        layout = QVBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.addWidget(project_box)
+        layout.addWidget(robot_box)
+        layout.addLayout(hw)
+        layout.addWidget(self.status)
+        layout.addStretch(1)
+
+        state.projectChanged.connect(self._refresh)
+        state.robotChanged.connect(self._refresh)
+        state.connectionChanged.connect(self._refresh)
+        self._refresh()
+
+    # -- actions (also called by tests with explicit paths) ------------------------------
+    def new_project(self, folder: str | Path | None = None):
+        return project_actions.new_project(self, self.state, folder)
+
+    def open_project(self, folder: str | Path | None = None):
+        return project_actions.open_project(self, self.state, folder)
+
+    def choose_preset(self, name: str) -> RobotModel | None:
+        try:
+            return self.state.choose_preset(name)
+        except RoboCalError as exc:
+            self.show_error(exc.message)
+            self._refresh()
+            return None
+
+    def load_robot_file(self, path: str | Path | None = None) -> RobotModel | None:
+        if path is None:
+            start = str(self.state.project.folder) if self.state.project else str(Path.home())
+            path, _ = QFileDialog.getOpenFileName(self, "Load a robot model", start,
+                                                  "Robot model (*.json);;All files (*)")
+            if not path:
+                return None
+        try:
+            return self.state.load_robot_file(path)
+        except RoboCalError as exc:
+            self.show_error(exc.message)
+            self._refresh()
+            return None
+
+    def _preset_picked(self, index: int) -> None:
+        if self._syncing:
+            return
+        name = self.preset_combo.itemData(index)
+        if name:
+            self.choose_preset(name)
+
+    # -- WizardPage ----------------------------------------------------------------------
+    def is_complete(self) -> bool:
+        return self.state.project is not None and self.state.robot is not None
+
+    def on_enter(self) -> None:
+        self._refresh()
+
+    def autopilot(self, done) -> None:
+        try:
+            if self.state.project is None:
+                self.state.temporary_project()
+            if self.state.robot is None:
+                self.state.choose_preset(DEMO_PRESET)
+        except RoboCalError as exc:
+            done(False, exc.message)
+            return
+        done(self.is_complete(), "" if self.is_complete() else "no project or robot")
+
+    # -- display -------------------------------------------------------------------------
+    def _refresh(self, *_):
+        state = self.state
+        project = state.project
+        if project is None:
+            self.project_folder.setText("<b>No project yet.</b> A project is a folder that keeps "
+                                        "the robot model and the output of every step.")
+            self.project_details.setText("Create a new one, or open an existing project folder.")
+        else:
+            where = f"{project.folder}"
+            if state.is_temporary():
+                where += "  (temporary demo folder, deleted when RoboCal closes)"
+            self.project_folder.setText(f"<b>{_esc(project.name)}</b> — {_esc(where)}")
+            mode = "virtual lab" if project.mode == projects.VIRTUAL_LAB else "hardware"
+            created = project.created.replace("T", " ").replace("+00:00", " UTC")
+            self.project_details.setText(f"Mode: {mode} · created {created or 'unknown'} · "
+                                         f"format {projects.FORMAT}")
+
+        model = state.robot
+        self.dh_table.set_robot(model)
+        self._syncing = True
+        try:
+            source = state.robot_source or ""
+            preset = source[len("preset:"):] if source.startswith("preset:") else None
+            index = self.preset_combo.findData(preset) if preset else -1
+            if index < 0:
+                self.preset_combo.setItemText(
+                    0, f"From file: {Path(source).name}" if (model is not None and source) else "— choose a preset —")
+                index = 0
+            else:
+                self.preset_combo.setItemText(0, "— choose a preset —")
+            self.preset_combo.setCurrentIndex(index)
+        finally:
+            self._syncing = False
+        if model is None:
+            self.robot_name.setText("No robot model yet: choose a preset or load a robot.json file.")
+            self.robot_summary.setText("")
+        else:
+            self.robot_name.setText(f"<b>{_esc(model.name)}</b>")
+            self.robot_summary.setText(robot_summary(model))
+
+        hardware = project is not None and project.mode == projects.HARDWARE
+        self.virtual_robot.setChecked(not hardware)
+        self.serial_robot.setChecked(hardware)
+        self.virtual_cameras.setChecked(not hardware)
+        self.real_cameras.setChecked(hardware)
+        conn = state.robot_connection
+        if hardware:
+            self.connection_status.setText("This project is for real hardware, which this version "
+                                           f"cannot drive yet (the serial robot {HARDWARE_LATER}).")
+        elif conn is None:
+            self.connection_status.setText("Choose a robot model to connect the simulated robot.")
+        else:
+            self.connection_status.setText(f"{conn.name}: {'connected' if conn.connected else 'not connected'}. "
+                                           "Stop: Esc or Ctrl+. at any time.")
+
+        missing = []
+        if project is None:
+            missing.append("create or open a project")
+        if model is None:
+            missing.append("choose a robot model")
+        if missing:
+            self.status.setText("To continue: " + " and ".join(missing) + ".")
+            self.status.setProperty("ok", False)
+        else:
+            self.status.setText("✓ Ready: the project and the robot model are set. Press Next.")
+            self.status.setProperty("ok", True)
+        self.status.style().unpolish(self.status)
+        self.status.style().polish(self.status)
+        self.notify_complete()
+
+
+def _esc(text: str) -> str:
+    import html
+    return html.escape(str(text))

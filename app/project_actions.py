@@ -1,0 +1,49 @@
+"""New / Open / Save project, shared by the File menu and the Setup page.
+
+Each action asks for a folder when none is given, shows a RoboCalError as one message box
+line, and returns the project (or None when cancelled or failed)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from PySide6.QtWidgets import QFileDialog, QWidget
+
+from app.messages import show_error
+from app.state import WizardState
+from core.errors import RoboCalError
+from core.project import Project
+
+
+def new_project(parent: QWidget | None, state: WizardState, folder: str | Path | None = None) -> Project | None:
+    if folder is None:
+        folder = QFileDialog.getExistingDirectory(
+            parent, "New project: choose or create an empty folder", str(Path.home()))
+        if not folder:
+            return None
+    try:
+        return state.new_project(folder)
+    except RoboCalError as exc:
+        show_error(parent, exc.message, "RoboCal: new project")
+        return None
+
+
+def open_project(parent: QWidget | None, state: WizardState, folder: str | Path | None = None) -> Project | None:
+    if folder is None:
+        folder = QFileDialog.getExistingDirectory(
+            parent, "Open project: choose a project folder", str(Path.home()))
+        if not folder:
+            return None
+    try:
+        return state.open_project(folder)
+    except RoboCalError as exc:
+        show_error(parent, exc.message, "RoboCal: open project")
+        return None
+
+
+def save_project(parent: QWidget | None, state: WizardState) -> bool:
+    try:
+        state.save_project()
+    except RoboCalError as exc:
+        show_error(parent, exc.message, "RoboCal: save project")
+        return False
+    return True
