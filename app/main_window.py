@@ -1,0 +1,401 @@
+"""The wizard's main window: the steps in a side list, one page per step, an explain panel
+per page, New/Open/Save, Back/Next, a status bar with progress and Cancel, and Stop."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from PySide6.QtCore import QSize, Qt, Signal
+from PySide6.QtGui import QAction, QCloseEvent, QIcon, QKeySequence
+from PySide6.QtWidgets import (QDockWidget, QHBoxLayout, QLabel, QMainWindow, QProgressBar,
+                               QPushButton, QSplitter, QStackedWidget, QStyle, QVBoxLayout,
+                               QWidget)
+
+from app import project_actions
+from app.messages import show_error, show_info
+from app.pages.base import WizardPage
+from app.pages.registry import create_pages
+from app.pages.steps import Step
+from app.state import WizardState
+from app.worker import TaskHandle, TaskRunner
+from core.resources import resource_path
+from widgets.explain_panel import ExplainPanel
+from widgets.step_list import StepList, StepState
+
+APP_STYLE = """
+QLabel#pageTitle { font-size: 17pt; font-weight: 600; color: #202124; }
+QLabel#pageSummary { font-size: 10.5pt; color: #5f6368; }
+QLabel#hint { color: #5f6368; }
+QLabel#sectionHeading { font-weight: 600; font-size: 11pt; }
+QLabel#notBuiltNotice { font-size: 13pt; font-weight: 600; color: #8a4b00; }
+QFrame#notBuiltBox { background: #fef7e0; border: 1px solid #f9d77e; border-radius: 6px; }
+QLabel#pageStatus { font-weight: 600; color: #8a4b00; padding: 4px 0; }
+QLabel#pageStatus[ok="true"] { color: #188038; }
+QListWidget#stepList { font-size: 10.5pt; border: none; background: #f8f9fa; padding: 6px; }
+QListWidget#stepList::item { padding: 4px 6px; border-radius: 6px; color: #202124; }
+QListWidget#stepList::item:selected { background: #d2e3fc; color: #202124; }
+QGroupBox { font-weight: 600; margin-top: 14px; }
+QGroupBox::title { subcontrol-origin: margin; left: 8px; padding: 0 4px; }
+QPushButton#nextButton { font-weight: 600; }
+"""
+
+
+def app_icon() -> QIcon:
+    return QIcon(str(resource_path("icons", "robocal.svg")))
+
+
+class MainWindow(QMainWindow):
+    """`pageChanged(int)` is emitted after a page became current (its Step value)."""
+
+    pageChanged = Signal(int)
+
+    def __init__(self, state: WizardState | None = None, parent: QWidget | None = None):
+        super().__init__(parent)
+        self.state = state if state is not None else WizardState(self)
+        self.tasks = TaskRunner(self)
+        self.setWindowIcon(app_icon())
+        self.setObjectName("mainWindow")
+        self.setStyleSheet(APP_STYLE)
+        font = self.font()
+        if font.pointSizeF() < 10:
+            font.setPointSizeF(10)
+            self.setFont(font)
+
+        self.pages: list[WizardPage] = create_pages(self.state, self.tasks)
+        self._build_actions()
+        self._build_central()
+        self._build_explain_dock()
+        self._build_menus_and_toolbar()
+        self._build_status_bar()
+
+        for page in self.pages:
+            page.completeChanged.connect(self._update_states)
+        self.state.projectChanged.connect(self._update_title)
+        self.state.robotChanged.connect(self._update_mode_label)
+        self.state.connectionChanged.connect(self._update_mode_label)
+        self.tasks.progress.connect(self._on_progress)
+        self.tasks.busyChanged.connect(self._on_busy)
+        self.tasks.unhandledError.connect(lambda msg, label: show_error(self, msg, f"RoboCal: {label}"))
+
+        self._current = -1
+        self.resize(1400, 900)
+        self._update_states()
+        self._update_title()
+        self._update_mode_label()
+        self.go_to(Step.SETUP)
+
+    # -- construction --------------------------------------------------------------------
+    def _build_actions(self) -> None:
+        style = self.style()
+        self.action_new = QAction(style.standardIcon(QStyle.StandardPixmap.SP_FileIcon), "&New project…", self)
+        self.action_new.setShortcut(QKeySequence.StandardKey.New)
+        self.action_new.triggered.connect(lambda: project_actions.new_project(self, self.state))
+        self.action_open = QAction(style.standardIcon(QStyle.StandardPixmap.SP_DirOpenIcon), "&Open project…", self)
+        self.action_open.setShortcut(QKeySequence.StandardKey.Open)
+        self.action_open.triggered.connect(lambda: project_actions.open_project(self, self.state))
+        self.action_save = QAction(style.standardIcon(QStyle.StandardPixmap.SP_DialogSaveButton), "&Save", self)
+        self.action_save.setShortcut(QKeySequence.StandardKey.Save)
+        self.action_save.triggered.connect(self.save_project)
+        self.action_quit = QAction("&Quit", self)
+        self.action_quit.setShortcut(QKeySequence.StandardKey.Quit)
+        self.action_quit.setMenuRole(QAction.MenuRole.QuitRole)
+        self.action_quit.triggered.connect(self.close)
+
+        # Robot safety: Stop is always one key away, whatever has the focus.
+        self.action_stop = QAction(style.standardIcon(QStyle.StandardPixmap.SP_BrowserStop), "&Stop robot", self)
+        self.action_stop.setShortcuts([QKeySequence(Qt.Key.Key_Escape), QKeySequence("Ctrl+.")])
+        self.action_stop.setShortcutContext(Qt.ShortcutContext.ApplicationShortcut)
+        self.action_stop.setToolTip("Stop the robot now and cancel the running task (Esc or Ctrl+.)")
+        self.action_stop.triggered.connect(self.stop_robot)
+        self.action_resume = QAction("&Resume after stop", self)
+        self.action_resume.triggered.connect(self.resume_robot)
+
+        self.action_back = QAction("Back", self)
+        self.action_back.setShortcut(QKeySequence("Alt+Left"))
+        self.action_back.triggered.connect(self.back)
+        self.action_next = QAction("Next", self)
+        self.action_next.setShortcut(QKeySequence("Alt+Right"))
+        self.action_next.triggered.connect(self.next)
+        self.action_about = QAction("&About RoboCal", self)
+        self.action_about.triggered.connect(self._about)
+        for a in (self.action_back, self.action_next, self.action_stop):
+            self.addAction(a)   # shortcuts work even when the toolbar is hidden
+
+    def _build_central(self) -> None:
+        self.step_list = StepList()
+        self.step_list.set_steps([p.title for p in self.pages])
+        self.step_list.setMinimumWidth(210)
+        self.step_list.setMaximumWidth(300)
+        self.step_list.currentRowChanged.connect(self._row_picked)
+
+        self.page_title = QLabel()
+        self.page_title.setObjectName("pageTitle")
+        self.page_summary = QLabel()
+        self.page_summary.setObjectName("pageSummary")
+        self.page_summary.setWordWrap(True)
+        self.stack = QStackedWidget()
+        for page in self.pages:
+            self.stack.addWidget(page)
+
+        self.back_button = QPushButton("◀  Back")
+        self.back_button.setObjectName("backButton")
+        self.back_button.clicked.connect(self.back)
+        self.next_button = QPushButton("Next  ▶")
+        self.next_button.setObjectName("nextButton")
+        self.next_button.setDefault(True)
+        self.next_button.clicked.connect(self.next)
+        self.step_counter = QLabel()
+        self.step_counter.setObjectName("hint")
+        nav = QHBoxLayout()
+        nav.addWidget(self.step_counter)
+        nav.addStretch(1)
+        nav.addWidget(self.back_button)
+        nav.addWidget(self.next_button)
+
+        content = QWidget()
+        cl = QVBoxLayout(content)
+        cl.setContentsMargins(18, 14, 18, 12)
+        cl.setSpacing(6)
+        cl.addWidget(self.page_title)
+        cl.addWidget(self.page_summary)
+        cl.addSpacing(4)
+        cl.addWidget(self.stack, 1)
+        cl.addLayout(nav)
+
+        self.splitter = QSplitter(Qt.Orientation.Horizontal)
+        self.splitter.addWidget(self.step_list)
+        self.splitter.addWidget(content)
+        self.splitter.setStretchFactor(0, 0)
+        self.splitter.setStretchFactor(1, 1)
+        self.splitter.setSizes([230, 800])
+        self.splitter.setChildrenCollapsible(False)
+        self.setCentralWidget(self.splitter)
+
+    def _build_explain_dock(self) -> None:
+        self.explain = ExplainPanel()
+        self.explain_dock = QDockWidget("Explain", self)
+        self.explain_dock.setObjectName("explainDock")
+        self.explain_dock.setWidget(self.explain)
+        self.explain_dock.setFeatures(QDockWidget.DockWidgetFeature.DockWidgetClosable
+                                      | QDockWidget.DockWidgetFeature.DockWidgetMovable
+                                      | QDockWidget.DockWidgetFeature.DockWidgetFloatable)
+        self.explain_dock.setMinimumWidth(320)
+        self.addDockWidget(Qt.DockWidgetArea.RightDockWidgetArea, self.explain_dock)
+        self.resizeDocks([self.explain_dock], [420], Qt.Orientation.Horizontal)
+        # our own action: the dock's toggleViewAction() would take the dock's changing title
+        self.action_explain = QAction("&Explain", self)
+        self.action_explain.setCheckable(True)
+        self.action_explain.setChecked(True)
+        self.action_explain.setShortcut(QKeySequence(Qt.Key.Key_F1))
+        self.action_explain.toggled.connect(self.explain_dock.setVisible)
+        self.explain_dock.visibilityChanged.connect(self._explain_visibility)
+        self.action_explain.setToolTip("Show or hide the explanation of this step (F1)")
+        self.action_explain.setIcon(self.style().standardIcon(QStyle.StandardPixmap.SP_MessageBoxQuestion))
+
+    def _explain_visibility(self, visible: bool) -> None:
+        # a minimised window hides the dock too: only follow an explicit close
+        if not visible and self.isVisible() and not self.isMinimized() and self.explain_dock.isHidden():
+            self.action_explain.setChecked(False)
+        elif visible:
+            self.action_explain.setChecked(True)
+
+    def _build_menus_and_toolbar(self) -> None:
+        menu = self.menuBar()
+        file_menu = menu.addMenu("&File")
+        for a in (self.action_new, self.action_open, self.action_save):
+            file_menu.addAction(a)
+        file_menu.addSeparator()
+        file_menu.addAction(self.action_quit)
+        robot_menu = menu.addMenu("&Robot")
+        robot_menu.addAction(self.action_stop)
+        robot_menu.addAction(self.action_resume)
+        go_menu = menu.addMenu("&Go")
+        go_menu.addAction(self.action_back)
+        go_menu.addAction(self.action_next)
+        view_menu = menu.addMenu("&View")
+        view_menu.addAction(self.action_explain)
+        help_menu = menu.addMenu("&Help")
+        help_menu.addAction(self.action_about)
+
+        bar = self.addToolBar("Main")
+        bar.setObjectName("mainToolBar")
+        bar.setMovable(False)
+        bar.setIconSize(QSize(20, 20))
+        bar.setToolButtonStyle(Qt.ToolButtonStyle.ToolButtonTextBesideIcon)
+        for a in (self.action_new, self.action_open, self.action_save):
+            bar.addAction(a)
+        bar.addSeparator()
+        bar.addAction(self.action_stop)
+        bar.addSeparator()
+        bar.addAction(self.action_explain)
+
+    def _build_status_bar(self) -> None:
+        bar = self.statusBar()
+        self.progress_bar = QProgressBar()
+        self.progress_bar.setRange(0, 1000)
+        self.progress_bar.setMaximumWidth(360)
+        self.progress_bar.setMinimumWidth(240)
+        self.progress_bar.setTextVisible(True)
+        self.cancel_button = QPushButton("Cancel")
+        self.cancel_button.setToolTip("Cancel the running task")
+        self.cancel_button.clicked.connect(self.cancel_tasks)
+        self.mode_label = QLabel()
+        self.mode_label.setObjectName("hint")
+        bar.addPermanentWidget(self.progress_bar)
+        bar.addPermanentWidget(self.cancel_button)
+        bar.addPermanentWidget(self.mode_label)
+        self.progress_bar.hide()
+        self.cancel_button.hide()
+
+    # -- navigation ----------------------------------------------------------------------
+    def page(self, step: Step | int) -> WizardPage:
+        return self.pages[int(step)]
+
+    def current_page(self) -> WizardPage:
+        return self.pages[self._current]
+
+    @property
+    def current_step(self) -> Step:
+        return Step(self._current)
+
+    def go_to(self, step: Step | int) -> WizardPage:
+        index = int(step)
+        if index == self._current:
+            return self.pages[index]
+        if self._current >= 0:
+            self.pages[self._current].on_leave()
+        self._current = index
+        page = self.pages[index]
+        self.stack.setCurrentIndex(index)
+        if self.step_list.currentRow() != index:
+            self.step_list.blockSignals(True)
+            self.step_list.setCurrentRow(index)
+            self.step_list.blockSignals(False)
+        self.page_title.setText(f"{page.step.number}. {page.title}")
+        self.page_summary.setText(page.step.info.summary)
+        self.step_counter.setText(f"Step {page.step.number} of {len(self.pages)}")
+        self.explain_dock.setWindowTitle(f"Explain: {page.title}")
+        self.explain.show_file(resource_path("help", f"{page.help_name}.html"), page.title)
+        page.on_enter()
+        self._update_states()
+        self.pageChanged.emit(index)
+        return page
+
+    def _row_picked(self, row: int) -> None:
+        if 0 <= row < len(self.pages):
+            self.go_to(row)
+
+    def can_go_next(self) -> bool:
+        page = self.current_page()
+        return self._current < len(self.pages) - 1 and (not page.built or page.is_complete())
+
+    def next(self) -> None:
+        if self.can_go_next():
+            self.go_to(self._current + 1)
+
+    def back(self) -> None:
+        if self._current > 0:
+            self.go_to(self._current - 1)
+
+    def _update_states(self) -> None:
+        for i, page in enumerate(self.pages):
+            if page.load_error:
+                s = StepState.ERROR
+            elif not page.built:
+                s = StepState.NOT_BUILT
+            else:
+                s = StepState.DONE if page.is_complete() else StepState.TODO
+            self.step_list.set_state(i, s)
+        if self._current >= 0:
+            ok = self.can_go_next()
+            self.next_button.setEnabled(ok)
+            self.action_next.setEnabled(ok)
+            self.back_button.setEnabled(self._current > 0)
+            self.action_back.setEnabled(self._current > 0)
+            page = self.current_page()
+            if page.built and not page.is_complete() and self._current < len(self.pages) - 1:
+                self.next_button.setToolTip("Finish this step first")
+            else:
+                self.next_button.setToolTip("")
+
+    # -- project -------------------------------------------------------------------------
+    def save_project(self) -> bool:
+        ok = project_actions.save_project(self, self.state)
+        if ok:
+            self.statusBar().showMessage(f"Saved {self.state.project.folder}", 5000)
+        return ok
+
+    def _update_title(self, *_):
+        project = self.state.project
+        name = project.name if project is not None else "no project"
+        demo = " (temporary demo)" if self.state.is_temporary() else ""
+        self.setWindowTitle(f"RoboCal — {name}{demo}")
+
+    def _update_mode_label(self, *_):
+        conn = self.state.robot_connection
+        mode = "Virtual lab" if self.state.virtual else "Hardware"
+        robot = "no robot" if conn is None else ("robot stopped" if conn.stopped else "robot ready")
+        self.mode_label.setText(f"  {mode} · {robot}  ")
+
+    # -- robot safety --------------------------------------------------------------------
+    def stop_robot(self) -> None:
+        """Stop the robot (if any) and cancel the running tasks: one key, always."""
+        stopped = self.state.stop_robot()
+        busy = self.tasks.busy
+        self.tasks.cancel_all()
+        if stopped:
+            self.statusBar().showMessage("Robot stopped. Robot ▸ Resume after stop when the way is clear.")
+        elif busy:
+            self.statusBar().showMessage("Stop: the running task was cancelled (no robot connected).", 5000)
+        else:
+            self.statusBar().showMessage("Stop: no robot connected.", 3000)
+        self._update_mode_label()
+
+    def resume_robot(self) -> None:
+        if self.state.robot_connection is not None:
+            self.state.robot_connection.resume()
+            self.statusBar().showMessage("Robot ready.", 3000)
+        self._update_mode_label()
+
+    # -- tasks ---------------------------------------------------------------------------
+    def run_task(self, fn, *args, on_result=None, on_error=None, on_cancelled=None,
+                 on_progress=None, label: str = "Working", **kwargs) -> TaskHandle:
+        """Run a core function on a worker thread with progress and Cancel in the status bar."""
+        return self.tasks.start(fn, *args, on_result=on_result, on_error=on_error,
+                                on_cancelled=on_cancelled, on_progress=on_progress, label=label, **kwargs)
+
+    def cancel_tasks(self) -> None:
+        self.tasks.cancel_all()
+        self.progress_bar.setFormat("Cancelling…")
+
+    def _on_progress(self, fraction: float, message: str, label: str) -> None:
+        self.progress_bar.setValue(int(round(1000 * min(max(fraction, 0.0), 1.0))))
+        text = f"{label}: {message}" if message else label
+        self.progress_bar.setFormat(f"{text.replace('%', '%%')}  %p%")
+
+    def _on_busy(self, busy: bool) -> None:
+        self.progress_bar.setVisible(busy)
+        self.cancel_button.setVisible(busy)
+        if busy:
+            self.progress_bar.setValue(0)
+        else:
+            self.progress_bar.setFormat("%p%")
+
+    # -- misc ----------------------------------------------------------------------------
+    def save_screenshot(self, path: str | Path) -> Path:
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if not self.grab().save(str(path), "PNG"):
+            from core.errors import RoboCalError
+            raise RoboCalError("cannot write the screenshot", source=path)
+        return path
+
+    def _about(self) -> None:
+        show_info(self, "RoboCal makes a robot arm more accurate with two ordinary cameras: "
+                        "stereo calibration, marker detection, pose selection, measurement and "
+                        "kinematic identification, with a built-in virtual lab.", "About RoboCal")
+
+    def closeEvent(self, event: QCloseEvent) -> None:
+        self.state.stop_robot()
+        self.tasks.shutdown()
+        self.state.close()
+        super().closeEvent(event)

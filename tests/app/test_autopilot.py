@@ -1,0 +1,126 @@
+"""`robocal gui --demo --autopilot --screenshots DIR` in a fresh process: exits 0 and writes
+one PNG per page (the classroom demo; also catches crashes at interpreter exit)."""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from app.pages.steps import Step
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def run_gui(*args, timeout=300, **env_extra):
+    env = dict(os.environ, QT_QPA_PLATFORM="offscreen", **env_extra)
+    return subprocess.run([sys.executable, "-m", "app.cli", "gui", *args], cwd=ROOT, env=env,
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def test_autopilot_runs_every_page_and_writes_screenshots(tmp_path):
+    shots = tmp_path / "shots"
+    proc = run_gui("--demo", "--autopilot", "--screenshots", str(shots))
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    expected = [f"{s.number:02d}-{s.slug}.png" for s in Step]
+    assert sorted(p.name for p in shots.iterdir()) == expected
+    import cv2
+    for name in expected:
+        image = cv2.imread(str(shots / name))
+        assert image is not None and image.shape[0] >= 600 and image.shape[1] >= 1000, name
+        assert image.std() > 5, f"{name} looks uniform"
+    for step in Step:
+        assert f"[{step.number}/7] {step.info.title}:" in proc.stdout
+    assert "every page finished" in proc.stdout
+    assert "Traceback" not in proc.stderr
+
+
+def test_demo_temp_project_is_removed_at_exit(tmp_path):
+    proc = run_gui("--demo", "--autopilot", TMPDIR=str(tmp_path))
+    assert proc.returncode == 0, proc.stderr
+    assert not list(tmp_path.glob("robocal-demo-*"))
+
+
+def test_autopilot_on_a_project_folder(tmp_path):
+    proc = run_gui("--demo", "--autopilot", str(tmp_path / "classroom"))
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "classroom" / "project.json").is_file()
+    assert (tmp_path / "classroom" / "robot.json").is_file()
+
+
+def test_opening_a_missing_project_is_a_usage_error(tmp_path):
+    proc = run_gui(str(tmp_path / "nowhere"), timeout=60)
+    assert proc.returncode == 2
+    assert "no such project folder" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_opening_a_bad_project_is_one_line_exit_1(tmp_path):
+    (tmp_path / "project.json").write_text("{}")
+    proc = run_gui(str(tmp_path), timeout=60)
+    assert proc.returncode == 1
+    assert proc.stderr.count("\n") == 1 and "project.json" in proc.stderr and "format" in proc.stderr
+
+
+# -- the same walk in-process, for the failure paths -------------------------------------
+
+@pytest.fixture
+def quiet_window(qtbot):
+    from app import messages
+    from app.main_window import MainWindow
+    from app.state import WizardState
+    messages.set_non_interactive(True)
+    win = MainWindow(WizardState())
+    qtbot.addWidget(win)
+    win.show()
+    yield win
+    win.close()
+    messages.set_non_interactive(False)
+
+
+def test_autopilot_in_process_finishes_with_zero(quiet_window, qtbot, tmp_path):
+    import io
+    from app.autopilot import Autopilot
+    pilot = Autopilot(quiet_window, tmp_path, out=io.StringIO())
+    with qtbot.waitSignal(pilot.finished, timeout=30000) as blocker:
+        pilot.start()
+    assert blocker.args == [0]
+    assert len(pilot.saved) == 7 and quiet_window.current_step is Step.EXPORT
+    assert quiet_window.state.project is not None and quiet_window.state.robot is not None
+
+
+def test_autopilot_fails_when_a_page_fails(quiet_window, qtbot, tmp_path):
+    import io
+    from app.autopilot import Autopilot
+    marker = quiet_window.page(Step.MARKER)
+    marker.autopilot = lambda done: done(False, "no marker in view")
+    out = io.StringIO()
+    pilot = Autopilot(quiet_window, tmp_path, out=out)
+    with qtbot.waitSignal(pilot.finished, timeout=30000) as blocker:
+        pilot.start()
+    assert blocker.args == [1]
+    assert "[3/7] Marker: FAILED (no marker in view)" in out.getvalue()
+    assert "the Marker step failed: no marker in view" in out.getvalue()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["01-setup.png", "02-stereo.png", "03-marker.png"]
+
+
+def test_autopilot_fails_when_a_page_raises_or_hangs(quiet_window, qtbot):
+    import io
+    from app.autopilot import Autopilot
+
+    def raises(done):
+        raise ValueError("broken page")
+
+    quiet_window.page(Step.STEREO).autopilot = raises
+    out = io.StringIO()
+    pilot = Autopilot(quiet_window, out=out)
+    with qtbot.waitSignal(pilot.finished, timeout=30000) as blocker:
+        pilot.start()
+    assert blocker.args == [1] and "ValueError: broken page" in out.getvalue()
+
+    quiet_window.page(Step.STEREO).autopilot = lambda done: None      # never calls back
+    pilot = Autopilot(quiet_window, out=out, page_timeout_s=0.2)
+    with qtbot.waitSignal(pilot.finished, timeout=30000) as blocker:
+        pilot.start()
+    assert blocker.args == [1] and "did not finish within" in out.getvalue()

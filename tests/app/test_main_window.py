@@ -1,0 +1,255 @@
+"""The wizard shell: every page visited offscreen, screenshots, explain panel, Stop key."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from PySide6.QtCore import Qt
+from PySide6.QtGui import QImage, QKeySequence
+from PySide6.QtWidgets import QApplication
+
+from app.main_window import MainWindow
+from app.pages import registry
+from app.pages.base import WizardPage
+from app.pages.not_built import NotBuiltPage
+from app.pages.steps import STEP_INFO, Step
+from app.state import WizardState
+from widgets.step_list import StepState
+
+EXPECTED_ISSUES = {Step.STEREO: 3, Step.MARKER: 4, Step.POSES: 6, Step.MEASUREMENT: 4,
+                   Step.IDENTIFICATION: 5, Step.EXPORT: 5}
+HELP_PHRASES = {
+    Step.SETUP: "Rz(θ", Step.STEREO: "k1r²", Step.MARKER: "SSD(d)", Step.POSES: "κ = σ1 / σm",
+    Step.MEASUREMENT: "Z = f · b / d", Step.IDENTIFICATION: "Δg = (ΦTΦ)−1 ΦT ΔX",
+    Step.EXPORT: "URDF",
+}
+
+
+@pytest.fixture
+def window(qtbot):
+    win = MainWindow(WizardState())
+    qtbot.addWidget(win)
+    win.resize(1400, 900)
+    win.show()
+    qtbot.waitExposed(win)
+    yield win
+    win.close()
+
+
+@pytest.fixture
+def ready_window(window, tmp_path):
+    window.state.new_project(tmp_path / "project")
+    window.state.choose_preset("educational_6r")
+    return window
+
+
+def image_stats(image: QImage) -> tuple[int, float]:
+    image = image.convertToFormat(QImage.Format.Format_RGB32)
+    data = np.frombuffer(image.constBits(), np.uint8, count=image.sizeInBytes())
+    data = data.reshape(image.height(), image.bytesPerLine())[:, : image.width() * 4]
+    return len(np.unique(data.reshape(-1, 4)[::7], axis=0)), float(data.std())
+
+
+def test_seven_steps_in_order(window):
+    assert [p.step for p in window.pages] == list(Step)
+    assert [window.step_list.item(i).text().split("\n")[0] for i in range(7)] == [
+        "1. Setup", "2. Stereo calibration", "3. Marker", "4. Pose sequence", "5. Measurement",
+        "6. Identification", "7. Export"]
+    assert all(isinstance(p, WizardPage) and p.load_error is None for p in window.pages)
+    assert window.current_step is Step.SETUP and window.page(Step.SETUP).built
+
+
+def test_visit_every_page_from_the_side_list_with_screenshots(window, qtbot, tmp_path):
+    for step in reversed(list(Step)):        # any order works, not only forwards
+        window.step_list.setCurrentRow(int(step))
+        assert window.current_step is step
+        assert window.stack.currentWidget() is window.page(step)
+        assert window.page_title.text() == f"{step.number}. {STEP_INFO[step].title}"
+        QApplication.processEvents()
+        path = window.save_screenshot(tmp_path / f"{step.number:02d}-{step.slug}.png")
+        image = QImage(str(path))
+        assert not image.isNull() and image.width() >= 1000 and image.height() >= 600
+        colours, spread = image_stats(image)
+        assert colours > 20 and spread > 5, f"{path.name} looks uniform"
+
+
+def test_explain_panel_shows_each_pages_help(window):
+    for step in Step:
+        window.go_to(step)
+        text = window.explain.plain_text()
+        assert window.explain.current_file.name == f"{step.slug}.html"
+        assert window.explain.current_file.is_file()
+        assert "What to look for" in text
+        assert HELP_PHRASES[step].replace(" ", "") in text.replace(" ", "").replace("\u2009", ""), step
+        assert window.explain_dock.windowTitle() == f"Explain: {STEP_INFO[step].title}"
+
+
+def test_explain_panel_can_be_hidden_and_shown(window):
+    assert window.explain_dock.isVisible() and window.action_explain.isChecked()
+    window.action_explain.trigger()
+    assert not window.explain_dock.isVisible() and not window.action_explain.isChecked()
+    window.action_explain.trigger()
+    assert window.explain_dock.isVisible()
+    assert window.action_explain.shortcut() == QKeySequence(Qt.Key.Key_F1)
+
+
+def test_not_built_pages_say_so(window):
+    for step, issue in EXPECTED_ISSUES.items():
+        page = window.page(step)
+        assert isinstance(page, NotBuiltPage) and not page.built
+        window.go_to(step)
+        assert page.notice.isVisible()
+        assert f"This step is not built yet (issue {issue})." in page.text()
+        assert STEP_INFO[step].description[:40] in page.text()
+        assert window.step_list.state(int(step)) is StepState.NOT_BUILT
+
+
+def test_next_is_gated_by_the_setup_page(window, tmp_path):
+    assert not window.next_button.isEnabled() and not window.back_button.isEnabled()
+    assert window.step_list.state(0) is StepState.TODO
+    window.next()
+    assert window.current_step is Step.SETUP
+    window.state.choose_preset("ur5")
+    assert not window.next_button.isEnabled()          # still no project
+    window.state.new_project(tmp_path / "p")
+    assert window.next_button.isEnabled()
+    assert window.step_list.state(0) is StepState.DONE
+    assert (tmp_path / "p" / "robot.json").is_file()   # the robot chosen first went into it
+
+
+def test_next_and_back_walk_all_pages(ready_window, qtbot):
+    win = ready_window
+    for step in list(Step)[1:]:
+        qtbot.mouseClick(win.next_button, Qt.MouseButton.LeftButton)
+        assert win.current_step is step
+        assert win.step_list.currentRow() == int(step)
+    assert not win.next_button.isEnabled()             # last page
+    for step in reversed(list(Step)[:-1]):
+        qtbot.mouseClick(win.back_button, Qt.MouseButton.LeftButton)
+        assert win.current_step is step
+    assert not win.back_button.isEnabled()
+
+
+def test_stop_key_stops_the_robot(ready_window, qtbot):
+    win = ready_window
+    robot = win.state.robot_connection
+    assert robot is not None and robot.connected and not robot.stopped
+    keys = [s.toString() for s in win.action_stop.shortcuts()]
+    assert keys == ["Esc", "Ctrl+."]
+    win.activateWindow()
+    qtbot.waitUntil(lambda: QApplication.activeWindow() is win, timeout=5000)
+    win.go_to(Step.MEASUREMENT)
+    qtbot.keyClick(win, Qt.Key.Key_Escape)
+    assert robot.stopped and robot.stop_count == 1
+    win.resume_robot()
+    assert not robot.stopped
+    # from a child widget with focus, and the second shortcut
+    win.go_to(Step.SETUP)
+    win.page(Step.SETUP).preset_combo.setFocus()
+    qtbot.keyClick(win.page(Step.SETUP).dh_table, Qt.Key.Key_Period, Qt.KeyboardModifier.ControlModifier)
+    assert robot.stop_count == 2
+    assert "stopped" in win.mode_label.text()
+
+
+def test_stop_cancels_running_tasks(ready_window, qtbot):
+    import threading
+    started = threading.Event()
+
+    def endless(*, cancelled):
+        started.set()
+        while not cancelled():
+            threading.Event().wait(0.005)
+        from core.errors import Cancelled
+        raise Cancelled()
+
+    outcome = []
+    ready_window.run_task(endless, on_cancelled=lambda: outcome.append("cancelled"), label="Moving")
+    assert started.wait(10)
+    assert ready_window.progress_bar.isVisible() and ready_window.cancel_button.isVisible()
+    ready_window.action_stop.trigger()
+    qtbot.waitUntil(lambda: not ready_window.tasks.busy, timeout=10000)
+    assert outcome == ["cancelled"] and ready_window.state.robot_connection.stopped
+    assert not ready_window.progress_bar.isVisible()
+
+
+def test_status_bar_progress_and_cancel_button(window, qtbot):
+    import threading
+    gate = threading.Event()
+
+    def job(*, progress, cancelled):
+        progress(0.5, "half way")
+        while not cancelled():
+            gate.wait(0.005)
+        from core.errors import Cancelled
+        raise Cancelled()
+
+    window.run_task(job, label="Calibrating")
+    qtbot.waitUntil(lambda: window.progress_bar.value() == 500, timeout=10000)
+    assert "Calibrating: half way" in window.progress_bar.format()
+    qtbot.mouseClick(window.cancel_button, Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: not window.tasks.busy, timeout=10000)
+    assert not window.cancel_button.isVisible()
+
+
+def test_task_error_without_handler_shows_a_message_box(window, qtbot, monkeypatch):
+    from PySide6.QtWidgets import QMessageBox
+    shown = []
+    monkeypatch.setattr(QMessageBox, "critical", lambda *a, **k: shown.append(a))
+
+    def fails():
+        raise RuntimeError("sensor unplugged")
+
+    window.run_task(fails, label="Capturing")
+    qtbot.waitUntil(lambda: bool(shown), timeout=10000)
+    assert shown[0][1] == "RoboCal: Capturing" and shown[0][2] == "RuntimeError: sensor unplugged"
+
+
+def test_closing_the_window_cancels_tasks_and_disconnects(ready_window, qtbot):
+    import threading
+    started = threading.Event()
+
+    def endless(*, cancelled):
+        started.set()
+        while not cancelled():
+            threading.Event().wait(0.005)
+        return "stopped"
+
+    ready_window.run_task(endless)
+    assert started.wait(10)
+    robot = ready_window.state.robot_connection
+    ready_window.close()
+    assert not ready_window.tasks.busy
+    assert robot.stopped and not robot.connected
+
+
+def test_a_page_that_fails_to_load_is_shown_not_fatal(qtbot, monkeypatch):
+    monkeypatch.setitem(registry.PAGES, Step.MARKER, "app.pages.no_such_module:MarkerPage")
+    win = MainWindow(WizardState())
+    qtbot.addWidget(win)
+    page = win.page(Step.MARKER)
+    assert page.load_error and "ModuleNotFoundError" in page.load_error
+    assert "could not be loaded" in page.notice.text()
+    assert win.step_list.state(int(Step.MARKER)) is StepState.ERROR
+    done = []
+    page.autopilot(lambda ok=True, message="": done.append((ok, message)))
+    assert done and done[0][0] is False
+
+
+def test_registry_lines_are_module_colon_class():
+    for step in Step:
+        module, _, cls = registry.PAGES[step].partition(":")
+        assert module.startswith("app.pages.") and cls
+        assert issubclass(registry.page_class(step), WizardPage)
+
+
+def test_page_registered_for_the_wrong_step_is_refused(qtbot):
+    from app.pages.setup_page import SetupPage
+    from app.worker import TaskRunner
+    state, tasks = WizardState(), TaskRunner()
+    with pytest.raises(TypeError, match="registered for STEREO"):
+        SetupPage(state, tasks, step=Step.STEREO)
+
+
+def test_window_title_follows_the_project(window, tmp_path):
+    assert window.windowTitle() == "RoboCal — no project"
+    window.state.new_project(tmp_path / "Cell 7")
+    assert window.windowTitle() == "RoboCal — Cell 7"
