@@ -1,0 +1,379 @@
+"""Renders realistic 8-bit grayscale camera images of planar objects, geometrically exact.
+
+Geometry follows core/camera.py exactly: every pixel centre ((0, 0) = centre of the top-left
+pixel) is turned into its undistorted viewing ray once per camera (`ray_map`, cached), and a
+plane seen by the camera is evaluated where that ray meets it. So an object point lands
+precisely where `CameraModel.project` puts it, distortion included.
+
+- Checkerboards are evaluated analytically at the pixel centres with an exact box-filter
+  coverage across each edge (signed distance to the nearest grid line, in pixels), which
+  keeps every edge and corner where the model puts it with no sampling error.
+- Textured plates (the marker) are supersampled (3x3 per pixel, sub-pixel rays interpolated
+  from the ray map), sampled from a mip level of the texture with `cv2.remap`, and averaged.
+- Background: a textured wall plane (parallax-correct in both cameras) and thick bars (robot links).
+- `finish` adds optical blur (Gaussian), uneven lighting (vignetting and a smooth gradient),
+  sensor noise (read noise plus shot noise) and quantises to uint8.
+
+Everything here is plain numpy/OpenCV in float32 with cached per-camera maps.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import cv2
+import numpy as np
+
+from core.board import Board
+from core.camera import CameraModel
+
+SUPERSAMPLE = 3
+BLUR_SIGMA = 0.7          # px, optical blur (Gaussian sigma)
+NEAR = 1.0                # mm, nearest depth drawn
+
+
+# -- per-camera cached maps -------------------------------------------------------------------
+
+def _camera_key(camera: CameraModel) -> tuple:
+    return (camera.K.tobytes(), camera.dist.tobytes(), int(camera.width), int(camera.height))
+
+
+@lru_cache(maxsize=8)
+def _ray_map_cached(key: tuple) -> np.ndarray:
+    K = np.frombuffer(key[0]).reshape(3, 3)
+    dist = np.frombuffer(key[1])
+    width, height = key[2], key[3]
+    ys, xs = np.mgrid[-1:height + 1, -1:width + 1].astype(np.float64)
+    pts = np.stack([xs.ravel(), ys.ravel()], axis=1).reshape(-1, 1, 2)
+    criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-12)
+    xy = cv2.undistortPoints(pts, K, dist, R=np.eye(3), P=np.eye(3), criteria=criteria)
+    out = xy.reshape(height + 2, width + 2, 2).astype(np.float32)
+    out.setflags(write=False)
+    return out
+
+
+def ray_map(camera: CameraModel, padded: bool = False) -> np.ndarray:
+    """Ideal normalised image coordinates (x, y) of every pixel centre: (H, W, 2) float32.
+
+    The viewing ray of pixel (u, v) is (x, y, 1) in the camera frame. With `padded`, the map
+    has one extra pixel on every side ((H + 2, W + 2, 2), index [v + 1, u + 1])."""
+    m = _ray_map_cached(_camera_key(camera))
+    return m if padded else m[1:-1, 1:-1]
+
+
+@lru_cache(maxsize=8)
+def _vignetting_cached(key: tuple, strength: float) -> np.ndarray:
+    K = np.frombuffer(key[0]).reshape(3, 3)
+    width, height = key[2], key[3]
+    x = (np.arange(width, dtype=np.float32) - K[0, 2]) / K[0, 0]
+    y = (np.arange(height, dtype=np.float32) - K[1, 2]) / K[1, 1]
+    r2 = y[:, None] ** 2 + x[None, :] ** 2
+    v = (1.0 / (1.0 + r2)) ** 2                      # cos^4 law of a thin lens
+    v = 1.0 - strength * (1.0 - v) / max(float(1.0 - v.min()), 1e-6)
+    out = v.astype(np.float32)
+    out.setflags(write=False)
+    return out
+
+
+def vignetting(camera: CameraModel, strength: float = 0.25) -> np.ndarray:
+    """(H, W) float32 relative illumination: 1 at the principal point, 1 − strength at the
+    farthest corner (cos⁴ fall-off)."""
+    return _vignetting_cached(_camera_key(camera), float(strength))
+
+
+# -- textures -----------------------------------------------------------------------------
+
+@dataclass
+class PlateTexture:
+    """A planar texture (e.g. the marker png) and its mip levels, in grey levels (float32).
+
+    `px_per_mm` and `origin_px` map plate coordinates to level-0 texture pixels:
+    tex = origin_px + px_per_mm · (X, sign_y · Y). `rect` is the plate outline in plate mm
+    (xmin, xmax, ymin, ymax); outside the texture but inside the plate the value is `fill`."""
+
+    levels: list[np.ndarray]
+    px_per_mm: float
+    origin_px: tuple[float, float]
+    rect: tuple[float, float, float, float]
+    fill: float
+    sign_y: float = -1.0
+
+    @classmethod
+    def from_image(cls, image: np.ndarray, px_per_mm: float, origin_px, rect, *, black: float = 25.0,
+                   white: float = 215.0, sign_y: float = -1.0, max_levels: int = 6) -> "PlateTexture":
+        """An 8-bit image mapped linearly from 0..255 to black..white grey levels."""
+        level = (black + (white - black) * (image.astype(np.float32) / 255.0)).astype(np.float32)
+        levels = [level]
+        while len(levels) < max_levels and min(levels[-1].shape) > 16:
+            levels.append(cv2.pyrDown(levels[-1]))
+        return cls(levels, float(px_per_mm), (float(origin_px[0]), float(origin_px[1])),
+                   tuple(float(v) for v in rect), float(white), sign_y)
+
+
+# -- composing one image ---------------------------------------------------------------------
+
+class ImageComposer:
+    """Builds one camera image in float32 grey levels, then `finish` makes the uint8 image.
+
+    `cam_from_world` (4x4) takes world points (the virtual lab uses the left camera frame as
+    the world) into this camera's frame."""
+
+    def __init__(self, camera: CameraModel, cam_from_world: np.ndarray | None = None, fill: float = 128.0):
+        self.camera = camera
+        self.cam_from_world = np.eye(4) if cam_from_world is None else np.asarray(cam_from_world, dtype=float)
+        self.rays = ray_map(camera, padded=True)
+        self.canvas = np.full((camera.height, camera.width), float(fill), np.float32)
+
+    # geometry helpers ---------------------------------------------------------------------
+    def _cam_from(self, world_from_obj: np.ndarray) -> np.ndarray:
+        return self.cam_from_world @ np.asarray(world_from_obj, dtype=float)
+
+    @staticmethod
+    def _plane_homography(cam_from_plane: np.ndarray) -> np.ndarray:
+        """3x3 H with (X, Y, 1) ~ H · (x, y, 1): normalised image coords -> plane coords."""
+        M = np.column_stack([cam_from_plane[:3, 0], cam_from_plane[:3, 1], cam_from_plane[:3, 3]])
+        return np.linalg.inv(M)
+
+    def _window(self, cam_from_plane: np.ndarray, rect, pad: int = 3):
+        """Pixel window (x0, y0, x1, y1) holding the plane rectangle, or None if not visible."""
+        xmin, xmax, ymin, ymax = rect
+        t = np.linspace(0.0, 1.0, 17)
+        edges = np.concatenate([
+            np.stack([xmin + (xmax - xmin) * t, np.full_like(t, ymin)], 1),
+            np.stack([np.full_like(t, xmax), ymin + (ymax - ymin) * t], 1),
+            np.stack([xmax - (xmax - xmin) * t, np.full_like(t, ymax)], 1),
+            np.stack([np.full_like(t, xmin), ymax - (ymax - ymin) * t], 1)])
+        P = edges @ cam_from_plane[:3, :2].T + cam_from_plane[:3, 3]
+        W, H = self.camera.width, self.camera.height
+        if np.all(P[:, 2] <= NEAR):
+            return None
+        if np.any(P[:, 2] <= NEAR):
+            return (0, 0, W, H)
+        xy = P[:, :2] / P[:, 2:3]
+        # Outside the undistortion's valid range the polynomial is meaningless: use the full image.
+        r_img = float(np.abs(self.rays).max()) * 1.5
+        if np.any(np.abs(xy) > r_img):
+            return (0, 0, W, H)
+        uv = self.camera.normalized_to_pixels(xy)
+        x0 = int(np.floor(uv[:, 0].min())) - pad
+        x1 = int(np.ceil(uv[:, 0].max())) + pad + 1
+        y0 = int(np.floor(uv[:, 1].min())) - pad
+        y1 = int(np.ceil(uv[:, 1].max())) + pad + 1
+        x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, W), min(y1, H)
+        if x0 >= x1 or y0 >= y1:
+            return None
+        return (x0, y0, x1, y1)
+
+    # drawing -----------------------------------------------------------------------------
+    def draw_wall(self, texture: np.ndarray, world_from_wall: np.ndarray, px_per_mm: float) -> None:
+        """A textured plane covering the whole view (see `draw_plane`)."""
+        self.draw_plane(texture, world_from_wall, px_per_mm)
+
+    def draw_plane(self, texture: np.ndarray, world_from_plane: np.ndarray, px_per_mm: float,
+                   rect=None) -> None:
+        """A textured plane sampled once per pixel (for smooth, far background surfaces).
+
+        Plane coordinates (X, Y) mm map to texture pixels px_per_mm · (X, Y); only the part
+        inside `rect` (xmin, xmax, ymin, ymax in plane mm), if given, and in front of the
+        camera is drawn."""
+        H = self._plane_homography(self._cam_from(world_from_plane))
+        rays = self.rays[1:-1, 1:-1]
+        X, Y, ok = _apply_homography(rays, H)
+        if rect is not None:
+            xmin, xmax, ymin, ymax = rect
+            ok &= (X >= xmin) & (X <= xmax) & (Y >= ymin) & (Y <= ymax)
+        if not ok.any():
+            return
+        s = np.float32(px_per_mm)
+        img = cv2.remap(texture, X * s, Y * s, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT_101)
+        self.canvas[ok] = img[ok].astype(np.float32)
+
+    def draw_checkerboard(self, board: Board, world_from_board: np.ndarray, *, white: float = 215.0,
+                          black: float = 28.0, margin: float = 1.0) -> None:
+        """A checkerboard (board frame of core/board.py) with a white margin of `margin`
+        squares around the outer squares, composited with exact anti-aliasing."""
+        sq = board.square
+        cam_from_board = self._cam_from(world_from_board)
+        lo = -(1.0 + margin) * sq
+        rect = (lo, (board.cols + margin) * sq, lo, (board.rows + margin) * sq)
+        win = self._window(cam_from_board, rect)
+        if win is None:
+            return
+        x0, y0, x1, y1 = win
+        rays = self.rays[y0 + 1:y1 + 1, x0 + 1:x1 + 1].astype(np.float64)
+        Hm = self._plane_homography(cam_from_board)
+        x, y = rays[..., 0], rays[..., 1]
+        den = Hm[2, 0] * x + Hm[2, 1] * y + Hm[2, 2]
+        ok = den > 0
+        den = np.where(ok, den, 1.0)
+        u = (Hm[0, 0] * x + Hm[0, 1] * y + Hm[0, 2]) / den
+        v = (Hm[1, 0] * x + Hm[1, 1] * y + Hm[1, 2]) / den
+        # |grad u|, |grad v| in mm per pixel (pinhole part; distortion changes it by < 5 %).
+        fx, fy = self.camera.fx, self.camera.fy
+        gu = np.hypot((Hm[0, 0] - u * Hm[2, 0]) / (den * fx), (Hm[0, 1] - u * Hm[2, 1]) / (den * fy))
+        gv = np.hypot((Hm[1, 0] - v * Hm[2, 0]) / (den * fx), (Hm[1, 1] - v * Hm[2, 1]) / (den * fy))
+        eu, ou, au = _checker_axis(u, gu, sq, board.cols, margin)
+        ev, ov, av = _checker_axis(v, gv, sq, board.rows, margin)
+        alpha = np.where(ok, au * av, 0.0)
+        blackness = np.where(ok, eu * ev + ou * ov, 0.0)
+        bg = self.canvas[y0:y1, x0:x1]
+        out = bg + alpha * (white - bg) - (white - black) * blackness
+        self.canvas[y0:y1, x0:x1] = out.astype(np.float32)
+
+    def draw_plate(self, texture: PlateTexture, world_from_plate: np.ndarray,
+                   supersample: int = SUPERSAMPLE) -> None:
+        """A textured rectangular plate (e.g. the marker), supersampled `supersample`² per pixel."""
+        cam_from_plate = self._cam_from(world_from_plate)
+        win = self._window(cam_from_plate, texture.rect)
+        if win is None:
+            return
+        x0, y0, x1, y1 = win
+        s = int(supersample)
+        h, w = y1 - y0, x1 - x0
+        pad = self.rays[y0:y1 + 2, x0:x1 + 2]
+        # Sub-pixel rays: hi-res pixel J <-> pixel (J - (s - 1) / 2) / s, as CameraModel.scaled.
+        hi = cv2.resize(pad, ((w + 2) * s, (h + 2) * s), interpolation=cv2.INTER_LINEAR)
+        hi = hi[s:s * (h + 1), s:s * (w + 1)]
+        Hm = self._plane_homography(cam_from_plate)
+        X, Y, ok = _apply_homography(hi, Hm)
+        # Mip level: keep the texture at most ~1.5x denser than the samples.
+        P = cam_from_plate[:3, 3]
+        scale_img = s * 0.5 * (self.camera.fx + self.camera.fy) / max(P[2], NEAR)   # samples per mm
+        level = 0
+        while (level + 1 < len(texture.levels)
+               and texture.px_per_mm / 2 ** (level + 1) >= 1.5 * scale_img / 2.0 ** 0.5):
+            level += 1
+        f = 1.0 / 2 ** level
+        mx = (texture.origin_px[0] + texture.px_per_mm * X) * f
+        my = (texture.origin_px[1] + texture.sign_y * texture.px_per_mm * Y) * f
+        tex = cv2.remap(texture.levels[level], mx, my, cv2.INTER_LINEAR,
+                        borderMode=cv2.BORDER_CONSTANT, borderValue=texture.fill)
+        xmin, xmax, ymin, ymax = texture.rect
+        inside = ok & (X >= xmin) & (X <= xmax) & (Y >= ymin) & (Y <= ymax)
+        a = inside.astype(np.float32)
+        alpha = a.reshape(h, s, w, s).mean(axis=(1, 3))
+        colour = (a * tex).reshape(h, s, w, s).mean(axis=(1, 3))
+        bg = self.canvas[y0:y1, x0:x1]
+        self.canvas[y0:y1, x0:x1] = bg * (1.0 - alpha) + colour
+
+    def draw_bars(self, starts: np.ndarray, ends: np.ndarray, radii, shades) -> None:
+        """Thick bars (robot links) between world points, far ones first, anti-aliased,
+        with a lighter stripe along each bar for a cylinder-like look."""
+        starts = np.atleast_2d(np.asarray(starts, dtype=float))
+        ends = np.atleast_2d(np.asarray(ends, dtype=float))
+        radii = np.broadcast_to(np.asarray(radii, dtype=float), (len(starts),))
+        shades = np.broadcast_to(np.asarray(shades, dtype=float), (len(starts),))
+        Rc, tc = self.cam_from_world[:3, :3], self.cam_from_world[:3, 3]
+        A = starts @ Rc.T + tc
+        B = ends @ Rc.T + tc
+        order = np.argsort(-(A[:, 2] + B[:, 2]))
+        for i in order:
+            self._bar(A[i], B[i], radii[i], shades[i])
+
+    def _bar(self, A, B, radius, shade) -> None:
+        near = 20.0
+        if A[2] < near and B[2] < near:
+            return
+        if A[2] < near or B[2] < near:   # clip at the near plane
+            t = (near - A[2]) / (B[2] - A[2])
+            P = A + t * (B - A)
+            A, B = (P, B) if A[2] < near else (A, P)
+        cam = self.camera
+        ends = cam.project(np.stack([A, B]))
+        if not np.all(np.isfinite(ends)):
+            return
+        wa = radius * 0.5 * (cam.fx + cam.fy) / A[2]
+        wb = radius * 0.5 * (cam.fx + cam.fy) / B[2]
+        d = ends[1] - ends[0]
+        L = np.hypot(*d)
+        n = np.array([-d[1], d[0]]) / L if L > 1e-6 else np.array([0.0, 1.0])
+        for width_frac, offset_frac, value in ((1.0, 0.0, shade), (0.35, -0.3, min(shade * 1.45 + 15, 235.0))):
+            quad = np.array([ends[0] + n * wa * (offset_frac + width_frac), ends[1] + n * wb * (offset_frac + width_frac),
+                             ends[1] + n * wb * (offset_frac - width_frac), ends[0] + n * wa * (offset_frac - width_frac)])
+            if width_frac == 1.0:
+                self._fill(quad, value, circles=((ends[0], wa), (ends[1], wb)))
+            else:
+                self._fill(quad, value)
+
+    def _fill(self, polygon: np.ndarray, value: float, circles=()) -> None:
+        """Anti-aliased fill of a convex polygon (plus discs) with a grey value."""
+        pts = [polygon] + [np.array([c + r * np.array([np.cos(a), np.sin(a)]) for a in np.linspace(0, 2 * np.pi, 24)])
+                           for c, r in circles]
+        allp = np.concatenate(pts)
+        H, W = self.canvas.shape
+        x0 = max(int(np.floor(allp[:, 0].min())) - 2, 0)
+        y0 = max(int(np.floor(allp[:, 1].min())) - 2, 0)
+        x1 = min(int(np.ceil(allp[:, 0].max())) + 3, W)
+        y1 = min(int(np.ceil(allp[:, 1].max())) + 3, H)
+        if x0 >= x1 or y0 >= y1:
+            return
+        mask = np.zeros((y1 - y0, x1 - x0), np.uint8)
+        shift = 4
+        for p in pts:
+            q = np.round((p - [x0, y0]) * (1 << shift)).astype(np.int32)
+            cv2.fillConvexPoly(mask, q, 255, cv2.LINE_AA, shift)
+        a = mask.astype(np.float32) / 255.0
+        region = self.canvas[y0:y1, x0:x1]
+        self.canvas[y0:y1, x0:x1] = region + a * (value - region)
+
+    # finishing ---------------------------------------------------------------------------
+    def finish(self, rng: np.random.Generator | None = None, noise: float = 0.5, *,
+               blur_sigma: float = BLUR_SIGMA, vignetting_strength: float = 0.25,
+               gradient: float = 0.0, gradient_angle: float = 0.0, exposure: float = 1.0) -> np.ndarray:
+        """Optical blur, uneven lighting, sensor noise, quantisation -> uint8 (H, W).
+
+        Lighting multiplies by the camera's vignetting and by a linear gradient of relative
+        amplitude `gradient` (over the image width) in direction `gradient_angle` (rad), and
+        by `exposure`. Noise: read noise of std `noise` grey levels plus shot noise whose
+        variance grows linearly with brightness (equal to the read noise variance at 255)."""
+        img = self.canvas
+        if blur_sigma > 0:
+            img = cv2.GaussianBlur(img, (0, 0), blur_sigma, borderType=cv2.BORDER_REPLICATE)
+        cam = self.camera
+        light = vignetting(cam, vignetting_strength)
+        if gradient:
+            gx = np.cos(gradient_angle) * gradient / cam.width
+            gy = np.sin(gradient_angle) * gradient / cam.width
+            xs = (np.arange(cam.width, dtype=np.float32) - cam.cx) * np.float32(gx)
+            ys = (np.arange(cam.height, dtype=np.float32) - cam.cy) * np.float32(gy)
+            light = light * (1.0 + ys[:, None] + xs[None, :])
+        img = img * (light * np.float32(exposure))
+        if noise > 0:
+            if rng is None:
+                raise ValueError("a random generator is needed for noise")
+            std = np.float32(noise) * np.sqrt(1.0 + np.maximum(img, 0.0) * np.float32(1.0 / 255.0))
+            img = img + std * rng.standard_normal(img.shape, dtype=np.float32)
+        return np.clip(np.rint(img), 0, 255).astype(np.uint8)
+
+
+def _apply_homography(rays: np.ndarray, H: np.ndarray):
+    """(…, 2) float32 points through a 3x3 homography -> (X, Y, ok) float32 (ok: in front)."""
+    x, y = rays[..., 0], rays[..., 1]
+    H = H.astype(np.float32)
+    den = H[2, 0] * x + H[2, 1] * y + H[2, 2]
+    ok = den > 0
+    inv = np.float32(1.0) / np.where(ok, den, np.float32(1.0))
+    X = (H[0, 0] * x + H[0, 1] * y + H[0, 2]) * inv
+    Y = (H[1, 0] * x + H[1, 1] * y + H[1, 2]) * inv
+    return X, Y, ok
+
+
+def _checker_axis(u: np.ndarray, g: np.ndarray, sq: float, count: int, margin: float):
+    """Per-axis box-filter coverages at board coordinate u (mm) with |grad u| = g (mm/px).
+
+    Returns (even, odd, board): the fraction of the pixel footprint along this axis covered
+    by even-index squares, odd-index squares (squares −1..count−1, i.e. the checkered area),
+    and by the whole board including its margin."""
+    fu = u / sq
+    k = np.floor(fu + 0.5)                     # nearest grid line
+    d = (fu - k) * sq / g                      # signed distance to it, px (+: square k side)
+    c = np.clip(0.5 + d, 0.0, 1.0)             # coverage of square k (right of the line)
+    right_in = (k >= -1) & (k <= count - 1)
+    left_in = (k - 1 >= -1) & (k - 1 <= count - 1)
+    k_even = (k % 2) == 0
+    even = np.where(right_in & k_even, c, 0.0) + np.where(left_in & ~k_even, 1.0 - c, 0.0)
+    odd = np.where(right_in & ~k_even, c, 0.0) + np.where(left_in & k_even, 1.0 - c, 0.0)
+    lo = -(1.0 + margin) * sq
+    hi = (count + margin) * sq
+    board = np.clip(0.5 + (u - lo) / g, 0.0, 1.0) * np.clip(0.5 + (hi - u) / g, 0.0, 1.0)
+    return even, odd, board
