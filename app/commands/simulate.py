@@ -1,13 +1,70 @@
-"""`robocal simulate`: write a virtual-lab dataset. Not built yet (issue 2)."""
+"""`robocal simulate`: write a virtual-lab dataset (images, joints and the ground truth)."""
 from __future__ import annotations
 
-from app.commands import not_built
+import sys
 
-HELP = "Write a virtual-lab dataset (not built yet)"
+from app.commands import CommandResult
+
+HELP = "Write a virtual-lab dataset: checkerboard pairs, marker training image, pose images, joints, truth.json"
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("rest", nargs="*", help="arguments of the step, once it is built")
+    parser.add_argument("--out", required=True, metavar="DIR",
+                        help="output folder (new, empty, or a previous dataset, which is replaced)")
+    parser.add_argument("--robot", metavar="R.json",
+                        help="nominal robot model file (default: the educational 6R preset)")
+    parser.add_argument("--seed", type=int, default=0, help="random seed; the same seed gives the same files (default 0)")
+    parser.add_argument("--pairs", type=int, default=20, help="checkerboard image pairs (default 20)")
+    parser.add_argument("--poses", type=int, default=40, help="robot poses with marker image pairs (default 40)")
+    parser.add_argument("--noise", type=float, default=0.5,
+                        help="sensor read noise, grey levels (default 0.5; 0 for noise-free images)")
 
 
-run = not_built("virtual lab", 2)
+class _ProgressLine:
+    """One updating progress line on stderr when it is a terminal; silent otherwise."""
+
+    def __init__(self, stream=None):
+        self.stream = stream or sys.stderr
+        self.active = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.shown = False
+
+    def __call__(self, fraction: float, message: str) -> None:
+        if not self.active:
+            return
+        self.stream.write(f"\rrobocal simulate: {fraction * 100:5.1f} %  {message:<40.40}")
+        self.stream.flush()
+        self.shown = True
+
+    def close(self) -> None:
+        if self.shown:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+def run(args) -> CommandResult:
+    from core.errors import UsageError
+    from core.robot_file import read_robot
+    from core.virtual_lab.dataset import simulate_dataset
+
+    if args.pairs < 0 or args.poses < 0:
+        raise UsageError("--pairs and --poses must be zero or positive")
+    if not args.noise >= 0:
+        raise UsageError("--noise must be zero or positive (grey levels)")
+    if args.seed < 0:
+        raise UsageError("--seed must be zero or positive")
+    robot = read_robot(args.robot) if args.robot else None
+    progress = _ProgressLine()
+    try:
+        result = simulate_dataset(args.out, robot=robot, seed=args.seed, pairs=args.pairs, poses=args.poses,
+                                  noise=args.noise, progress=progress)
+    finally:
+        progress.close()
+    data = result.summary()
+    text = (f"Wrote a virtual-lab dataset to {result.out_dir}: {_count(result.pairs, 'checkerboard pair')}, "
+            f"{_count(result.poses, 'robot pose')}, marker/training.png, poses/joints.csv and truth.json "
+            f"(robot: {result.robot_name}, seed {result.seed}).")
+    return CommandResult(text=text, data=data)
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}{'' if n == 1 else 's'}"
