@@ -30,6 +30,7 @@ class DHTable(QTableWidget):
         self.verticalHeader().setVisible(False)
         header = self.horizontalHeader()
         header.setSectionResizeMode(QHeaderView.ResizeMode.Stretch)
+        header.setSectionResizeMode(COLUMNS.index("θ offset (°)"), QHeaderView.ResizeMode.ResizeToContents)
         header.setDefaultAlignment(Qt.AlignmentFlag.AlignCenter)
         # as tall as its rows (at least `min_rows`), no taller: no empty grid below the robot
         self.min_rows = 6
@@ -39,7 +40,7 @@ class DHTable(QTableWidget):
         hint = super().sizeHint()
         rows = max(self.rowCount(), self.min_rows)
         height = (self.horizontalHeader().sizeHint().height()
-                  + rows * self.verticalHeader().defaultSectionSize() + 2 * self.frameWidth() + 2)
+                  + rows * self.verticalHeader().defaultSectionSize() + 2 * self.frameWidth() + 6)
         return QSize(hint.width(), height)
 
     def minimumSizeHint(self) -> QSize:

@@ -4,7 +4,8 @@ from __future__ import annotations
 from enum import Enum
 
 from PySide6.QtCore import QPointF, QRect, QRectF, QSize, Qt
-from PySide6.QtGui import QBrush, QColor, QFont, QIcon, QPainter, QPainterPath, QPen, QPixmap
+from PySide6.QtGui import (QBrush, QColor, QFont, QFontMetrics, QIcon, QPainter, QPainterPath, QPen,
+                           QPixmap)
 from PySide6.QtWidgets import (QAbstractItemView, QListWidget, QListWidgetItem, QStyle,
                                QStyledItemDelegate, QStyleOptionViewItem, QWidget)
 
@@ -86,9 +87,10 @@ class _StepDelegate(QStyledItemDelegate):
                                   size.width(), size.height()))
         text_left = r.left() + size.width() + 10
         title_font = QFont(opt.font)
-        title_font.setPointSizeF(max(opt.font.pointSizeF(), 10.0) + 0.5)
         state_font = QFont(opt.font)
-        state_font.setPointSizeF(max(opt.font.pointSizeF() - 0.5, 8.0))
+        state_font.setPointSizeF(max(opt.font.pointSizeF() - 1.5, 7.5))
+        width = r.right() - text_left
+        title = QFontMetrics(title_font).elidedText(title, Qt.TextElideMode.ElideRight, width)
         mid = r.top() + r.height() // 2
         painter.setFont(title_font)
         painter.setPen(opt.palette.color(opt.palette.ColorRole.Text))
