@@ -22,6 +22,7 @@ from widgets.explain_panel import ExplainPanel
 from widgets.step_list import StepList, StepState
 
 APP_STYLE = """
+QWidget { font-size: 10pt; }
 QLabel#pageTitle { font-size: 17pt; font-weight: 600; color: #202124; }
 QLabel#pageSummary { font-size: 10.5pt; color: #5f6368; }
 QLabel#hint { color: #5f6368; }
@@ -55,10 +56,6 @@ class MainWindow(QMainWindow):
         self.setWindowIcon(app_icon())
         self.setObjectName("mainWindow")
         self.setStyleSheet(APP_STYLE)
-        font = self.font()
-        if font.pointSizeF() < 10:
-            font.setPointSizeF(10)
-            self.setFont(font)
 
         self.pages: list[WizardPage] = create_pages(self.state, self.tasks)
         self._build_actions()
@@ -123,8 +120,8 @@ class MainWindow(QMainWindow):
     def _build_central(self) -> None:
         self.step_list = StepList()
         self.step_list.set_steps([p.title for p in self.pages])
-        self.step_list.setMinimumWidth(210)
-        self.step_list.setMaximumWidth(300)
+        self.step_list.setMinimumWidth(230)
+        self.step_list.setMaximumWidth(320)
         self.step_list.currentRowChanged.connect(self._row_picked)
 
         self.page_title = QLabel()
@@ -166,7 +163,7 @@ class MainWindow(QMainWindow):
         self.splitter.addWidget(content)
         self.splitter.setStretchFactor(0, 0)
         self.splitter.setStretchFactor(1, 1)
-        self.splitter.setSizes([230, 800])
+        self.splitter.setSizes([240, 700])
         self.splitter.setChildrenCollapsible(False)
         self.setCentralWidget(self.splitter)
 
@@ -180,7 +177,6 @@ class MainWindow(QMainWindow):
                                       | QDockWidget.DockWidgetFeature.DockWidgetFloatable)
         self.explain_dock.setMinimumWidth(320)
         self.addDockWidget(Qt.DockWidgetArea.RightDockWidgetArea, self.explain_dock)
-        self.resizeDocks([self.explain_dock], [420], Qt.Orientation.Horizontal)
         # our own action: the dock's toggleViewAction() would take the dock's changing title
         self.action_explain = QAction("&Explain", self)
         self.action_explain.setCheckable(True)
@@ -245,6 +241,14 @@ class MainWindow(QMainWindow):
         bar.addPermanentWidget(self.mode_label)
         self.progress_bar.hide()
         self.cancel_button.hide()
+
+    def showEvent(self, event) -> None:
+        super().showEvent(event)
+        if not getattr(self, "_docks_sized", False):
+            self._docks_sized = True
+            # the first layout gives the dock its minimum: widen it to about a third
+            width = max(380, min(520, int(self.width() * 0.33)))
+            self.resizeDocks([self.explain_dock], [width], Qt.Orientation.Horizontal)
 
     # -- navigation ----------------------------------------------------------------------
     def page(self, step: Step | int) -> WizardPage:

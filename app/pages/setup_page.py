@@ -56,6 +56,7 @@ class SetupPage(WizardPage):
         self.project_folder.setWordWrap(True)
         self.project_details = QLabel()
         self.project_details.setObjectName("hint")
+        self.project_details.setWordWrap(True)
         self.new_button = QPushButton("New project…")
         self.open_button = QPushButton("Open project…")
         self.new_button.clicked.connect(lambda: self.new_project())
@@ -76,7 +77,7 @@ class SetupPage(WizardPage):
         self.preset_combo.addItem("— choose a preset —", None)
         for name in preset_names():
             self.preset_combo.addItem(preset_title(name), name)
-        self.preset_combo.setMinimumContentsLength(30)
+        self.preset_combo.setMinimumContentsLength(18)
         self.preset_combo.currentIndexChanged.connect(self._preset_picked)
         self.load_button = QPushButton("Load robot.json…")
         self.load_button.clicked.connect(lambda: self.load_robot_file())
@@ -100,7 +101,8 @@ class SetupPage(WizardPage):
 
         # -- connection and cameras ----------------------------------------------------
         self.virtual_robot = QRadioButton("Virtual lab (simulated robot)")
-        self.serial_robot = QRadioButton(f"Serial robot — {HARDWARE_LATER}")
+        self.serial_robot = QRadioButton("Serial robot (not yet)")
+        self.serial_robot.setToolTip(f"The serial robot driver {HARDWARE_LATER}.")
         self.serial_robot.setEnabled(False)
         self.connection_status = QLabel()
         self.connection_status.setObjectName("hint")
@@ -115,13 +117,15 @@ class SetupPage(WizardPage):
         cl.addWidget(self.connection_status)
 
         self.virtual_cameras = QRadioButton("Virtual lab cameras (simulated stereo pair)")
-        self.real_cameras = QRadioButton(f"USB / GigE cameras — {HARDWARE_LATER}")
+        self.real_cameras = QRadioButton("USB / GigE cameras (not yet)")
+        self.real_cameras.setToolTip(f"Support for real cameras {HARDWARE_LATER}.")
         self.real_cameras.setEnabled(False)
         self._camera_group = QButtonGroup(self)
         for b in (self.virtual_cameras, self.real_cameras):
             self._camera_group.addButton(b)
         self.camera_status = QLabel("Two simulated cameras with parallel optical axes look at "
-                                    "the robot; the marker is rendered where the robot puts it.")
+                                    "the robot; the marker is rendered where the robot puts it. "
+                                    f"Support for real cameras {HARDWARE_LATER}.")
         self.camera_status.setObjectName("hint")
         self.camera_status.setWordWrap(True)
         camera_box = QGroupBox("Cameras")
@@ -256,10 +260,12 @@ class SetupPage(WizardPage):
             self.connection_status.setText("This project is for real hardware, which this version "
                                            f"cannot drive yet (the serial robot {HARDWARE_LATER}).")
         elif conn is None:
-            self.connection_status.setText("Choose a robot model to connect the simulated robot.")
+            self.connection_status.setText("Choose a robot model to connect the simulated robot. "
+                                           f"The serial robot {HARDWARE_LATER}.")
         else:
             self.connection_status.setText(f"{conn.name}: {'connected' if conn.connected else 'not connected'}. "
-                                           "Stop: Esc or Ctrl+. at any time.")
+                                           "Stop: Esc or Ctrl+. at any time. "
+                                           f"The serial robot {HARDWARE_LATER}.")
 
         missing = []
         if project is None:

@@ -152,10 +152,12 @@ def test_open_a_bad_project_gives_one_message(page, tmp_path, boxes):
 
 def test_connection_and_cameras_are_virtual_for_now(page):
     assert page.virtual_robot.isChecked() and not page.serial_robot.isEnabled()
-    assert "hardware issue" in page.serial_robot.text()
     assert page.virtual_cameras.isChecked() and not page.real_cameras.isEnabled()
+    assert "serial robot arrives with a hardware issue" in page.connection_status.text()
+    assert "Support for real cameras arrives with a hardware issue" in page.camera_status.text()
     page.choose_preset("ur5")
     assert "connected" in page.connection_status.text()
+    assert "hardware issue" in page.connection_status.text()
     assert page.state.robot_connection.connected
 
 
