@@ -236,12 +236,13 @@ class ImageComposer:
         hi = hi[s:s * (h + 1), s:s * (w + 1)]
         Hm = self._plane_homography(cam_from_plate)
         X, Y, ok = _apply_homography(hi, Hm)
-        # Mip level: keep the texture at most ~1.5x denser than the samples.
+        # Mip level: texels no smaller than the samples, so that bilinear sampling turns every
+        # texture edge into a ramp at least one sample wide and the box average then places it
+        # to a fraction of a sample (finer texels would quantise edges to 1/s px).
         P = cam_from_plate[:3, 3]
         scale_img = s * 0.5 * (self.camera.fx + self.camera.fy) / max(P[2], NEAR)   # samples per mm
         level = 0
-        while (level + 1 < len(texture.levels)
-               and texture.px_per_mm / 2 ** (level + 1) >= 1.5 * scale_img / 2.0 ** 0.5):
+        while level + 1 < len(texture.levels) and texture.px_per_mm / 2 ** level > scale_img:
             level += 1
         f = 1.0 / 2 ** level
         mx = (texture.origin_px[0] + texture.px_per_mm * X) * f
