@@ -2,13 +2,14 @@
 per page, New/Open/Save, Back/Next, a status bar with progress and Cancel, and Stop."""
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
-from PySide6.QtCore import QSize, Qt, Signal
-from PySide6.QtGui import QAction, QCloseEvent, QIcon, QKeySequence
-from PySide6.QtWidgets import (QDockWidget, QHBoxLayout, QLabel, QMainWindow, QProgressBar,
-                               QPushButton, QSplitter, QStackedWidget, QStyle, QVBoxLayout,
-                               QWidget)
+from PySide6.QtCore import QEvent, QObject, QSize, Qt, Signal
+from PySide6.QtGui import QAction, QCloseEvent, QIcon, QKeyEvent, QKeySequence
+from PySide6.QtWidgets import (QApplication, QDockWidget, QHBoxLayout, QLabel, QMainWindow,
+                               QProgressBar, QPushButton, QSplitter, QStackedWidget, QStyle,
+                               QVBoxLayout, QWidget)
 
 from app import project_actions
 from app.messages import show_error, show_info
@@ -38,6 +39,34 @@ QGroupBox { font-weight: 600; margin-top: 14px; }
 QGroupBox::title { subcontrol-origin: margin; left: 8px; padding: 0 4px; }
 QPushButton#nextButton { font-weight: 600; }
 """
+
+
+class _StopKeyWhileModal(QObject):
+    """Qt blocks the window's shortcuts while a modal dialog is open. The Stop keys must still
+    stop the robot then (the dialog gets the key too: Esc also closes it)."""
+
+    def __init__(self, window: "MainWindow"):
+        super().__init__(window)
+        self.window = window
+        self._last = (None, 0.0)
+
+    def eventFilter(self, obj, event) -> bool:
+        if (event.type() == QEvent.Type.KeyPress and QApplication.activeModalWidget() is not None
+                and isinstance(event, QKeyEvent) and not event.isAutoRepeat()):
+            key, mods = event.key(), event.modifiers() & ~Qt.KeyboardModifier.KeypadModifier
+            if ((key == Qt.Key.Key_Escape and mods == Qt.KeyboardModifier.NoModifier)
+                    or (key == Qt.Key.Key_Period and mods == Qt.KeyboardModifier.ControlModifier)):
+                # an unhandled key press travels up from its receiver to the dialog, passing
+                # this filter at each step: act on the first step only
+                now = time.monotonic()
+                last_obj, last_time = self._last
+                propagating = (last_obj is not None and now - last_time < 0.05
+                               and isinstance(obj, QWidget) and isinstance(last_obj, QWidget)
+                               and obj.isAncestorOf(last_obj))
+                self._last = (obj, now)
+                if not propagating:
+                    self.window.stop_robot()
+        return False
 
 
 def app_icon() -> QIcon:
@@ -116,6 +145,8 @@ class MainWindow(QMainWindow):
         self.action_about.triggered.connect(self._about)
         for a in (self.action_back, self.action_next, self.action_stop):
             self.addAction(a)   # shortcuts work even when the toolbar is hidden
+        self._modal_stop = _StopKeyWhileModal(self)
+        QApplication.instance().installEventFilter(self._modal_stop)
 
     def _build_central(self) -> None:
         self.step_list = StepList()
@@ -399,6 +430,7 @@ class MainWindow(QMainWindow):
                         "kinematic identification, with a built-in virtual lab.", "About RoboCal")
 
     def closeEvent(self, event: QCloseEvent) -> None:
+        QApplication.instance().removeEventFilter(self._modal_stop)
         self.state.stop_robot()
         self.tasks.shutdown()
         self.state.close()

@@ -97,7 +97,9 @@ def run(args) -> CommandResult:
 
             def snap(index):
                 page = window.page(index)
-                QTimer.singleShot(150, lambda: window.save_screenshot(screenshots / screenshot_name(page.step)))
+                # the window as context: the timer is dropped if the window is gone first
+                QTimer.singleShot(150, window,
+                                  lambda: window.save_screenshot(screenshots / screenshot_name(page.step)))
 
             window.pageChanged.connect(snap)
             snap(int(window.current_step))

@@ -253,3 +253,26 @@ def test_window_title_follows_the_project(window, tmp_path):
     assert window.windowTitle() == "RoboCal — no project"
     window.state.new_project(tmp_path / "Cell 7")
     assert window.windowTitle() == "RoboCal — Cell 7"
+
+
+def test_stop_key_works_while_a_modal_dialog_is_open(ready_window, qtbot):
+    from PySide6.QtWidgets import QDialog, QLineEdit, QVBoxLayout
+    robot = ready_window.state.robot_connection
+    dialog = QDialog(ready_window)
+    field = QLineEdit(dialog)
+    QVBoxLayout(dialog).addWidget(field)
+    dialog.setModal(True)
+    qtbot.addWidget(dialog)
+    dialog.show()
+    qtbot.waitExposed(dialog)
+    dialog.activateWindow()
+    field.setFocus()
+    qtbot.waitUntil(lambda: QApplication.activeModalWidget() is dialog, timeout=5000)
+    qtbot.keyClick(field, Qt.Key.Key_Period, Qt.KeyboardModifier.ControlModifier)
+    assert robot.stop_count == 1                      # once, although the key travels up to the dialog
+    qtbot.keyClick(field, Qt.Key.Key_Escape)          # Esc: stops and closes the dialog
+    assert robot.stop_count == 2
+    qtbot.waitUntil(lambda: not dialog.isVisible(), timeout=5000)
+    qtbot.keyClick(ready_window, Qt.Key.Key_A)        # other keys do nothing
+    assert robot.stop_count == 2
+    dialog.deleteLater()
