@@ -43,7 +43,7 @@ from core.calibration_jacobian import (Parameter, all_parameters, apply_step, ca
 from core.errors import RoboCalError, UsageError
 from core.identifiability import (FIXED_BY_USER, Identifiability, ObservabilityIndices, analyse,
                                   check_data, column_scales, observability_indices,
-                                  practical_identifiability)
+                                  householder_r, practical_identifiability, small_factor)
 from core.kinematics import RobotModel
 from core.measurements import Measurements, check_against_robot, read_measurements
 from core.robot_file import read_robot, write_robot
@@ -408,12 +408,8 @@ def levenberg_marquardt(model: RobotModel, meas: Measurements, free: Sequence[Pa
         if done >= max_iterations:
             break
         monitor.step(min(done / max(max_iterations, 1), 1.0), f"iteration {done + 1}: RMS {records[-1].rms_mm:.4f} mm")
-        A = J / D
-        if lam > 0:
-            x = np.linalg.lstsq(np.vstack([A, math.sqrt(lam) * np.eye(p)]),
-                                np.concatenate([b, np.zeros(p)]), rcond=None)[0]
-        else:
-            x = np.linalg.lstsq(A, b, rcond=None)[0]
+        A = np.where(np.isfinite(D), J / D, 0.0)
+        x = _damped_solve(A, b, lam)
         step = np.where(np.isfinite(D), x / D, 0.0)
         predicted = float(b @ b - np.sum((b - A @ x) ** 2))
         trial = apply_step(model, free, step)
@@ -448,6 +444,18 @@ def levenberg_marquardt(model: RobotModel, meas: Measurements, free: Sequence[Pa
             if lam > 1e12:
                 break
     return _LMOutcome(model, converged, done)
+
+
+def _damped_solve(A: np.ndarray, b: np.ndarray, lam: float) -> np.ndarray:
+    """argmin |A·x − b|² + λ|x|² through A = Q·R and the SVD of the small R (minimum norm when
+    λ = 0 and A is rank deficient)."""
+    R, c = householder_r(A, b)
+    U, s, Vt = np.linalg.svd(R)
+    if lam > 0:
+        f = s / (s ** 2 + lam)
+    else:
+        f = np.where(s > 1e-12 * max(s[0], 1e-300), 1.0 / np.where(s > 0, s, 1.0), 0.0)
+    return Vt.T @ (f * (U.T @ c))
 
 
 def _robust_scale(b_points: np.ndarray) -> float:
@@ -562,7 +570,7 @@ def fit_model(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (
         dof_in = 3 * int(inl.sum()) - p
         sigma_hat = math.sqrt(float(np.sum(bw[inl] ** 2)) / dof_in) if dof_in > 0 else math.nan
     D = column_scales(J)
-    U, s, Vt = np.linalg.svd(J / D, full_matrices=False)
+    _, s, Vt = np.linalg.svd(small_factor(np.where(np.isfinite(D), J / D, 0.0)), full_matrices=False)
     with np.errstate(divide="ignore"):
         inv_s2 = np.where(s > 0, 1.0 / s ** 2, np.inf)
     Dinv = np.where(np.isfinite(D), 1.0 / D, 0.0)
@@ -616,8 +624,8 @@ def _display_value(model: RobotModel, prm: Parameter) -> float:
         return float(model.targets[prm.target]["xyz".index(prm.kind)])
     xyz, rpy = tf.matrix_to_pose(model.base)
     if len(prm.kind) == 1:
-        return float(xyz["xyz".index(prm.kind)])
-    return float(np.rad2deg(rpy["xyz".index(prm.kind[1])]))
+        return float(xyz["xyz".index(prm.kind)]) + 0.0
+    return float(np.rad2deg(rpy["xyz".index(prm.kind[1])])) + 0.0   # + 0.0: no "-0.0" on screen
 
 
 def _rpy_jacobian(R: np.ndarray) -> np.ndarray:
