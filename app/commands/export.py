@@ -1,13 +1,23 @@
-"""`robocal export`: export a robot model as URDF or a DH table. Not built yet (issue 5)."""
+"""`robocal export`: export a robot model as URDF or a DH table."""
 from __future__ import annotations
 
-from app.commands import not_built
+from app.commands import CommandResult
 
-HELP = "Export a robot model as URDF or a DH table (not built yet)"
+HELP = "Export a robot model as URDF or a DH table (CSV)"
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("rest", nargs="*", help="arguments of the step, once it is built")
+    parser.add_argument("--robot", required=True, metavar="R.json", help="robot model file (e.g. a calibrated one)")
+    parser.add_argument("--format", required=True, choices=["urdf", "dh-csv"], help="export format")
+    parser.add_argument("--out", required=True, metavar="FILE", help="file to write")
 
 
-run = not_built("export", 5)
+def run(args) -> CommandResult:
+    from core.exports import export_model
+    from core.robot_file import read_robot
+
+    robot = read_robot(args.robot)
+    path = export_model(robot, args.format, args.out)
+    return CommandResult(text=f"Wrote {path} ({args.format}, robot '{robot.name}').",
+                         data={"format": args.format, "out": str(path), "robot": robot.name,
+                               "joints": robot.dof, "calibrated": robot.calibration is not None})

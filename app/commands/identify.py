@@ -1,13 +1,78 @@
-"""`robocal identify`: kinematic identification of the robot model. Not built yet (issue 5)."""
+"""`robocal identify`: kinematic identification of the robot model from measured points."""
 from __future__ import annotations
 
-from app.commands import not_built
+import math
 
-HELP = "Kinematic identification of the robot model (not built yet)"
+from app.commands import CommandResult
+
+HELP = "Kinematic identification: DH parameters, base pose and target offsets from measurements"
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("rest", nargs="*", help="arguments of the step, once it is built")
+    parser.add_argument("--robot", required=True, metavar="R.json", help="nominal robot model file")
+    parser.add_argument("--measurements", required=True, metavar="M.csv", help="measurements file")
+    parser.add_argument("--out", required=True, metavar="calibrated.json",
+                        help="calibrated robot model to write (only written when identification succeeds)")
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("--holdout", type=float, metavar="FRACTION",
+                       help="hold out this fraction of the poses for validation (e.g. 0.25); "
+                            "the model is fitted on the others")
+    group.add_argument("--kfold", type=int, metavar="K",
+                       help="K-fold cross validation (the model is fitted on all poses)")
+    parser.add_argument("--fix", default="", metavar="NAMES",
+                        help="comma-separated parameters to keep at their nominal value, e.g. J2.a,base.rz,marker.x")
+    parser.add_argument("--huber", type=float, metavar="K",
+                        help="robust (Huber) fit: down-weight points beyond K robust standard deviations (e.g. 3)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the validation split (default 0)")
 
 
-run = not_built("identification", 5)
+def run(args) -> CommandResult:
+    from core.errors import UsageError
+    from core.identification import identify, write_calibrated_model
+    from core.measurements import read_measurements
+    from core.robot_file import read_robot
+
+    if args.holdout is not None and not 0.0 < args.holdout < 1.0:
+        raise UsageError(f"--holdout must be between 0 and 1, got {args.holdout}")
+    if args.kfold is not None and args.kfold < 2:
+        raise UsageError(f"--kfold must be at least 2, got {args.kfold}")
+    if args.huber is not None and not args.huber > 0:
+        raise UsageError(f"--huber must be positive, got {args.huber}")
+    robot = read_robot(args.robot)
+    meas = read_measurements(args.measurements, robot)
+    fixed = [n.strip() for n in args.fix.split(",") if n.strip()]
+    result = identify(robot, meas, fixed=fixed, huber=args.huber, holdout=args.holdout, kfold=args.kfold,
+                      seed=args.seed)
+    write_calibrated_model(result, args.out)
+    data = result.summary()
+    data["out"] = str(args.out)
+    return CommandResult(text=_text(result, args.out), data=data)
+
+
+def _fmt(v) -> str:
+    return "-" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.4g}"
+
+
+def _text(result, out) -> str:
+    lines = [f"Identified {len(result.estimated)} parameters from {result.n_points} points in "
+             f"{result.n_poses} poses ({result.n_iterations} iterations).",
+             f"  RMS error: {result.before.rms_mm:.4f} mm before, {result.after.rms_mm:.4f} mm after "
+             f"(max {result.after.max_mm:.4f} mm); condition number {_fmt(result.condition_number)}."]
+    v = result.validation
+    if v is not None:
+        what = f"{v.folds}-fold cross validation" if v.method == "kfold" else \
+            f"{len(v.test_poses)} held-out poses"
+        lines.append(f"  Validation ({what}): RMS {v.before.rms_mm:.4f} mm before, {v.after.rms_mm:.4f} mm after "
+                     f"(max {v.after.max_mm:.4f} mm).")
+    if result.unidentifiable:
+        lines.append("  Not estimated (kept at nominal):")
+        for r in result.unidentifiable:
+            lines.append(f"    {r.name}: {r.explanation}")
+    lines.append("  Parameters (nominal -> identified ± std):")
+    for r in result.parameters:
+        if r.identifiable:
+            lines.append(f"    {r.name:<12} {r.nominal:12.4f} -> {r.identified:12.4f} ± {_fmt(r.std):<8} {r.unit}")
+    for w in result.warnings:
+        lines.append(f"  Note: {w}.")
+    lines.append(f"Wrote {out}.")
+    return "\n".join(lines)

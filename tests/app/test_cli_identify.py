@@ -1,0 +1,133 @@
+"""`robocal identify`, `evaluate` and `export` on synthetic measurements (no Qt)."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from app.cli import main
+from core.kinematics import robot_path
+from core.measurements import write_measurements
+from core.robot_file import read_robot
+from core.synthetic import perturbed_model, simulate_measurements
+
+ROBOT = str(robot_path("educational_6r"))
+
+
+@pytest.fixture(scope="module")
+def data(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("cli")
+    nominal = read_robot(ROBOT)
+    true = perturbed_model(nominal, 4)
+    write_measurements(simulate_measurements(true, 40, rng=5), folder / "m.csv")
+    return folder
+
+
+def run_json(capsys, argv):
+    code = main(argv + ["--json"])
+    out, err = capsys.readouterr()
+    return code, (json.loads(out) if out.strip() else None), err
+
+
+def test_identify_json_and_calibrated_file(data, tmp_path, capsys):
+    out = tmp_path / "cal.json"
+    code, result, err = run_json(capsys, ["identify", "--robot", ROBOT, "--measurements", str(data / "m.csv"),
+                                          "--out", str(out), "--holdout", "0.25", "--seed", "2"])
+    assert code == 0 and err == ""
+    assert result["rms_before_mm"] > 1.0 and result["rms_after_mm"] < 0.12
+    assert result["holdout_rms_after_mm"] < 0.15 and result["holdout"]["n_test_poses"] == 10
+    assert result["iterations"] >= 2 and result["rank"] == result["n_parameters"]
+    assert result["condition_number"] > 1
+    names = {u["name"]: u["reason"] for u in result["unidentifiable"]}
+    assert "J1.theta" in names and "first joint axis" in names["J1.theta"]
+    assert result["parameters"]["J2.a"]["std"] > 0 and result["parameters"]["J1.theta"]["std"] is None
+    calibrated = read_robot(out)
+    assert calibrated.calibration["statistics"]["rms_after_mm"] == pytest.approx(result["rms_after_mm"])
+    # the calibrated model evaluates well on all measurements; the nominal one does not
+    code, ev, _ = run_json(capsys, ["evaluate", "--robot", str(out), "--measurements", str(data / "m.csv")])
+    assert code == 0 and ev["n"] == 40 and ev["rms_mm"] < 0.15 and len(ev["per_pose"]) == 40
+    assert set(ev) >= {"n", "mean_mm", "rms_mm", "max_mm", "per_pose"}
+    code, ev0, _ = run_json(capsys, ["evaluate", "--robot", ROBOT, "--measurements", str(data / "m.csv"),
+                                     "--register-base"])
+    assert code == 0 and ev0["rms_mm"] > 10 * ev["rms_mm"]
+
+
+def test_identify_text_output_with_options(data, tmp_path, capsys):
+    out = tmp_path / "cal.json"
+    code = main(["identify", "--robot", ROBOT, "--measurements", str(data / "m.csv"), "--out", str(out),
+                 "--kfold", "4", "--fix", "J3.a,marker.x", "--huber", "3"])
+    text, err = capsys.readouterr()
+    assert code == 0 and err == ""
+    assert "4-fold cross validation" in text and f"Wrote {out}" in text
+    cal = read_robot(out).calibration
+    assert cal["fixed"] == ["J3.a", "marker.x"] and cal["statistics"]["huber"] == 3.0
+
+
+def test_export_urdf_and_dh_csv(data, tmp_path, capsys):
+    code, res, _ = run_json(capsys, ["export", "--robot", ROBOT, "--format", "urdf", "--out", str(tmp_path / "r.urdf")])
+    assert code == 0 and res["format"] == "urdf" and (tmp_path / "r.urdf").read_text().startswith("<?xml")
+    code = main(["export", "--robot", ROBOT, "--format", "dh-csv", "--out", str(tmp_path / "dh.csv")])
+    assert code == 0 and (tmp_path / "dh.csv").read_text().startswith("joint,type,theta_deg")
+    assert "Wrote" in capsys.readouterr().out
+    code = main(["export", "--robot", ROBOT, "--format", "sdf", "--out", str(tmp_path / "x")])
+    assert code == 2 and "invalid choice" in capsys.readouterr().err
+
+
+def bad_run(capsys, tmp_path, measurements_text=None, extra=(), robot=ROBOT, meas_path=None):
+    out = tmp_path / "cal.json"
+    out.write_text("previous good file")
+    if meas_path is None:
+        meas_path = tmp_path / "bad.csv"
+        meas_path.write_text(measurements_text)
+    code = main(["identify", "--robot", robot, "--measurements", str(meas_path), "--out", str(out), *extra])
+    _, err = capsys.readouterr()
+    assert out.read_text() == "previous good file"                       # a failed run writes nothing
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".cal.json")]
+    assert err.count("\n") == 1 and "Traceback" not in err
+    return code, err
+
+
+HEAD = "# robocal.measurements/1\npose,target,q1,q2,q3,q4,q5,q6,x,y,z\n"
+
+
+def test_bad_numbers_and_joint_count(tmp_path, capsys):
+    code, err = bad_run(capsys, tmp_path, HEAD + "0,marker,1,2,3,4,5,6,10,nan,30\n")
+    assert code == 1 and "bad.csv: line 3, column 'y': expected a finite number, got 'nan'" in err
+    code, err = bad_run(capsys, tmp_path, HEAD + "0,marker,1,2,3,x4,5,6,10,20,30\n")
+    assert code == 1 and "line 3, column 'q4': expected a number, got the text 'x4'" in err
+    code, err = bad_run(capsys, tmp_path, "# robocal.measurements/1\npose,target,q1,q2,x,y,z\n0,marker,1,2,3,4,5\n")
+    assert code == 1 and "the file has 2 joint columns (q1..q2) but the robot has 6 joints" in err
+
+
+def test_unknown_target_and_too_few_poses(tmp_path, capsys, data):
+    code, err = bad_run(capsys, tmp_path, HEAD + "0,probe,1,2,3,4,5,6,10,20,30\n")
+    assert code == 1 and "target 'probe' is not defined in the robot" in err
+    rows = "".join(f"{i},marker,{i},{2 * i},{3 * i},4,5,6,{10 + i},{20 - i},{30 + i * i}\n" for i in range(5))
+    code, err = bad_run(capsys, tmp_path, HEAD + rows)
+    assert code == 1 and "too few measurements" in err and "Measure at least" in err
+
+
+def test_degenerate_poses_name_the_joints(tmp_path, capsys):
+    nominal = read_robot(ROBOT)
+    true = perturbed_model(nominal, 4)
+    meas = simulate_measurements(true, 30, rng=5)
+    Q = meas.Q.copy()
+    Q[:, 2] = 0.2
+    Q[:, 4] = -0.4
+    write_measurements(simulate_measurements(true, 30, Q=Q, rng=5), tmp_path / "deg.csv")
+    code, err = bad_run(capsys, tmp_path, meas_path=tmp_path / "deg.csv")
+    assert code == 1 and "cannot determine" in err and "J3 0.0 deg" in err and "J5 0.0 deg" in err
+
+
+def test_usage_errors(tmp_path, capsys, data):
+    m = str(data / "m.csv")
+    code, err = bad_run(capsys, tmp_path, meas_path=data / "m.csv", extra=["--fix", "J9.zz"])
+    assert code == 2 and "unknown parameter 'J9.zz'" in err
+    code, err = bad_run(capsys, tmp_path, meas_path=data / "m.csv", extra=["--holdout", "1.5"])
+    assert code == 2 and "--holdout must be between 0 and 1" in err
+    code = main(["identify", "--robot", ROBOT, "--measurements", m, "--out", str(tmp_path / "c.json"),
+                 "--holdout", "0.2", "--kfold", "3"])
+    assert code == 2 and "not allowed with argument" in capsys.readouterr().err
+    code = main(["evaluate", "--robot", ROBOT, "--measurements", str(tmp_path / "missing.csv")])
+    assert code == 1 and "file not found" in capsys.readouterr().err
