@@ -106,6 +106,7 @@ class VirtualLab:
         self.target = target
         self._right_from_left = right_from_left(rig)
         self._texture: PlateTexture | None = None
+        self._room_canvas: tuple[np.ndarray, np.ndarray] | None = None
         self._reach = robot_reach(nominal_robot)
         self._table = table_level(nominal_robot)
 
@@ -273,10 +274,16 @@ class VirtualLab:
         return self._texture
 
     def _composers(self) -> tuple[ImageComposer, ImageComposer]:
+        """Composers for both cameras, starting from the room (rendered once per camera)."""
         left = ImageComposer(self.rig.left, None)
         right = ImageComposer(self.rig.right, self._right_from_left)
-        for c in (left, right):
-            self.room.draw(c)
+        if self._room_canvas is None:
+            for c in (left, right):
+                self.room.draw(c)
+            self._room_canvas = (left.canvas.copy(), right.canvas.copy())
+        else:
+            left.canvas[...] = self._room_canvas[0]
+            right.canvas[...] = self._room_canvas[1]
         return left, right
 
     def _finish(self, left: ImageComposer, right: ImageComposer, rng, noise) -> tuple[np.ndarray, np.ndarray]:

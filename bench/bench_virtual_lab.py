@@ -1,0 +1,72 @@
+"""Virtual lab: renderer corner accuracy, render time, and the speed of `robocal simulate`."""
+from __future__ import annotations
+
+import tempfile
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from core import transforms as tf
+from core.virtual_lab.dataset import simulate_dataset
+from core.virtual_lab.lab import VirtualLab
+
+SUBPIX_CRITERIA = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 30, 1e-3)
+N_POSES = 10
+
+
+def _corner_errors(lab: VirtualLab, poses, noise: float, win) -> np.ndarray:
+    """Squared corner errors (px²) of OpenCV's corners against the model's projections."""
+    out = []
+    for i, pose in enumerate(poses):
+        images = lab.render_checkerboard_pair(pose, np.random.default_rng(100 + i), noise=noise)
+        left_pts = tf.transform_points(pose, lab.board.object_points().astype(float))
+        for img, cam, pts in ((images[0], lab.rig.left, left_pts), (images[1], lab.rig.right, lab.rig.to_right(left_pts))):
+            ok, corners = cv2.findChessboardCorners(img, lab.board.pattern_size,
+                                                    flags=cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE)
+            if not ok:
+                out.append(np.full(len(pts), np.inf))
+                continue
+            corners = cv2.cornerSubPix(img, corners, win, (-1, -1), SUBPIX_CRITERIA).reshape(-1, 2)
+            proj = cam.project(pts)
+            e1 = ((corners - proj) ** 2).sum(1)
+            e2 = ((corners[::-1] - proj) ** 2).sum(1)
+            out.append(e1 if e1.mean() <= e2.mean() else e2)
+    return np.concatenate(out)
+
+
+def run(report) -> None:
+    t0 = time.perf_counter()
+    lab = VirtualLab.create(seed=0)
+    report.info("virtual lab creation (ray maps, room)", time.perf_counter() - t0, "s")
+    poses = lab.random_board_poses(N_POSES, np.random.default_rng(1))
+
+    e = _corner_errors(lab, poses, 0.0, (5, 5))
+    report.add(f"corner RMS, zero noise, {N_POSES} poses x 2 cameras, win 5x5", np.sqrt(e.mean()), "<", 0.1, "px")
+    report.info("  worst corner, zero noise, win 5x5", np.sqrt(e.max()), "px")
+    e = _corner_errors(lab, poses, 0.0, (11, 11))
+    report.info("corner RMS, zero noise, win 11x11", np.sqrt(e.mean()), "px")
+    e = _corner_errors(lab, poses, lab.noise, (5, 5))
+    report.add(f"corner RMS, default noise ({lab.noise} grey levels), win 5x5", np.sqrt(e.mean()), "<", 0.15, "px")
+
+    Q = lab.random_visible_poses(5, np.random.default_rng(2))
+    times = []
+    for i in range(3):
+        t = time.perf_counter()
+        lab.render_checkerboard_pair(poses[i], np.random.default_rng(i))
+        times.append((time.perf_counter() - t) / 2)
+    for i, q in enumerate(Q):
+        t = time.perf_counter()
+        lab.render_marker_pair(q, np.random.default_rng(i))
+        times.append((time.perf_counter() - t) / 2)
+    report.add("render time per 1280x1024 image (mean of board and marker)", float(np.mean(times)), "<=", 0.5, "s")
+
+    with tempfile.TemporaryDirectory(prefix="robocal-bench-") as tmp:
+        t = time.perf_counter()
+        result = simulate_dataset(Path(tmp) / "ds", seed=0, pairs=20, poses=40)
+        elapsed = time.perf_counter() - t
+        size = sum(p.stat().st_size for p in (Path(tmp) / "ds").rglob("*") if p.is_file())
+    report.add(f"simulate default dataset ({result.pairs} pairs + {result.poses} poses + training)",
+               elapsed, "<=", 60.0, "s")
+    report.info("  dataset size on disk", size / 1e6, "MB")
