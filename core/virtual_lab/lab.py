@@ -117,10 +117,9 @@ class VirtualLab:
                rig: StereoRig | None = None) -> "VirtualLab":
         """A lab, fully determined by `seed`.
 
-        `robot` is a nominal model (its base and tool are replaced/kept: the base is placed in
-        front of the cameras), a robot file path, or None for the educational 6R preset. It
-        needs a "marker" target (the default marker target is added at 25 mm along tool z
-        if missing)."""
+        `robot` is a nominal model (copied; its base is replaced by the placement in front of
+        the cameras, its tool is kept), a robot file path, or None for the educational 6R
+        preset. Without a "marker" target, one is added 25 mm along the tool z axis."""
         if robot is None:
             robot = read_robot(robot_path(DEFAULT_ROBOT))
         elif not isinstance(robot, RobotModel):

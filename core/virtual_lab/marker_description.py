@@ -29,7 +29,7 @@ FORMAT = f"{FORMAT_FAMILY}/{FORMAT_MAJOR}"
 REFERENCES = ("outer_square_centre",)
 
 
-@dataclass
+@dataclass(eq=False)
 class MarkerDescription:
     name: str
     image: str                       # png file name, relative to the JSON file's folder
