@@ -20,7 +20,7 @@ from core.kinematics import RobotModel, robot_path
 from core.robot_file import read_robot
 from core.stereo_rig import StereoRig
 from core.virtual_lab.background import Room, make_room
-from core.virtual_lab.marker_description import MarkerDescription
+from core.marker_description import MarkerDescription
 from core.virtual_lab.renderer import ImageComposer, PlateTexture
 from core.virtual_lab.rig import axis_angle_matrix, default_rig, right_from_left
 from core.virtual_lab.robot_errors import RobotErrors, perturb_robot

@@ -8,7 +8,7 @@ from core import transforms as tf
 from core.kinematics import preset_names, robot_path
 from core.robot_file import read_robot, robot_from_dict, robot_to_dict
 from core.virtual_lab.lab import BOARD_DEPTH, BOARD_MARGIN_PX, VirtualLab
-from core.virtual_lab.marker_description import MarkerDescription
+from core.marker_description import MarkerDescription
 from core.virtual_lab.rig import default_rig, rig_to_dict
 from core.virtual_lab.robot_errors import perturb_robot
 
