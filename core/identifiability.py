@@ -67,6 +67,7 @@ NOT_DETERMINED = "not determined by the measurements"
 # (1° moves a point 300 mm away by 5 mm; calibration corrections are typically 0.1° and 1 mm.)
 PRACTICAL_ANGLE_LIMIT_DEG = 1.0
 PRACTICAL_LENGTH_LIMIT_MM = 5.0
+WEAK_FRACTION = 0.25
 
 
 # -- scaling and indices -------------------------------------------------------------------
@@ -372,11 +373,15 @@ def practical_identifiability(ident: Identifiability, model: RobotModel, Q: np.n
         with np.errstate(invalid="ignore"):
             std = sigma_hat * np.sqrt(var) / D
         std = np.where(np.isfinite(D), std, np.inf)
-        bad = {keep[k] for k in range(len(keep))
-               if free[keep[k]].group != "base" and not std[k] <= limit[free[keep[k]].angular]}
-        if not bad:
+        ratio = {keep[k]: (std[k] / limit[free[keep[k]].angular] if free[keep[k]].group != "base" else 0.0)
+                 for k in range(len(keep))}
+        if not any(not r <= 1.0 for r in ratio.values()):
             break
-        k = next(k for k in order if k in bad)
+        # drop the first *weak* parameter (std above a quarter of its limit) in the elimination
+        # order: of a nearly dependent pair both are weak, and which one crosses the limit
+        # first depends on the noise; the order does not
+        weak = {k for k, r in ratio.items() if not r <= WEAK_FRACTION}
+        k = next(k for k in order if k in weak)
         pos = keep.index(k)
         shown = (f"± {math.degrees(std[pos]):.2g}°" if free[k].angular else f"± {std[pos]:.2g} mm") \
             if math.isfinite(std[pos]) else "no constraint at all"

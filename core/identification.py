@@ -15,6 +15,11 @@ Here:
   between iterations, and updates the base rotation through the exponential map at each step
   so the analytic Jacobian stays exact — scipy can do none of the three). With damping λ = 0
   a step is exactly eq. (9–10);
+* two phases: the first fit estimates the parameters identifiable at the nominal geometry;
+  identifiability is then analysed again at that estimate (a real robot has none of the
+  nominal's special values, e.g. a marker exactly on the last axis), parameters the data
+  barely determine are kept at nominal (core.identifiability.practical_identifiability), and
+  the fit is refined with the final set — the per-iteration records carry the stage;
 * optional robust loss: Huber weights by iteratively reweighted least squares; points whose
   error is beyond `outlier_k` robust standard deviations are flagged as outliers;
 * uncertainty: σ̂² = RSS/(m − p), covariance σ̂²(ΦᵀWΦ)⁻¹ of the estimated parameters, standard
