@@ -1,13 +1,158 @@
-"""`robocal stereo-calibrate`: stereo calibration from checkerboard image pairs. Not built yet (issue 3)."""
+"""`robocal stereo-calibrate`: stereo calibration from checkerboard image pairs.
+
+Pairs are matched by sorted file name. `--left`/`--right` take a folder, a (quoted) glob
+pattern such as 'data/left*.jpg', or the image files themselves. Bad pairs are skipped
+with a reason; when too few usable pairs remain, one line names the files and reasons,
+the exit code is 1 and no file is written (a previous stereo.yaml stays as it was).
+"""
 from __future__ import annotations
 
-from app.commands import not_built
+import sys
+from pathlib import Path
 
-HELP = "Stereo calibration from checkerboard image pairs (not built yet)"
+from app.commands import CommandResult
+from core.board import Board
+from core.checkerboard import detect_folders
+from core.errors import UsageError
+from core.stereo_calibration import CalibrationOptions, StereoCalibrationResult, calibrate_stereo
+from core.stereo_file import write_ros_camera_info, write_stereo_json, write_stereo_yaml
+
+HELP = "Stereo calibration from checkerboard image pairs (matched by sorted file name)"
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("rest", nargs="*", help="arguments of the step, once it is built")
+    parser.add_argument("--left", required=True, nargs="+", metavar="DIR",
+                        help="left camera images: a folder, a quoted pattern like 'dir/left*.jpg', or files")
+    parser.add_argument("--right", required=True, nargs="+", metavar="DIR",
+                        help="right camera images (same forms as --left)")
+    parser.add_argument("--board", required=True, metavar="COLSxROWS",
+                        help="inner corners of the checkerboard, e.g. 9x6")
+    parser.add_argument("--square", required=True, type=float, metavar="MM", help="square size in mm")
+    parser.add_argument("--out", default="stereo.yaml", metavar="FILE",
+                        help="calibration file to write (default: stereo.yaml)")
+    parser.add_argument("--radial", type=int, choices=(2, 3, 6), default=3,
+                        help="radial distortion coefficients: 2, 3 (default) or 6 (rational model)")
+    parser.add_argument("--no-tangential", action="store_true", help="no tangential distortion (p1 = p2 = 0)")
+    parser.add_argument("--fix-aspect", action="store_true", help="keep fx = fy")
+    parser.add_argument("--fix-principal", action="store_true", help="keep the principal point at the image centre")
+    parser.add_argument("--fix-intrinsics", action="store_true",
+                        help="keep each camera's own intrinsics in the stereo fit (default: refine them jointly)")
+    parser.add_argument("--exclude", metavar="LIST", default="",
+                        help="pairs to leave out: numbers (1 = first pair in sorted order) or file names, "
+                             "comma-separated")
+    parser.add_argument("--outlier-k", type=float, default=3.0, metavar="K",
+                        help="flag pairs whose error exceeds median + K·sigma (default 3)")
+    parser.add_argument("--ros", metavar="DIR", help="also write ROS camera_info files left.yaml and right.yaml here")
+    parser.add_argument("--export-json", metavar="FILE", help="also write the full result as JSON")
 
 
-run = not_built("stereo calibration", 3)
+class _ProgressLine:
+    """One updating progress line on stderr when it is a terminal; silent otherwise."""
+
+    def __init__(self, stream=None):
+        self.stream = stream or sys.stderr
+        self.active = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.shown = False
+
+    def part(self, start: float, stop: float):
+        return lambda fraction, message: self(start + (stop - start) * fraction, message)
+
+    def __call__(self, fraction: float, message: str) -> None:
+        if not self.active:
+            return
+        self.stream.write(f"\rrobocal stereo-calibrate: {fraction * 100:5.1f} %  {message:<50.50}")
+        self.stream.flush()
+        self.shown = True
+
+    def close(self) -> None:
+        if self.shown:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+def _source(values: list[str]):
+    return values[0] if len(values) == 1 else values
+
+
+def _check_output(path: str | None, what: str) -> None:
+    if path and Path(path).is_dir():
+        raise UsageError(f"{what} '{path}' is a folder; give a file name")
+
+
+def _parse_exclude(text: str, detections) -> list[int]:
+    out = []
+    for item in (t.strip() for t in text.split(",")):
+        if not item:
+            continue
+        if item.isdigit():
+            n = int(item)
+            if not 1 <= n <= len(detections.pairs):
+                raise UsageError(f"--exclude: pair {n} does not exist (there are {len(detections.pairs)} pairs)")
+            out.append(n - 1)
+            continue
+        hits = [p.index for p in detections.pairs if item in (Path(p.left_path).name, Path(p.right_path).name)]
+        if not hits:
+            raise UsageError(f"--exclude: no pair has an image named '{item}'")
+        out.extend(hits)
+    return out
+
+
+def run(args) -> CommandResult:
+    board = Board.parse(args.board, args.square)
+    options = CalibrationOptions(radial=args.radial, tangential=not args.no_tangential,
+                                 fix_aspect=args.fix_aspect, fix_principal=args.fix_principal,
+                                 refine_intrinsics=not args.fix_intrinsics, outlier_k=args.outlier_k).validate()
+    _check_output(args.out, "--out")
+    _check_output(args.export_json, "--export-json")
+    progress = _ProgressLine()
+    try:
+        detections = detect_folders(_source(args.left), _source(args.right), board, progress=progress.part(0, 0.6))
+        exclude = _parse_exclude(args.exclude, detections)
+        result = calibrate_stereo(detections, options, exclude=exclude, progress=progress.part(0.6, 1.0))
+    finally:
+        progress.close()
+    written = [str(write_stereo_yaml(args.out, result))]
+    if args.ros:
+        written += [str(p) for p in write_ros_camera_info(args.ros, result)]
+    if args.export_json:
+        written.append(str(write_stereo_json(args.export_json, result)))
+    data = result.summary()
+    data["files_written"] = written
+    data["ignored_files"] = list(detections.ignored_files)
+    return CommandResult(text=_text(result, written, detections.ignored_files), data=data)
+
+
+def _text(r: StereoCalibrationResult, written: list[str], ignored: list[str]) -> str:
+    s = r.std
+    lines = [f"stereo calibration: {r.pairs_used} pairs used, {len(r.rejected)} rejected, "
+             f"{len(r.excluded)} excluded ({r.options.describe()})",
+             f"  reprojection RMS: left {r.rms_left:.3f} px, right {r.rms_right:.3f} px, "
+             f"stereo {r.rms_stereo:.3f} px",
+             f"  epipolar error after rectification: RMS {r.epipolar_rms:.3f} px, max {r.epipolar_max:.3f} px"]
+    cv = r.cross_validation
+    if cv is not None:
+        lines.append(f"  cross-validation (two halves): {cv.rms_observed_px:.3f} px RMS where the boards were, "
+                     f"{cv.rms_px:.3f} px RMS / {cv.max_px:.2f} px max over the whole image")
+    for side, K in (("left", r.K1), ("right", r.K2)):
+        lines.append(f"  {side + ' camera:':<14}fx {K[0, 0]:.2f} ± {s.get('fx_' + side, 0):.2f}  "
+                     f"fy {K[1, 1]:.2f} ± {s.get('fy_' + side, 0):.2f}  cx {K[0, 2]:.2f} ± {s.get('cx_' + side, 0):.2f}  "
+                     f"cy {K[1, 2]:.2f} ± {s.get('cy_' + side, 0):.2f} px")
+    T = r.T
+    lines.append(f"  baseline {r.baseline_mm:.2f} ± {s.get('baseline', 0):.2f} mm, "
+                 f"T = ({T[0]:.2f}, {T[1]:.2f}, {T[2]:.2f}) mm")
+    if r.coverage is not None:
+        c = r.coverage
+        lines.append(f"  coverage: X {c.x:.2f}  Y {c.y:.2f}  size {c.size:.2f}  skew {c.skew:.2f} "
+                     f"({'enough views' if c.enough else 'not enough views'})")
+    for index, name, reason in r.rejected:
+        lines.append(f"  rejected pair {index + 1} ({name}): {reason}")
+    for index in r.excluded:
+        lines.append(f"  excluded pair {index + 1}")
+    for index, what in r.reordered:
+        lines.append(f"  pair {index + 1}: {what}")
+    for name in ignored:
+        lines.append(f"  ignored (not an image file type): {name}")
+    for w in r.warnings:
+        lines.append(f"  warning: {w}")
+    lines.append("wrote " + ", ".join(written))
+    return "\n".join(lines)
