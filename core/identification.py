@@ -427,7 +427,7 @@ def levenberg_marquardt(model: RobotModel, meas: Measurements, free: Sequence[Pa
             rho = (cost - cost_t) / predicted if predicted > 0 else 0.0
             small_change = (cost - cost_t) <= ftol * cost
             small_step = float(np.linalg.norm(x)) <= xtol * (math.sqrt(cost) + xtol)
-            model, b, prev_cost, cost = trial, b_t, cost, cost_t
+            model, b, cost = trial, b_t, cost_t
             done += 1
             records.append(IterationRecord(records[-1].iteration + 1, cost, rms(model), lam,
                                            float(np.linalg.norm(x)), stage))
@@ -496,6 +496,8 @@ def fit_model(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (
     """Register the base, decide the identifiable parameters, estimate them (LM + optional
     Huber), and compute their covariance. The building block of `identify` (and of k-fold)."""
     monitor = monitor or Monitor()
+    if huber is not None and not huber > 0:
+        raise UsageError(f"the Huber threshold must be positive, got {huber}")
     meas = _with_q(meas, robot)
     check_against_robot(meas, robot)
     targets = [t for t in robot.targets if t in set(meas.target)]
@@ -515,12 +517,14 @@ def fit_model(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (
     model, converged = out.model, out.converged
     # Phase 2: re-analyse at the estimate, whose geometry has none of the nominal's special
     # values (marker exactly on an axis, a = 0 exactly …), and drop what the data barely determine.
-    for round_ in range(3):
+    for _round in range(3):
         if not converged:
             break
         b1 = meas.xyz - predict_points(model, meas.Q, meas.target)
         dof1 = 3 * meas.n_points - len(ident.free)
         sigma1 = math.sqrt(float(np.sum(w0 * b1 ** 2)) / max(dof1, 1))
+        if huber is not None:   # outliers would inflate σ and make good parameters look weak
+            sigma1 = min(sigma1, _robust_scale(np.sqrt(w0) * b1))
         ident2 = analyse(model, targets, fixed=fixed_names, params=params)
         ident2 = practical_identifiability(ident2, model, meas.Q, meas.target, w0, max(sigma1, 1e-9))
         if ident2.free_names == ident.free_names:
@@ -534,8 +538,6 @@ def fit_model(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (
         model, converged, ident = out.model, out.converged, ident2
     point_w = np.ones(meas.n_points)
     if huber is not None and converged:
-        if huber <= 0:
-            raise UsageError(f"the Huber threshold must be positive, got {huber}")
         for rnd in range(1, 21):
             b = np.sqrt(w0) * (meas.xyz - predict_points(model, meas.Q, meas.target))
             u = np.linalg.norm(b, axis=1) / _robust_scale(b)
