@@ -5,9 +5,10 @@ Magnitudes (each drawn uniformly in the range, with a random sign):
   - link twists alpha: 0.1–0.5°; Hayati's beta on nearly parallel consecutive axes: 0.1–0.5°
   - joint zero offsets theta: 0.1–0.5°
   - marker target position: ~1 mm (random direction, length 0.5–1.5 mm)
-On a nearly parallel pair (joint i with alpha_i ≈ 0) the next joint's d is left exact: with
-parallel axes it is redundant with d_i, and Hayati's model keeps it fixed (DESIGN.md), so the
-true robot stays exactly representable by the identification model.
+On a nearly parallel pair (joint i with alpha_i ≈ 0) joint i gets Hayati's beta and its own d
+is left exact: with parallel axes d_i is redundant with d_(i+1), and the identification keeps
+d_i fixed beside beta_i (core/calibration_jacobian.py), so the true robot stays exactly
+representable by the identification model.
 """
 from __future__ import annotations
 
@@ -61,8 +62,7 @@ def perturb_robot(nominal: RobotModel, rng: np.random.Generator | int | None = 0
     perturbed["beta"] = np.zeros(n, bool)
     for i in parallel:
         perturbed["beta"][i] = True
-        if i + 1 < n:
-            perturbed["d"][i + 1] = False
+        perturbed["d"][i] = False
     # Draw every value in a fixed order so the result depends only on the seed.
     raw = {
         "theta": _signed(rng, lo_a, hi_a, n),

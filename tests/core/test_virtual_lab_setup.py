@@ -32,8 +32,8 @@ def test_error_magnitudes_within_stated_ranges(name, seed):
         assert np.all(delta[~mask] == 0.0), key
     parallel = nominal.parallel_axis_joints()
     assert errs.perturbed["beta"].tolist() == [i in parallel for i in range(nominal.dof)]
-    for i in parallel:              # Hayati: the next joint's d is kept (redundant with d_i)
-        assert not errs.perturbed["d"][i + 1]
+    for i in parallel:              # Hayati: d_i beside beta_i is kept (redundant with d_(i+1))
+        assert not errs.perturbed["d"][i]
     for name_t, p in nominal.targets.items():
         assert 0.5 <= np.linalg.norm(true.targets[name_t] - p) <= 1.5
     assert np.array_equal(true.base, nominal.base) and np.array_equal(true.tool, nominal.tool)
