@@ -83,7 +83,7 @@ class Detection:
     corners: np.ndarray | None = None
     image_size: tuple[int, int] | None = None   # (width, height), None when unreadable
     reason: str | None = None                   # why not ok (or why rejected), for the user
-    method: str = ""                             # "sb" or "classic"
+    method: str = ""                             # "sb", "classic", "sb-full" or "sb-exhaustive"
     sharpness_px: float | None = None            # edge width (10-90 %), estimateChessboardSharpness
     square_px: float | None = None               # smallest corner spacing, px
     found_grid: tuple[int, int] | None = None    # (cols, rows) grid seen when the board was not found
@@ -301,18 +301,21 @@ def detect_corners(gray: np.ndarray, board: Board, options: DetectionOptions = D
     pattern = board.pattern_size
     factor = max(1, int(math.ceil(max(w, h) / float(options.detect_max_side))))
     small = cv2.resize(gray, (w // factor, h // factor), interpolation=cv2.INTER_AREA) if factor > 1 else gray
-    corners, method, scale = None, "", factor
     classic = cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_FAST_CHECK
     # Cheapest first: SB on the reduced image (~20 ms at 640x512). When it fails, one probe
-    # for any visible corner grid (~40 ms) tells a wrong board size or a partial board at
-    # once, instead of ~200 ms per further attempt. Then the classic detector on the reduced
+    # for any visible corner grid (~40 ms) tells a board larger than the one given (wrong
+    # board size) at once, instead of ~200 ms per further attempt. Then the classic detector on the reduced
     # image (~3 ms; finds strongly tilted boards whose squares got too small for SB), SB at
     # full resolution, and SB's exhaustive search.
-    grid, probed = None, False
+    # Each raw detection is refined at full resolution and checked against the grid (see
+    # `_refine`); if one corner is off (seen: SB on a reduced image put one corner 6.7 px
+    # off), the next attempt is tried.
+    grid, probed, unreliable = None, False, None
     attempts = [("sb", 0, small, factor), ("probe", 0, small, factor), ("classic", classic, small, factor)]
     if factor > 1:
-        attempts.append(("sb", 0, gray, 1))
-    attempts.append(("sb", cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_NORMALIZE_IMAGE, small, factor))
+        attempts.append(("sb-full", 0, gray, 1))
+    attempts.append(("sb-exhaustive", cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_NORMALIZE_IMAGE, small, factor))
+    refined = None
     for name, flags, img, f in attempts:
         if name == "probe":
             grid, c = _visible_grid(img, board)
@@ -320,32 +323,34 @@ def detect_corners(gray: np.ndarray, board: Board, options: DetectionOptions = D
             if grid is None:
                 continue
             if c is None:
-                return Detection(False, None, size, _not_found_reason(board, grid), found_grid=grid)
-            corners, method, scale = c, "sb", f
+                # a grid larger than the board: the board size is wrong, no detector will
+                # find it; a smaller one may be the probe missing a foreshortened column
+                if unreliable is None and _larger_grid(grid, board):
+                    return Detection(False, None, size, _not_found_reason(board, grid), found_grid=grid)
+                continue
+            raw, method = c, "sb"
+        else:
+            try:
+                if name.startswith("sb"):
+                    found, c = cv2.findChessboardCornersSB(img, pattern, flags=flags)
+                else:
+                    found, c = cv2.findChessboardCorners(img, pattern, flags=flags)
+            except cv2.error:
+                found, c = False, None
+            if not (found and c is not None and len(c) == board.corner_count):
+                continue
+            raw, method = c.reshape(-1, 2).astype(np.float64), name
+        refined, moved = _refine(gray, raw, f, board, options)
+        if refined is not None:
             break
-        try:
-            if name == "sb":
-                found, c = cv2.findChessboardCornersSB(img, pattern, flags=flags)
-            else:
-                found, c = cv2.findChessboardCorners(img, pattern, flags=flags)
-        except cv2.error:
-            found, c = False, None
-        if found and c is not None and len(c) == board.corner_count:
-            corners, method, scale = c.reshape(-1, 2).astype(np.float64), name, f
-            break
-    if corners is None:
+        unreliable = moved
+    if refined is None:
+        if unreliable is not None:
+            return Detection(False, None, size, f"corners not reliable: a corner is {unreliable:.1f} px off "
+                                                f"the grid of its neighbours")
         if not probed:
             grid, _ = _visible_grid(small, board)
         return Detection(False, None, size, _not_found_reason(board, grid), found_grid=grid)
-    if scale > 1:
-        corners = (corners + 0.5) * scale - 0.5
-    spacing = _min_spacing(corners, board)
-    half = int(min(max(round(options.subpix_fraction * spacing), 2), 25))
-    refined = cv2.cornerSubPix(gray, corners.astype(np.float32).reshape(-1, 1, 2), (half, half), (-1, -1),
-                               _SUBPIX_CRITERIA).reshape(-1, 2)
-    # a refinement that jumped far (to a neighbour or noise) means the detection is not trustworthy
-    if np.max(np.linalg.norm(refined - corners, axis=1)) > max(2.0 * scale, 0.25 * spacing):
-        refined = corners.astype(np.float32)
     corners = _canonical_order(refined.astype(np.float32), board)
     det = Detection(True, corners, size, None, method, square_px=float(_min_spacing(corners, board)))
     try:
@@ -363,6 +368,65 @@ def detect_corners(gray: np.ndarray, board: Board, options: DetectionOptions = D
         det.reason = (f"blurred: edges {det.sharpness_px:.1f} px wide for {det.square_px:.0f} px squares "
                       f"(limit {max(options.blur_min_px, options.blur_fraction * det.square_px):.1f} px)")
     return det
+
+
+def _refine(gray: np.ndarray, raw: np.ndarray, scale: int, board: Board, options: DetectionOptions
+            ) -> tuple[np.ndarray | None, float]:
+    """cornerSubPix at full resolution of corners found at 1/scale, then the grid check.
+
+    Returns (corners, worst grid deviation px), corners None when a corner does not sit where
+    its eight neighbours put it (`grid_deviation` > max(1.5 px, 0.12 x square size); on the
+    real and rendered pairs good detections stay below 0.035 x square size).
+    """
+    corners = (raw + 0.5) * scale - 0.5 if scale > 1 else raw
+    spacing = _min_spacing(corners, board)
+    half = int(min(max(round(options.subpix_fraction * spacing), 2), 25))
+    refined = cv2.cornerSubPix(gray, corners.astype(np.float32).reshape(-1, 1, 2), (half, half), (-1, -1),
+                               _SUBPIX_CRITERIA).reshape(-1, 2)
+    if not np.all(np.isfinite(refined)):
+        return None, float("inf")
+    worst = float(grid_deviation(refined, board).max())
+    if worst > max(1.5, 0.12 * _min_spacing(refined, board)):
+        return None, worst
+    return refined, worst
+
+
+def grid_deviation(corners: np.ndarray, board: Board) -> np.ndarray:
+    """(rows, cols) px distance of each corner from where a homography through its 8
+    neighbours (a 3x3 block, shifted inwards at the edges) puts it: a mis-located corner
+    stands out, lens distortion over two squares does not."""
+    rows, cols = board.rows, board.cols
+    g = np.asarray(corners, dtype=np.float64).reshape(rows, cols, 2)
+    if rows < 3 or cols < 3:
+        return np.zeros((rows, cols))
+    ii, jj = np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij")
+    i0 = np.clip(ii - 1, 0, rows - 3).ravel()
+    j0 = np.clip(jj - 1, 0, cols - 3).ravel()
+    di, dj = np.meshgrid(np.arange(3), np.arange(3), indexing="ij")
+    bi = i0[:, None] + di.ravel()[None]            # (n, 9) block rows
+    bj = j0[:, None] + dj.ravel()[None]
+    centre = (bi == ii.ravel()[:, None]) & (bj == jj.ravel()[:, None])
+    keep = ~centre
+    n = rows * cols
+    src_i = bi[keep].reshape(n, 8).astype(np.float64)
+    src_j = bj[keep].reshape(n, 8).astype(np.float64)
+    dst = g[bi[keep], bj[keep]].reshape(n, 8, 2)
+    mean = dst.mean(axis=1, keepdims=True)
+    scale = np.sqrt(((dst - mean) ** 2).sum(axis=2).mean(axis=1))[:, None, None] + 1e-12
+    d = (dst - mean) / scale
+    x = src_j - j0[:, None]
+    y = src_i - i0[:, None]
+    one, zero = np.ones_like(x), np.zeros_like(x)
+    u, v = d[..., 0], d[..., 1]
+    A = np.concatenate([
+        np.stack([x, y, one, zero, zero, zero, -u * x, -u * y, -u], axis=2),
+        np.stack([zero, zero, zero, x, y, one, -v * x, -v * y, -v], axis=2)], axis=1)   # (n, 16, 9)
+    _, _, vt = np.linalg.svd(A)
+    H = vt[:, -1, :].reshape(n, 3, 3)
+    p = np.stack([jj.ravel() - j0, ii.ravel() - i0, np.ones(n)], axis=1)
+    q = np.einsum("nij,nj->ni", H, p)
+    pred = q[:, :2] / q[:, 2:3] * scale[:, 0] + mean[:, 0]
+    return np.linalg.norm(pred - g.reshape(n, 2), axis=1).reshape(rows, cols)
 
 
 def _visible_grid(gray: np.ndarray, board: Board) -> tuple[tuple[int, int] | None, np.ndarray | None]:
@@ -385,13 +449,19 @@ def _visible_grid(gray: np.ndarray, board: Board) -> tuple[tuple[int, int] | Non
     return (int(cols), int(rows)), None
 
 
+def _larger_grid(grid: tuple[int, int], board: Board) -> bool:
+    a, b = sorted(grid)
+    lo, hi = sorted((board.cols, board.rows))
+    return a >= lo and b >= hi and (a, b) != (lo, hi)
+
+
 def _not_found_reason(board: Board, grid: tuple[int, int] | None) -> str:
     want = f"{board.cols}x{board.rows}"
     if grid is None:
         return f"board not found (looked for {want} inner corners)"
     a, b = sorted(grid)
     lo, hi = sorted((board.cols, board.rows))
-    if a >= lo and b >= hi and (a, b) != (lo, hi):
+    if _larger_grid(grid, board):
         return (f"board not found: a {max(grid)}x{min(grid)} corner grid is visible, not {want} "
                 f"(check the board size: it counts inner corners)")
     if a <= lo and b <= hi:

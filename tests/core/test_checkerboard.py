@@ -8,7 +8,7 @@ import pytest
 
 from core.board import Board
 from core.checkerboard import (Coverage, DetectionOptions, board_symmetries, coverage, decode_gray,
-                               detect_corners, detect_folders, detect_pair, detect_pairs, load_gray,
+                               detect_corners, detect_folders, detect_pair, detect_pairs, grid_deviation, load_gray,
                                match_order, pair_images, param_distance, summarize_rejections, view_params)
 from core.errors import Cancelled, RoboCalError
 from tests.core.stereo_synth import REAL_DATA, real_pairs
@@ -53,6 +53,37 @@ def test_synthetic_board_detected_with_subpixel_accuracy():
     d = np.linalg.norm(det.corners[:, None] - truth[None], axis=2).min(axis=1)
     assert d.max() < 0.15
     assert det.sharpness_px < 4 and det.square_px > 30
+
+
+def test_a_wrong_corner_from_the_reduced_image_is_not_kept(monkeypatch):
+    """SB on the reduced image once returned a corner 6.7 px off; the refinement notices the
+    jump and the next detector is used instead of the bad corner."""
+    img, truth = _render(K, R0, T0)
+    real_sb = cv2.findChessboardCornersSB
+    calls = []
+
+    def bad_first(image, pattern, flags=0):
+        found, c = real_sb(image, pattern, flags=flags)
+        if not calls and found:
+            c = c.reshape(-1, 1, 2).copy()
+            c[20, 0, 1] += 6.0                      # 12 px at full resolution, > a quarter square
+        calls.append(flags)
+        return found, c
+
+    monkeypatch.setattr(cv2, "findChessboardCornersSB", bad_first)
+    det = detect_corners(img, BOARD)
+    assert det.ok and len(calls) >= 1
+    d = np.linalg.norm(det.corners[:, None] - truth[None], axis=2).min(axis=1)
+    assert d.max() < 0.15
+
+
+def test_grid_deviation_points_at_a_misplaced_corner():
+    _, truth = _render(K, R0, T0)
+    assert grid_deviation(truth, BOARD).max() < 0.05          # exact perspective grid
+    moved = truth.copy()
+    moved[20] += [3.0, -4.0]
+    dev = grid_deviation(moved, BOARD)
+    assert np.unravel_index(np.argmax(dev), dev.shape) == (2, 2) and dev.max() == pytest.approx(5.0, abs=0.3)
 
 
 def test_blank_image_not_found_and_wrong_board_size_named():
