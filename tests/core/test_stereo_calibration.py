@@ -115,6 +115,25 @@ def test_wrongly_paired_view_is_rejected_with_reason(synthetic):
     assert r.pairs_used == 15 and 4 not in r.view_indices
 
 
+def test_board_moved_between_exposures_is_rejected():
+    """Same board orientation, 150 mm apart: only the relative translation disagrees."""
+    from tests.core.stereo_synth import board_poses, true_rig
+    rig = true_rig()
+    rng = np.random.default_rng(8)
+    obj = BOARD.object_points().astype(float)
+    left, right = [], []
+    for k, (R, t) in enumerate(board_poses(10, rng, rig)):
+        ul, _ = rig.project(obj @ R.T + t)
+        moved = t + (np.array([0.0, 0.0, 150.0]) if k == 3 else 0.0)
+        _, ur = rig.project(obj @ R.T + moved)
+        left.append(ul + rng.normal(0, 0.02, ul.shape))
+        right.append(ur + rng.normal(0, 0.02, ur.shape))
+    r = calibrate_points(left, right, BOARD, SIZE, CalibrationOptions(cross_validate=False))
+    assert [i for i, _, _ in r.rejected] == [3]
+    assert "mm" in r.rejected[0][2] and "moved" in r.rejected[0][2]
+    assert abs(r.baseline_mm / rig.baseline - 1) < 1e-3
+
+
 def test_outlier_flagged_then_excluded_by_the_user():
     rig, left, right = synthetic_views(12, noise=0.05, seed=5)
     rng = np.random.default_rng(0)
