@@ -104,6 +104,8 @@ class PairDetection:
     reordered: str = ""               # symmetry applied to the right corners ("" = none)
     params_left: np.ndarray | None = None    # (X, Y, size, skew)
     params_right: np.ndarray | None = None
+    detected_ok: bool = False         # the pair's own verdict, before the checks across pairs
+    detected_reason: str | None = None
 
     @property
     def image_size(self) -> tuple[int, int] | None:
@@ -661,24 +663,29 @@ def detect_pair(left, right, board: Board, options: DetectionOptions = Detection
     if dl.image_size is None or dr.image_size is None:
         bad = [f"{n}: {d.reason}" for n, d in ((ln, dl), (rn, dr)) if d.image_size is None]
         pair.reason = "; ".join(bad)
-        return pair
+        return _verdict(pair)
     if dl.image_size != dr.image_size:
         pair.reason = (f"left/right image size mismatch: {ln} is {dl.image_size[0]}x{dl.image_size[1]}, "
                        f"{rn} is {dr.image_size[0]}x{dr.image_size[1]}")
-        return pair
+        return _verdict(pair)
     if not dl.ok or not dr.ok:
         bad = [f"{n}: {d.reason}" for n, d in ((ln, dl), (rn, dr)) if not d.ok]
         pair.reason = "; ".join(bad)
-        return pair
+        return _verdict(pair)
     fixed, sym, score = match_order(dl.corners, dr.corners, board)
     if score < 1.0:
         pair.reason = ("the board appears turned by more than 60° between the left and right images; "
                        "cannot match the corners")
-        return pair
+        return _verdict(pair)
     dr.corners, pair.reordered = fixed, sym
     pair.params_left = view_params(dl.corners, board, dl.image_size)
     pair.params_right = view_params(dr.corners, board, dr.image_size)
     pair.accepted = True
+    return _verdict(pair)
+
+
+def _verdict(pair: PairDetection) -> PairDetection:
+    pair.detected_ok, pair.detected_reason = pair.accepted, pair.reason
     return pair
 
 
@@ -717,7 +724,21 @@ def detect_pairs(pairs: Sequence[tuple], board: Board, options: DetectionOptions
                 for fut in futures:
                     fut.cancel()
                 raise
-    found = [p for p in results if p is not None]
+    return screen_pairs([p for p in results if p is not None], board, options, ignored_files=ignored_files)
+
+
+def screen_pairs(pairs: Sequence[PairDetection], board: Board, options: DetectionOptions = DetectionOptions(),
+                 *, ignored_files: Sequence[str] = ()) -> DetectionResult:
+    """The checks across pairs, redone from each pair's own verdict (`detect_pair`).
+
+    For a page that adds or removes pairs one at a time: pairs are renumbered in list
+    order, the common image size is the most frequent one, and a pair too similar to an
+    earlier accepted one is rejected. Returns the DetectionResult with its coverage.
+    """
+    found = list(pairs)
+    for i, p in enumerate(found):
+        p.index = i
+        p.accepted, p.reason = p.detected_ok, p.detected_reason
     sizes = [p.left.image_size for p in found
              if p.left.image_size is not None and p.left.image_size == p.right.image_size]
     image_size = max(set(sizes), key=lambda s: (sizes.count(s), -sizes.index(s))) if sizes else None

@@ -9,7 +9,8 @@ import pytest
 from core.board import Board
 from core.checkerboard import (Coverage, DetectionOptions, board_symmetries, coverage, decode_gray,
                                detect_corners, detect_folders, detect_pair, detect_pairs, grid_deviation, load_gray,
-                               match_order, pair_images, param_distance, summarize_rejections, view_params)
+                               match_order, pair_images, param_distance, screen_pairs, summarize_rejections,
+                               view_params)
 from core.errors import Cancelled, RoboCalError
 from tests.core.stereo_synth import REAL_DATA, real_pairs
 
@@ -196,6 +197,19 @@ def test_pair_reasons_size_mismatch_unreadable_and_similar(tmp_path):
     assert "too similar to pair 1" in res.pairs[1].reason
     line = summarize_rejections(res.pairs)
     assert "too similar" in line
+
+
+def test_screen_pairs_again_after_removing_one():
+    """A page adds and removes pairs: the checks across pairs start again from each pair's
+    own verdict."""
+    img_l, _ = _render(K, R0, T0)
+    img_r, _ = _render(K, R0, T0 + np.array([-130.0, 0, 0]), seed=1)
+    first = detect_pair(img_l, img_r, BOARD)
+    second = detect_pair(img_l, img_r, BOARD)
+    res = screen_pairs([first, second], BOARD)
+    assert [p.accepted for p in res.pairs] == [True, False] and res.coverage.pairs == 1
+    res = screen_pairs([second], BOARD)
+    assert res.pairs[0].accepted and res.pairs[0].index == 0 and res.pairs[0].reason is None
 
 
 def test_pairs_with_a_different_image_size_rejected():
