@@ -164,6 +164,14 @@ def test_missing_folder_and_no_images(tmp_path, capsys, previous):
     _assert_failed(code, stdout, err, "no image files")
 
 
+def test_unwritable_output_refused_before_the_work(tmp_path, capsys):
+    left, right = _copy(tmp_path, [1, 2])
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a folder")
+    code, stdout, err = _run(capsys, *_args(left, right, blocker / "stereo.yaml"))
+    _assert_failed(code, stdout, err, "a-file is a file, not a folder")
+
+
 @pytest.mark.parametrize("extra, words", [
     (["--board", "9by6"], ["board size must look like 9x6"]),
     (["--square", "-3"], ["square size must be positive"]),
