@@ -22,7 +22,7 @@ PAGES: dict[Step, str] = {
     Step.MARKER: NOT_BUILT,            # issue 4
     Step.POSES: NOT_BUILT,             # issue 6
     Step.MEASUREMENT: NOT_BUILT,       # issue 4
-    Step.IDENTIFICATION: NOT_BUILT,    # issue 5
+    Step.IDENTIFICATION: "app.pages.identification_page:IdentificationPage",    # issue 5
     Step.EXPORT: NOT_BUILT,            # issue 5
 }
 
