@@ -11,9 +11,17 @@ from pathlib import Path
 
 from bench.report import Report
 
+# The wizard's order: the virtual lab (renderer accuracy, simulate speed) first.
+ORDER = ["virtual_lab", "stereo_calibration", "marker", "pose_selection", "identification"]
+
+
+def _rank(name: str) -> tuple[int, str]:
+    short = name.removeprefix("bench_")
+    return (ORDER.index(short) if short in ORDER else len(ORDER), short)
+
 
 def main(argv: list[str]) -> int:
-    names = sorted(p.stem for p in Path(__file__).parent.glob("bench_*.py"))
+    names = sorted((p.stem for p in Path(__file__).parent.glob("bench_*.py")), key=_rank)
     if argv:
         names = [n for n in names if any(a in n for a in argv)]
     report = Report()
