@@ -43,7 +43,11 @@ class Joint:
 @dataclass
 class RobotModel:
     """A serial robot: DH joints, base pose in the world frame, tool pose in the flange
-    frame, and named target points (mm) in the tool frame."""
+    frame, and named target points (mm) in the tool frame.
+
+    `collision_radius` (optional, mm): one capsule radius per link (n values; n + 1 with the
+    tool link last) for the self-collision check of pose selection (core.pose_candidates);
+    None when the robot file gives no "collision" section."""
 
     name: str
     joints: list[Joint]
@@ -51,6 +55,7 @@ class RobotModel:
     tool: np.ndarray = field(default_factory=lambda: np.eye(4))
     targets: dict[str, np.ndarray] = field(default_factory=dict)
     calibration: dict | None = None
+    collision_radius: np.ndarray | None = None
 
     @property
     def dof(self) -> int:

@@ -87,7 +87,25 @@ def robot_from_dict(data: dict, source: str | Path = "<robot>") -> RobotModel:
         raise RoboCalError("expected an object", source=source, field="calibration")
     return RobotModel(name=name, joints=joints, base=_pose_from_dict(data.get("base"), source, "base"),
                       tool=_pose_from_dict(data.get("tool"), source, "tool"), targets=targets,
-                      calibration=calibration)
+                      calibration=calibration,
+                      collision_radius=_collision_from_dict(data.get("collision"), len(joints), source))
+
+
+def _collision_from_dict(data, dof: int, source) -> np.ndarray | None:
+    """Optional `"collision": {"radius": [mm per link]}` (dof values, or dof + 1 with the tool
+    link last): capsule radii for the self-collision check of pose selection."""
+    if data is None:
+        return None
+    if not isinstance(data, dict):
+        raise RoboCalError('expected an object like {"radius": [mm per link]}', source=source, field="collision")
+    radius = require(data, "radius", source, "collision.radius")
+    if not isinstance(radius, list) or len(radius) not in (dof, dof + 1):
+        raise RoboCalError(f"expected a list of {dof} (or {dof + 1} with the tool) radii in mm",
+                           source=source, field="collision.radius")
+    values = np.array([number(v, source, f"collision.radius[{i}]", "mm") for i, v in enumerate(radius)])
+    if np.any(values < 0):
+        raise RoboCalError("radii must not be negative", source=source, field="collision.radius")
+    return values
 
 
 def robot_to_dict(model: RobotModel) -> dict:
@@ -108,6 +126,8 @@ def robot_to_dict(model: RobotModel) -> dict:
         "tool": _pose_to_dict(model.tool),
         "targets": {k: [float(v) for v in p] for k, p in model.targets.items()},
     }
+    if model.collision_radius is not None:
+        out["collision"] = {"radius": [float(v) for v in model.collision_radius]}
     if model.calibration is not None:
         out["calibration"] = model.calibration
     return out
