@@ -14,6 +14,7 @@ import sys
 
 from app.commands import CommandResult
 from core.errors import Cancelled, RoboCalError, UsageError
+from core.files import json_default
 
 COMMANDS = {
     "gui": "gui",
@@ -79,19 +80,10 @@ def main(argv: list[str] | None = None) -> int:
     if result is None:
         return 0
     if getattr(args, "json", False):
-        sys.stdout.write(json.dumps(result.data, default=_json_default) + "\n")
+        sys.stdout.write(json.dumps(result.data, default=json_default) + "\n")
     elif result.text:
         sys.stdout.write(result.text.rstrip("\n") + "\n")
     return result.exit_code
-
-
-def _json_default(value):
-    import numpy as np
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
 
 
 if __name__ == "__main__":

@@ -12,9 +12,9 @@
     board_cols, board_rows, board_square inner corners and square size (mm)
     epipolar_rms, cross_validation_px    optional, px
 
-Writing is atomic: FileStorage writes a temporary file in the same folder, which then
-replaces the target with `os.replace`; a failed run never leaves half a file and never
-overwrites a previous good one. Reading names the file and the field of any problem and
+Writing is atomic: FileStorage composes the YAML in memory and core.files writes it through a
+temporary file and a rename; a failed run never leaves half a file and never overwrites a
+previous good one. Reading names the file and the field of any problem and
 refuses unknown major versions.
 
 ROS export (`write_ros_camera_info`): one camera_info YAML per camera in the format of
@@ -26,8 +26,6 @@ translation column (P2[0,3] = −f'·B) is converted from mm to m.
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -37,7 +35,7 @@ import numpy as np
 from core.board import Board
 from core.camera import CameraModel
 from core.errors import RoboCalError
-from core.files import atomic_write_json, atomic_write_text, ensure_writable_dir
+from core.files import atomic_write_json, atomic_write_text, ensure_writable_dir, json_default
 from core.stereo_rig import StereoRig
 from core.validate import check_format
 
@@ -117,47 +115,29 @@ def _as_file(data) -> StereoFile:
 
 
 def write_stereo_yaml(path: str | Path, data) -> Path:
-    """Write stereo.yaml (from a StereoFile or a StereoCalibrationResult), atomically."""
+    """Write stereo.yaml (from a StereoFile or a StereoCalibrationResult), atomically: the YAML
+    is composed in memory by cv2.FileStorage and written through core.files."""
     sf = _as_file(data)
-    path = Path(path)
-    folder = ensure_writable_dir(path.parent if str(path.parent) else Path("."))
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
-    os.close(fd)
-    try:
-        fs = _open_storage(tmp, cv2.FILE_STORAGE_WRITE | cv2.FILE_STORAGE_FORMAT_YAML)
-        if fs is None:
-            raise RoboCalError("cannot write the file", source=path, hint="Check the folder's permissions.")
-        try:
-            fs.write("format", FORMAT)
-            fs.write("image_width", int(sf.image_size[0]))
-            fs.write("image_height", int(sf.image_size[1]))
-            for key in ("K1", "D1", "K2", "D2", "R", "T", "E", "F", "R1", "R2", "P1", "P2", "Q"):
-                value = np.asarray(getattr(sf, key), dtype=np.float64)
-                if key in ("D1", "D2"):
-                    value = value.reshape(1, -1)
-                elif key == "T":
-                    value = value.reshape(3, 1)
-                fs.write(key, value)
-            for key in ("rms_left", "rms_right", "rms_stereo"):
-                fs.write(key, float(getattr(sf, key)))
-            fs.write("board_cols", int(sf.board.cols))
-            fs.write("board_rows", int(sf.board.rows))
-            fs.write("board_square", float(sf.board.square))
-            for key, value in sf.extras.items():
-                fs.write(key, float(value))
-        finally:
-            fs.release()
-        with open(tmp, "rb") as handle:
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except OSError as exc:
-        Path(tmp).unlink(missing_ok=True)
-        raise RoboCalError(f"cannot write the file ({exc.strerror})", source=path,
-                           hint="Check the disk space and permissions.") from exc
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+    fs = cv2.FileStorage("stereo.yaml", cv2.FILE_STORAGE_WRITE | cv2.FILE_STORAGE_MEMORY
+                         | cv2.FILE_STORAGE_FORMAT_YAML)
+    fs.write("format", FORMAT)
+    fs.write("image_width", int(sf.image_size[0]))
+    fs.write("image_height", int(sf.image_size[1]))
+    for key in ("K1", "D1", "K2", "D2", "R", "T", "E", "F", "R1", "R2", "P1", "P2", "Q"):
+        value = np.asarray(getattr(sf, key), dtype=np.float64)
+        if key in ("D1", "D2"):
+            value = value.reshape(1, -1)
+        elif key == "T":
+            value = value.reshape(3, 1)
+        fs.write(key, value)
+    for key in ("rms_left", "rms_right", "rms_stereo"):
+        fs.write(key, float(getattr(sf, key)))
+    fs.write("board_cols", int(sf.board.cols))
+    fs.write("board_rows", int(sf.board.rows))
+    fs.write("board_square", float(sf.board.square))
+    for key, value in sf.extras.items():
+        fs.write(key, float(value))
+    return atomic_write_text(path, fs.releaseAndGetString())
 
 
 def _open_storage(path, mode):
@@ -359,7 +339,7 @@ def stereo_json(data, result=None) -> dict:
                        "rms_right": float(result.per_view_rms_right[k]), "rms": float(result.per_view_rms[k]),
                        "outlier": int(i) in result.outliers}
                       for k, (i, name) in enumerate(zip(result.view_indices, result.view_names))]
-    return _clean(json.loads(json.dumps(d, default=_json_default)))
+    return _clean(json.loads(json.dumps(d, default=json_default)))
 
 
 def _clean(value):
@@ -376,11 +356,3 @@ def _clean(value):
 def write_stereo_json(path: str | Path, data, result=None) -> Path:
     """Write the JSON export atomically."""
     return atomic_write_json(path, stereo_json(data, result))
-
-
-def _json_default(value):
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    raise TypeError(f"not JSON serialisable: {type(value).__name__}")

@@ -1,9 +1,8 @@
 """`robocal simulate`: write a virtual-lab dataset (images, joints and the ground truth)."""
 from __future__ import annotations
 
-import sys
 
-from app.commands import CommandResult
+from app.commands import CommandResult, ProgressLine
 
 HELP = "Write a virtual-lab dataset: checkerboard pairs, marker training image, pose images, joints, truth.json"
 
@@ -20,27 +19,6 @@ def add_arguments(parser) -> None:
                         help="sensor read noise, grey levels (default 0.5; 0 for noise-free images)")
 
 
-class _ProgressLine:
-    """One updating progress line on stderr when it is a terminal; silent otherwise."""
-
-    def __init__(self, stream=None):
-        self.stream = stream or sys.stderr
-        self.active = bool(getattr(self.stream, "isatty", lambda: False)())
-        self.shown = False
-
-    def __call__(self, fraction: float, message: str) -> None:
-        if not self.active:
-            return
-        self.stream.write(f"\rrobocal simulate: {fraction * 100:5.1f} %  {message:<40.40}")
-        self.stream.flush()
-        self.shown = True
-
-    def close(self) -> None:
-        if self.shown:
-            self.stream.write("\n")
-            self.stream.flush()
-
-
 def run(args) -> CommandResult:
     from core.errors import UsageError
     from core.robot_file import read_robot
@@ -53,7 +31,7 @@ def run(args) -> CommandResult:
     if args.seed < 0:
         raise UsageError("--seed must be zero or positive")
     robot = read_robot(args.robot) if args.robot else None
-    progress = _ProgressLine()
+    progress = ProgressLine("simulate")
     try:
         result = simulate_dataset(args.out, robot=robot, seed=args.seed, pairs=args.pairs, poses=args.poses,
                                   noise=args.noise, progress=progress)

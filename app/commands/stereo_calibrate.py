@@ -8,10 +8,9 @@ the exit code is 1 and no file is written (a previous stereo.yaml stays as it wa
 from __future__ import annotations
 
 import os
-import sys
 from pathlib import Path
 
-from app.commands import CommandResult
+from app.commands import CommandResult, ProgressLine
 from core.board import Board
 from core.checkerboard import detect_folders
 from core.errors import RoboCalError, UsageError
@@ -45,30 +44,6 @@ def add_arguments(parser) -> None:
                         help="flag pairs whose error exceeds median + K·sigma (default 3)")
     parser.add_argument("--ros", metavar="DIR", help="also write ROS camera_info files left.yaml and right.yaml here")
     parser.add_argument("--export-json", metavar="FILE", help="also write the full result as JSON")
-
-
-class _ProgressLine:
-    """One updating progress line on stderr when it is a terminal; silent otherwise."""
-
-    def __init__(self, stream=None):
-        self.stream = stream or sys.stderr
-        self.active = bool(getattr(self.stream, "isatty", lambda: False)())
-        self.shown = False
-
-    def part(self, start: float, stop: float):
-        return lambda fraction, message: self(start + (stop - start) * fraction, message)
-
-    def __call__(self, fraction: float, message: str) -> None:
-        if not self.active:
-            return
-        self.stream.write(f"\rrobocal stereo-calibrate: {fraction * 100:5.1f} %  {message:<50.50}")
-        self.stream.flush()
-        self.shown = True
-
-    def close(self) -> None:
-        if self.shown:
-            self.stream.write("\n")
-            self.stream.flush()
 
 
 def _source(values: list[str]):
@@ -120,7 +95,7 @@ def run(args) -> CommandResult:
     _check_output(args.export_json, "--export-json")
     if args.ros:
         _check_output(str(Path(args.ros) / "left.yaml"), "--ros")
-    progress = _ProgressLine()
+    progress = ProgressLine("stereo-calibrate")
     try:
         detections = detect_folders(_source(args.left), _source(args.right), board, progress=progress.part(0, 0.6))
         exclude = _parse_exclude(args.exclude, detections)
