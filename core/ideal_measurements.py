@@ -46,8 +46,8 @@ def write_ideal_measurements(meas: Measurements, path: str | Path, *, sigma_mm: 
 
 
 def synthetic_description(path: str | Path) -> str | None:
-    """The synthetic note of a measurements file (without '# '), or None for real measurements
-    or an unreadable file. Reads only the comment lines at the top."""
+    """What the synthetic note of a measurements file says (the text after '# synthetic:'),
+    or None for real measurements or an unreadable file. Reads only the comment lines at the top."""
     try:
         with open(path, encoding="utf-8-sig") as handle:
             for _ in range(20):
@@ -56,7 +56,7 @@ def synthetic_description(path: str | Path) -> str | None:
                     break
                 line = line.strip()
                 if line.startswith(SYNTHETIC_TAG):
-                    return line[2:].strip()
+                    return line[len(SYNTHETIC_TAG):].strip() or "synthetic"
                 if line and not line.startswith("#"):
                     break
     except (OSError, UnicodeDecodeError):

@@ -1,7 +1,9 @@
 """A read-only table of estimated parameters: nominal → identified ± σ, in mm and degrees.
 
 `set_rows(rows)` takes objects with the attributes of core.identification.ParameterRow
-(name, unit, nominal, identified, std, identifiable, status, explanation). Parameters that
+(name, group, unit, nominal, initial, identified, std, identifiable, status, explanation).
+For the base pose (group "base") the reference is the registered start `initial`, not the
+robot file's base (which is not expressed in the measurement frame). Parameters that
 were not estimated (not identifiable, fixed by the user, fixed by Hayati's rule) are greyed
 and carry their explanation as tool tip; `explanation(row)` gives it for a side panel.
 """
@@ -18,6 +20,9 @@ COLUMNS = ["Parameter", "Unit", "Nominal", "Identified", "± σ", "Correction", 
 GREY = QColor("#80868b")
 WARN = QColor("#b06000")
 UNIT_TEXT = {"mm": "mm", "deg": "°"}
+REGISTERED_TIP = ("Base pose: the reference is where the rigid registration of the nominal model onto the "
+                  "measurements put the base (the robot file's base pose is not in the camera frame); "
+                  "the correction is what the calibration changed after that.")
 
 
 def _decimals(unit: str) -> int:
@@ -76,10 +81,12 @@ class ParameterTable(QTableWidget):
         for r, row in enumerate(self._rows):
             estimated = bool(row.identifiable)
             unit = UNIT_TEXT.get(row.unit, row.unit)
-            correction = row.identified - row.nominal
+            registered = getattr(row, "group", "") == "base" and getattr(row, "initial", None) is not None
+            reference = row.initial if registered else row.nominal
+            correction = row.identified - reference
             if row.unit == "deg":
                 correction = (correction + 180.0) % 360.0 - 180.0
-            cells = [row.name, unit, format_value(row.nominal, row.unit), format_value(row.identified, row.unit),
+            cells = [row.name, unit, format_value(reference, row.unit), format_value(row.identified, row.unit),
                      format_std(row.std) if estimated else "—",
                      format_correction(correction, row.unit) if estimated else "—",
                      "identified" if estimated else str(row.status)]
@@ -95,6 +102,10 @@ class ParameterTable(QTableWidget):
                     item.setForeground(QBrush(WARN))      # σ larger than the correction itself
                 if tip:
                     item.setToolTip(tip)
+                elif registered:
+                    item.setToolTip(REGISTERED_TIP)
+                if registered and c == 2:
+                    item.setFont(italic)
                 self.setItem(r, c, item)
         self.resizeColumnsToContents()
 

@@ -454,7 +454,7 @@ class IdentificationPage(WizardPage):
                 text = (f"<b>{_esc(path.name)}</b>: {meas.n_poses} poses, {meas.n_points} points "
                         f"(target {_esc(targets)}) — {_esc(path.parent)}")
                 if synthetic:
-                    text = ("<span style='color:#8a4b00'><b>SYNTHETIC</b> — " + _esc(synthetic)
+                    text = ("<span style='color:#8a4b00'><b>SYNTHETIC:</b> " + _esc(synthetic)
                             + ".</span><br>" + text)
                 self.source_label.setText(text)
                 ready = True
@@ -563,6 +563,7 @@ class IdentificationPage(WizardPage):
         self._set_status("✓ Identified. Save calibrated.json to keep the result in the project.", ok=True)
         self.notify_complete()
         if self._autopilot_done is not None:
+            self.tabs.setCurrentWidget(self.residuals)      # the picture a class should see
             if self.save_calibrated():
                 self._finish_autopilot(True, "")
             else:
@@ -675,6 +676,8 @@ class IdentificationPage(WizardPage):
         r = run.result
         self.summary.setText(summary_text(run))
         self.table.set_rows(r.parameters)
+        self.table.horizontalHeaderItem(2).setToolTip("Nominal value; for the base pose the registered start "
+                                                      "(italic)")
         self._show_explanation()
         before = {p["pose"]: p["error_mm"] for p in r.before.per_pose()}
         after = {p["pose"]: p["error_mm"] for p in r.after.per_pose()}

@@ -23,7 +23,7 @@ PAGES: dict[Step, str] = {
     Step.POSES: NOT_BUILT,             # issue 6
     Step.MEASUREMENT: NOT_BUILT,       # issue 4
     Step.IDENTIFICATION: "app.pages.identification_page:IdentificationPage",    # issue 5
-    Step.EXPORT: NOT_BUILT,            # issue 5
+    Step.EXPORT: "app.pages.export_page:ExportPage",            # issue 5
 }
 
 

@@ -17,7 +17,6 @@ from core.identifiability import FIXED_BY_USER
 from core.measurements import read_measurements, write_measurements
 from core.robot_file import read_robot
 from core.synthetic import perturbed_model, simulate_measurements
-from widgets.parameter_table import GREY
 
 
 def make_page(qtbot, tmp_path, mode=projects.VIRTUAL_LAB):

@@ -1,0 +1,358 @@
+"""Step 7, Export: the calibrated robot and the cameras in the formats other tools read, and a
+report of the whole calibration.
+
+One row per export (what, where, status, a button); "Export all" writes every available one
+into the export folder (project/export/ by default). Every file is written atomically
+(core.files); a missing input says which step produces it.
+"""
+from __future__ import annotations
+
+import html
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+from PySide6.QtCore import Qt
+from PySide6.QtWidgets import (QFileDialog, QGridLayout, QGroupBox, QHBoxLayout, QLabel, QLineEdit,
+                               QPushButton, QVBoxLayout, QWidget)
+
+from app.pages.base import WizardPage
+from app.pages.steps import Step
+from core.errors import RoboCalError
+from core.exports import export_model
+from core.files import atomic_write_bytes, atomic_write_text, ensure_writable_dir
+from core.identification import write_calibrated_model
+from core.kinematics import RobotModel
+from core.report import calibration_report
+from core.robot_file import read_robot
+
+EXPORT_FOLDER = "export"
+IDENTIFICATION_OUTPUT = "identification"
+ACCURACY_OUTPUT = "identification_accuracy"
+
+
+@dataclass
+class ExportItem:
+    key: str
+    title: str
+    description: str
+    files: tuple[str, ...]
+    write: Callable[[Path], list[Path]]          # folder -> written files
+    missing: Callable[[], str | None]            # why it is not available (None: available)
+
+
+def stereo_module():
+    """core.stereo_file if this build has it (the Stereo calibration step's file module)."""
+    try:
+        from core import stereo_file
+    except ImportError:
+        return None
+    return stereo_file
+
+
+class ExportPage(WizardPage):
+    step = Step.EXPORT
+
+    def __init__(self, state, tasks, **kwargs):
+        super().__init__(state, tasks, **kwargs)
+        self.exported: dict[str, list[Path]] = {}
+        self._folder: Path | None = None         # chosen by the user; None: project/export
+
+        self.items = [
+            ExportItem("calibrated", "Calibrated robot model (RoboCal JSON)",
+                       "The robot file format plus the calibration section (statistics, parameters with σ, "
+                       "identifiability). Loads anywhere a robot model does.",
+                       ("calibrated.json",), self._write_calibrated, self._missing_model),
+            ExportItem("dh-csv", "DH table (CSV)",
+                       "One row per joint: θ, d, a, α, β (mm, °), limits and standard deviations.",
+                       ("calibrated_dh.csv",), self._write_dh, self._missing_model),
+            ExportItem("urdf", "URDF (ROS, robot viewers)",
+                       "Kinematic URDF in metres and radians; world = the measurement (left camera) frame.",
+                       ("calibrated.urdf",), self._write_urdf, self._missing_model),
+            ExportItem("stereo", "Stereo camera files (OpenCV + ROS camera_info)",
+                       "stereo.yaml (OpenCV FileStorage) and left.yaml / right.yaml (ROS camera_info, metres).",
+                       ("stereo.yaml", "left.yaml", "right.yaml"), self._write_stereo, self._missing_stereo),
+            ExportItem("report", "Report (HTML)",
+                       "The figures of every step: stereo reprojection errors, measurements, identification "
+                       "(errors before/after, validation, condition number, parameters).",
+                       ("report.html",), self._write_report, self._missing_report),
+        ]
+
+        # -- folder --------------------------------------------------------------------
+        self.folder_edit = QLineEdit()
+        self.folder_edit.setObjectName("exportFolder")
+        self.folder_edit.setReadOnly(True)
+        self.folder_button = QPushButton("Choose folder…")
+        self.folder_button.clicked.connect(lambda: self.choose_folder())
+        self.all_button = QPushButton("Export all")
+        self.all_button.setObjectName("exportAllButton")
+        self.all_button.setDefault(True)
+        self.all_button.clicked.connect(lambda: self.export_all())
+        folder_box = QGroupBox("Export folder")
+        fl = QHBoxLayout(folder_box)
+        fl.addWidget(self.folder_edit, 1)
+        fl.addWidget(self.folder_button)
+        fl.addWidget(self.all_button)
+
+        # -- one row per export --------------------------------------------------------
+        items_box = QGroupBox("What can be exported")
+        grid = QGridLayout(items_box)
+        grid.setHorizontalSpacing(12)
+        grid.setVerticalSpacing(10)
+        self.rows: dict[str, dict[str, QWidget]] = {}
+        for r, item in enumerate(self.items):
+            title = QLabel(f"<b>{html.escape(item.title)}</b>")
+            desc = QLabel(item.description)
+            desc.setTextFormat(Qt.TextFormat.PlainText)
+            desc.setObjectName("hint")
+            desc.setWordWrap(True)
+            target = QLabel()
+            target.setTextFormat(Qt.TextFormat.PlainText)
+            target.setWordWrap(True)
+            target.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
+            status = QLabel()
+            status.setTextFormat(Qt.TextFormat.PlainText)
+            status.setWordWrap(True)
+            button = QPushButton("Export")
+            button.setObjectName(f"export_{item.key}")
+            button.clicked.connect(lambda _=False, key=item.key: self.export(key))
+            text = QVBoxLayout()
+            text.setSpacing(2)
+            text.addWidget(title)
+            text.addWidget(desc)
+            text.addWidget(target)
+            text.addWidget(status)
+            grid.addLayout(text, r, 0)
+            grid.addWidget(button, r, 1, Qt.AlignmentFlag.AlignTop)
+            self.rows[item.key] = {"title": title, "target": target, "status": status, "button": button}
+        grid.setColumnStretch(0, 1)
+
+        self.status = QLabel()
+        self.status.setTextFormat(Qt.TextFormat.PlainText)
+        self.status.setObjectName("pageStatus")
+        self.status.setWordWrap(True)
+        self.status.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
+
+        layout = QVBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.addWidget(folder_box)
+        layout.addWidget(items_box)
+        layout.addWidget(self.status)
+        layout.addStretch(1)
+
+        state.projectChanged.connect(self._project_changed)
+        state.robotChanged.connect(lambda *_: self.refresh())
+        state.outputChanged.connect(lambda *_: self.refresh())
+        self.refresh()
+
+    # -- where ---------------------------------------------------------------------------
+    def folder(self) -> Path | None:
+        if self._folder is not None:
+            return self._folder
+        if self.state.project is None:
+            return None
+        return self.state.project.folder / EXPORT_FOLDER
+
+    def set_folder(self, folder: str | Path | None) -> None:
+        self._folder = Path(folder) if folder else None
+        self.refresh()
+
+    def choose_folder(self) -> Path | None:
+        start = str(self.folder() or Path.home())
+        chosen = QFileDialog.getExistingDirectory(self, "Export folder", start)
+        if not chosen:
+            return None
+        self.set_folder(chosen)
+        return Path(chosen)
+
+    def _project_changed(self, *_):
+        self._folder = None
+        self.exported.clear()
+        self.refresh()
+        self.notify_complete()
+
+    # -- sources -------------------------------------------------------------------------
+    def _result(self):
+        return self.state.outputs.get(IDENTIFICATION_OUTPUT)
+
+    def calibrated_source(self) -> str | None:
+        """'result' (this session's identification), 'file' (the project's calibrated.json) or None."""
+        if self._result() is not None:
+            return "result"
+        if self.state.project is not None and self.state.project.has("calibrated"):
+            return "file"
+        return None
+
+    def calibrated_model(self) -> RobotModel:
+        source = self.calibrated_source()
+        if source == "result":
+            return self._result().model
+        if source == "file":
+            return read_robot(self.state.project.path("calibrated"))
+        raise RoboCalError("no calibrated model yet", hint="Run the Identification step first.")
+
+    def _missing_model(self) -> str | None:
+        if self.state.project is None:
+            return "needs a project (Setup step)"
+        return None if self.calibrated_source() else "available after the Identification step"
+
+    def _missing_stereo(self) -> str | None:
+        if self.state.project is None:
+            return "needs a project (Setup step)"
+        if not self.state.project.has("stereo"):
+            return "available after the Stereo calibration step"
+        if stereo_module() is None:
+            return "this build cannot read stereo.yaml (core.stereo_file is missing)"
+        return None
+
+    def _missing_report(self) -> str | None:
+        return "needs a project (Setup step)" if self.state.project is None else None
+
+    # -- writers (folder -> files written) -----------------------------------------------
+    def _write_calibrated(self, folder: Path) -> list[Path]:
+        dest = folder / "calibrated.json"
+        if self.calibrated_source() == "result":
+            return [write_calibrated_model(self._result(), dest)]
+        return [atomic_write_bytes(dest, self.state.project.path("calibrated").read_bytes())]
+
+    def _write_dh(self, folder: Path) -> list[Path]:
+        return [export_model(self.calibrated_model(), "dh-csv", folder / "calibrated_dh.csv")]
+
+    def _write_urdf(self, folder: Path) -> list[Path]:
+        return [export_model(self.calibrated_model(), "urdf", folder / "calibrated.urdf")]
+
+    def _write_stereo(self, folder: Path) -> list[Path]:
+        sf_module = stereo_module()
+        src = self.state.project.path("stereo")
+        data = sf_module.read_stereo_yaml(src)          # checks the file before copying it
+        out = [atomic_write_bytes(folder / "stereo.yaml", src.read_bytes())]
+        out += list(sf_module.write_ros_camera_info(folder, data))
+        return out
+
+    def _write_report(self, folder: Path) -> list[Path]:
+        text = calibration_report(self.state.project, robot=self.state.robot, identification=self._result(),
+                                  accuracy=self.state.outputs.get(ACCURACY_OUTPUT))
+        return [atomic_write_text(folder / "report.html", text)]
+
+    # -- actions -------------------------------------------------------------------------
+    def item(self, key: str) -> ExportItem:
+        return next(i for i in self.items if i.key == key)
+
+    def export(self, key: str) -> list[Path]:
+        """Write one export into the folder; the outcome is shown in its row."""
+        item = self.item(key)
+        row = self.rows[key]
+        missing = item.missing()
+        if missing:
+            self._row_status(key, f"Not available: {missing}.", ok=False)
+            return []
+        try:
+            folder = ensure_writable_dir(self.folder())
+            written = item.write(folder)
+        except RoboCalError as exc:
+            self._row_status(key, f"✗ {exc.message}", ok=False)
+            self._set_status(f"✗ {item.title}: {exc.message}", ok=False)
+            return []
+        except OSError as exc:
+            self._row_status(key, f"✗ cannot read the input ({exc.strerror})", ok=False)
+            return []
+        self.exported[key] = written
+        row["status"].setProperty("done", True)
+        self._row_status(key, "✓ Exported: " + ", ".join(p.name for p in written), ok=True)
+        self._set_status(f"✓ {item.title} written to {folder}", ok=True)
+        self.notify_complete()
+        return written
+
+    def export_all(self) -> dict[str, list[Path]]:
+        """Every available export into the folder; says what was skipped and why."""
+        done, skipped, failed = {}, [], []
+        for item in self.items:
+            missing = item.missing()
+            if missing:
+                skipped.append(f"{item.title} ({missing})")
+                self._row_status(item.key, f"Not available: {missing}.", ok=False)
+                continue
+            written = self.export(item.key)
+            if written:
+                done[item.key] = written
+            else:
+                failed.append(item.title)
+        n = sum(len(v) for v in done.values())
+        text = f"✓ {n} file(s) written to {self.folder()}." if done else "Nothing was exported."
+        if failed:
+            text += " Failed: " + "; ".join(failed) + " (see the rows above)."
+        if skipped:
+            text += " Skipped: " + "; ".join(skipped) + "."
+        self._set_status(text, ok=bool(done) and not failed)
+        return done
+
+    # -- WizardPage ----------------------------------------------------------------------
+    def on_enter(self) -> None:
+        self.refresh()
+
+    def is_complete(self) -> bool:
+        return bool(self.exported)
+
+    def autopilot(self, done) -> None:
+        if self.state.project is None:
+            done(False, "no project (Setup step)")
+            return
+        self._folder = None
+        written = self.export_all()
+        failed = [i.title for i in self.items if not i.missing() and i.key not in written]
+        if not written:
+            done(False, self.status.text())
+        elif failed:
+            done(False, "export failed: " + ", ".join(failed))
+        else:
+            done(True, "")
+
+    # -- display -------------------------------------------------------------------------
+    def refresh(self) -> None:
+        folder = self.folder()
+        self.folder_edit.setText(str(folder) if folder else "")
+        self.folder_button.setEnabled(self.state.project is not None)
+        any_available = False
+        for item in self.items:
+            row = self.rows[item.key]
+            missing = item.missing()
+            any_available |= missing is None
+            where = ", ".join(item.files)
+            if folder is not None:
+                where = f"→ {folder / item.files[0]}" + (f" (+ {', '.join(item.files[1:])})" if len(item.files) > 1
+                                                         else "")
+            source = ""
+            if item.key in ("calibrated", "dh-csv", "urdf") and missing is None:
+                source = (" · from this session's identification" if self.calibrated_source() == "result"
+                          else " · from the project's calibrated.json")
+            row["target"].setText(where + source)
+            row["button"].setEnabled(missing is None)
+            if missing:
+                self._row_status(item.key, f"Not available: {missing}.", ok=False)
+            elif item.key in self.exported:
+                self._row_status(item.key, "✓ Exported: " + ", ".join(p.name for p in self.exported[item.key]),
+                                 ok=True)
+            else:
+                self._row_status(item.key, "Ready.", ok=None)
+        self.all_button.setEnabled(any_available)
+        if self.state.project is None:
+            self._set_status("Create or open a project first (Setup step).", ok=False)
+        elif not self.exported:
+            self._set_status("Choose what to export, or Export all.", ok=None)
+
+    def _row_status(self, key: str, text: str, ok: bool | None) -> None:
+        label = self.rows[key]["status"]
+        label.setText(text)
+        colour = {True: "#188038", False: "#80868b", None: "#5f6368"}[ok]
+        label.setStyleSheet(f"color: {colour};")
+
+    def _set_status(self, text: str, ok: bool | None) -> None:
+        self.status.setText(text)
+        self.status.setProperty("ok", bool(ok))
+        self.status.style().unpolish(self.status)
+        self.status.style().polish(self.status)
+
+    def row_text(self, key: str) -> str:
+        """Target and status of one row (tests)."""
+        row = self.rows[key]
+        return f"{row['target'].text()} {row['status'].text()}"

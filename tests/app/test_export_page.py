@@ -1,0 +1,215 @@
+"""The Export page: one button per export with its target path, Export all into project/export,
+stereo files only once stereo.yaml exists, the report, clear messages, the autopilot.
+Also core.report and core.ideal_measurements, which only this page and the Identification
+page use."""
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+
+import cv2
+import numpy as np
+import pytest
+from PySide6.QtCore import Qt
+from PySide6.QtWidgets import QFileDialog
+
+from app.pages.export_page import ExportPage
+from app.state import WizardState
+from app.worker import TaskRunner
+from core.board import Board
+from core.identification import identify, write_calibrated_model
+from core.ideal_measurements import is_synthetic, synthetic_description, write_ideal_measurements
+from core.identifiability import random_configurations
+from core.kinematics import robot_path
+from core.measurements import read_measurements, write_measurements
+from core.model_comparison import accuracy_against_truth
+from core.project import open_project
+from core.report import calibration_report
+from core.robot_file import read_robot
+from core.stereo_file import StereoFile, read_stereo_yaml, write_stereo_yaml
+from core.synthetic import perturbed_model, simulate_measurements
+
+MODEL_FILES = ["calibrated.json", "calibrated.urdf", "calibrated_dh.csv"]
+
+
+@pytest.fixture(scope="module")
+def calibration():
+    """(measurements, result, accuracy) of a quick synthetic identification."""
+    robot = read_robot(robot_path("educational_6r"))
+    true = perturbed_model(robot, 4)
+    meas = simulate_measurements(true, 30, sigma_mm=0.05, rng=5)
+    result = identify(robot, meas, holdout=0.25)
+    accuracy = accuracy_against_truth(true, result.initial, result.model, random_configurations(robot, 50, seed=6))
+    return meas, result, accuracy
+
+
+@pytest.fixture
+def page(qtbot, tmp_path):
+    state, tasks = WizardState(), TaskRunner()
+    state.new_project(tmp_path / "project")
+    state.choose_preset("educational_6r")
+    p = ExportPage(state, tasks)
+    qtbot.addWidget(p)
+    p.resize(900, 760)
+    p.show()
+    p.on_enter()
+    yield p
+    tasks.shutdown()
+    state.close()
+
+
+def give_result(page, calibration, measurements=True):
+    meas, result, accuracy = calibration
+    if measurements:
+        write_measurements(meas, page.state.project.path("measurements"))
+    page.state.set_output("identification", result)
+    page.state.set_output("identification_accuracy", accuracy)
+    return result
+
+
+def stereo_file() -> StereoFile:
+    K = np.array([[800.0, 0, 320], [0, 800, 256], [0, 0, 1]])
+    D = np.zeros(5)
+    R, T = np.eye(3), np.array([-120.0, 0.0, 0.0])
+    R1, R2, P1, P2, Q, *_ = cv2.stereoRectify(K, D.reshape(1, 5), K, D.reshape(1, 5), (640, 512), R,
+                                             T.reshape(3, 1))
+    E = np.array([[0, 0, 0], [0, 0, 120.0], [0, -120.0, 0]])
+    F = np.linalg.inv(K).T @ E @ np.linalg.inv(K)
+    return StereoFile((640, 512), K, D, K, D, R, T, E, F, R1, R2, P1, P2, Q, 0.21, 0.23, 0.31,
+                      Board(9, 6, 25.0), {"epipolar_rms": 0.05})
+
+
+def test_before_identification_only_the_report_is_available(page):
+    folder = page.state.project.folder / "export"
+    assert page.folder_edit.text() == str(folder)
+    for key in ("calibrated", "dh-csv", "urdf"):
+        assert "available after the Identification step" in page.row_text(key)
+        assert not page.rows[key]["button"].isEnabled()
+    assert "available after the Stereo calibration step" in page.row_text("stereo")
+    assert str(folder / "report.html") in page.row_text("report")
+    assert page.rows["report"]["button"].isEnabled() and not page.is_complete()
+    assert page.export("urdf") == [] and not folder.exists()
+
+
+def test_export_all_writes_every_available_file(page, calibration, qtbot):
+    result = give_result(page, calibration)
+    assert "from this session's identification" in page.row_text("urdf")
+    with qtbot.waitSignal(page.completeChanged):
+        qtbot.mouseClick(page.all_button, Qt.MouseButton.LeftButton)
+    folder = page.state.project.folder / "export"
+    assert sorted(p.name for p in folder.iterdir()) == sorted(MODEL_FILES + ["report.html"])
+    assert page.is_complete()
+    status = page.status.text()
+    assert "4 file(s) written" in status and "Stereo camera files" in status and "Skipped" in status
+
+    model = read_robot(folder / "calibrated.json")
+    assert model.calibration["statistics"]["rms_after_mm"] == pytest.approx(result.after.rms_mm)
+    assert (folder / "calibrated_dh.csv").read_text().splitlines()[0].startswith("joint,type,theta_deg")
+    root = ET.parse(folder / "calibrated.urdf").getroot()
+    assert root.tag == "robot" and root.find("link[@name='marker']") is not None
+
+    report = (folder / "report.html").read_text()
+    for text in ("RoboCal calibration report", "condition number", "held-out poses",
+                 "true robot", f"{result.after.rms_mm:.3f}", f"{result.validation.after.rms_mm:.3f}",
+                 "Not done (no stereo.yaml", "30 poses"):
+        assert text in report, text
+    assert "✓ Exported" in page.row_text("report")
+
+
+def test_calibrated_json_is_copied_from_the_project(page, calibration, tmp_path):
+    _, result, _ = calibration
+    saved = write_calibrated_model(result, page.state.project.path("calibrated"))
+    page.state.set_project(open_project(page.state.project.folder))   # a new session: no result in memory
+    assert page.calibrated_source() == "file"
+    assert "from the project's calibrated.json" in page.row_text("calibrated")
+    written = page.export("calibrated")
+    assert written[0].read_bytes() == saved.read_bytes()
+    assert page.export("dh-csv") and page.export("urdf")
+    report = page.export("report")[0].read_text()
+    assert "From calibrated.json" in report and "rank" in report
+
+
+def test_stereo_files_once_stereo_yaml_exists(page):
+    sf = stereo_file()
+    src = write_stereo_yaml(page.state.project.path("stereo"), sf)
+    page.refresh()
+    assert page.rows["stereo"]["button"].isEnabled()
+    written = page.export("stereo")
+    assert [p.name for p in written] == ["stereo.yaml", "left.yaml", "right.yaml"]
+    assert written[0].read_bytes() == src.read_bytes()
+    assert read_stereo_yaml(written[0]).rms_stereo == pytest.approx(0.31)
+    left = written[1].read_text()
+    assert "camera_matrix" in left and "image_width: 640" in left
+    report = page.export("report")[0].read_text()
+    assert "reprojection error, stereo" in report and "0.310 px RMS" in report
+
+
+def test_a_bad_stereo_yaml_is_a_clear_row_message(page):
+    page.state.project.path("stereo").write_text("not: [an, opencv, file\n")
+    page.refresh()
+    assert page.export("stereo") == []
+    assert "✗" in page.row_text("stereo") and "stereo.yaml" in page.row_text("stereo")
+    assert not (page.state.project.folder / "export" / "stereo.yaml").exists()
+    assert "cannot be read" in page.export("report")[0].read_text()
+
+
+def test_export_into_a_chosen_folder(page, calibration, monkeypatch, tmp_path):
+    give_result(page, calibration, measurements=False)
+    monkeypatch.setattr(QFileDialog, "getExistingDirectory", lambda *a, **k: str(tmp_path / "elsewhere"))
+    chosen = page.choose_folder()
+    assert chosen == tmp_path / "elsewhere" and page.folder_edit.text() == str(chosen)
+    assert str(tmp_path / "elsewhere" / "calibrated.urdf") in page.row_text("urdf")
+    written = page.export("urdf")
+    assert written == [tmp_path / "elsewhere" / "calibrated.urdf"]
+    monkeypatch.setattr(QFileDialog, "getExistingDirectory", lambda *a, **k: "")
+    assert page.choose_folder() is None and page.folder() == tmp_path / "elsewhere"
+
+
+def test_an_unwritable_folder_gives_a_clear_message(page, calibration, tmp_path):
+    give_result(page, calibration, measurements=False)
+    blocker = tmp_path / "a-file"
+    blocker.write_text("x")
+    page.set_folder(blocker / "sub")
+    assert page.export("calibrated") == []
+    assert "cannot create the folder" in page.row_text("calibrated")
+    assert page.status.text().startswith("✗") and not page.is_complete()
+
+
+def test_autopilot_exports_everything_available(page, calibration):
+    give_result(page, calibration)
+    done = []
+    page.autopilot(lambda ok=True, message="": done.append((ok, message)))
+    assert done == [(True, "")]
+    folder = page.state.project.folder / "export"
+    assert sorted(p.name for p in folder.iterdir()) == sorted(MODEL_FILES + ["report.html"])
+
+
+def test_a_new_project_resets_the_page(page, calibration, tmp_path):
+    give_result(page, calibration)
+    page.export_all()
+    assert page.is_complete()
+    page.state.new_project(tmp_path / "second")
+    assert not page.is_complete()
+    assert page.folder_edit.text() == str(tmp_path / "second" / "export")
+    assert "available after the Identification step" in page.row_text("urdf")
+
+
+# -- core pieces used by the two pages ---------------------------------------------------------
+def test_ideal_measurements_file_is_marked_synthetic(tmp_path, calibration):
+    meas, _, _ = calibration
+    path = write_ideal_measurements(meas, tmp_path / "measurements.csv", sigma_mm=0.05)
+    assert is_synthetic(path) and "sigma = 0.05 mm" in synthetic_description(path)
+    back = read_measurements(path)
+    assert back.n_points == meas.n_points and np.allclose(back.xyz, meas.xyz, atol=1e-6)
+    plain = write_measurements(meas, tmp_path / "real.csv")
+    assert not is_synthetic(plain) and not is_synthetic(tmp_path / "missing.csv")
+
+
+def test_report_of_an_empty_project(tmp_path):
+    state = WizardState()
+    try:
+        project = state.new_project(tmp_path / "empty")
+        text = calibration_report(project)
+    finally:
+        state.close()
+    assert text.startswith("<!DOCTYPE html>") and "Not done (no calibrated.json" in text
+    assert "Not done (no measurements.csv" in text
