@@ -21,7 +21,7 @@ from PySide6.QtCore import Qt
 from PySide6.QtGui import QAction
 from PySide6.QtWidgets import (QCheckBox, QComboBox, QDoubleSpinBox, QFileDialog, QGridLayout,
                                QGroupBox, QHBoxLayout, QLabel, QLineEdit, QMenu, QProgressBar, QPushButton,
-                               QSpinBox, QTabWidget, QTextBrowser, QToolButton, QVBoxLayout,
+                               QSizePolicy, QSpinBox, QTabWidget, QTextBrowser, QToolButton, QVBoxLayout,
                                QWidget)
 
 from app.pages.base import WizardPage
@@ -340,6 +340,8 @@ class IdentificationPage(WizardPage):
         erow.addWidget(self.csv_button)
         erow.addWidget(self.urdf_button)
 
+        for box in (source_box, options_box):
+            box.setSizePolicy(QSizePolicy.Policy.Preferred, QSizePolicy.Policy.Maximum)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.setSpacing(6)
@@ -448,7 +450,8 @@ class IdentificationPage(WizardPage):
             try:
                 meas = read_measurements(path, state.robot)
             except RoboCalError as exc:
-                self.source_label.setText(f"<b>The measurements cannot be used:</b> {_esc(exc.message)}")
+                self.source_label.setText(f"<b>The measurements cannot be used:</b> {_esc(exc.message)}<br>"
+                                          "Fix or replace the file, or run the Measurement step (5) again.")
             else:
                 targets = ", ".join(meas.target_names)
                 text = (f"<b>{_esc(path.name)}</b>: {meas.n_poses} poses, {meas.n_points} points "
@@ -740,7 +743,6 @@ class IdentificationPage(WizardPage):
             return False
         self.saved_path = path
         self._set_status(f"✓ Saved {path}", ok=True)
-        self.state.set_output("calibrated_path", path)
         return True
 
     def export_file(self, fmt: str, path: str | Path | None = None) -> Path | None:
