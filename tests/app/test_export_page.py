@@ -213,3 +213,10 @@ def test_report_of_an_empty_project(tmp_path):
         state.close()
     assert text.startswith("<!DOCTYPE html>") and "Not done (no calibrated.json" in text
     assert "Not done (no measurements.csv" in text
+
+
+def test_report_counts_the_pose_sequence(page):
+    page.state.project.path("poses").write_text("pose,q1,q2,q3,q4,q5,q6\n0,1,2,3,4,5,6\n1,1,2,3,4,5,7\n")
+    assert "2 poses in poses.csv" in page.export("report")[0].read_text()
+    page.state.project.path("poses").write_text("pose,q1\n0,x\n")
+    assert "poses.csv cannot be read" in page.export("report")[0].read_text()
