@@ -20,7 +20,7 @@ PAGES: dict[Step, str] = {
     Step.SETUP: "app.pages.setup_page:SetupPage",
     Step.STEREO: NOT_BUILT,            # issue 3
     Step.MARKER: NOT_BUILT,            # issue 4
-    Step.POSES: NOT_BUILT,             # issue 6
+    Step.POSES: "app.pages.poses_page:PosesPage",
     Step.MEASUREMENT: NOT_BUILT,       # issue 4
     Step.IDENTIFICATION: "app.pages.identification_page:IdentificationPage",    # issue 5
     Step.EXPORT: "app.pages.export_page:ExportPage",            # issue 5
