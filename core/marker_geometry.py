@@ -1,0 +1,161 @@
+"""Small plane-geometry helpers of the marker pipeline: quadrilaterals, lines, homographies,
+and the map between raw image pixels and "ideal" pixels where straight lines are straight.
+
+Pixel convention everywhere: (0, 0) is the centre of the top-left pixel, x right, y down.
+A quadrilateral is (4, 2) corners in the order top-left, top-right, bottom-right, bottom-left
+(clockwise on screen); side k runs from corner k to corner k + 1 and its outward normal is
+(τy, −τx) for the unit tangent τ.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from core.camera import CameraModel
+
+
+# -- quadrilaterals ------------------------------------------------------------------------------
+
+def order_corners(pts: np.ndarray) -> np.ndarray:
+    """4 points in the order top-left, top-right, bottom-right, bottom-left (clockwise on
+    screen), starting from the one nearest the top-left (smallest x + y)."""
+    pts = np.asarray(pts, dtype=float).reshape(4, 2)
+    c = pts.mean(axis=0)
+    ang = np.arctan2(pts[:, 1] - c[1], pts[:, 0] - c[0])      # y down: increasing = clockwise
+    pts = pts[np.argsort(ang)]
+    start = int(np.argmin(pts.sum(axis=1)))
+    return np.roll(pts, -start, axis=0)
+
+
+def signed_area(quad: np.ndarray) -> float:
+    """Shoelace area; positive for the clockwise-on-screen order (y down)."""
+    q = np.asarray(quad, dtype=float)
+    x, y = q[:, 0], q[:, 1]
+    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
+def is_convex(quad: np.ndarray) -> bool:
+    q = np.asarray(quad, dtype=float)
+    d1 = np.roll(q, -1, axis=0) - q
+    d2 = np.roll(d1, -1, axis=0)
+    cross = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
+    return bool(np.all(cross > 0) or np.all(cross < 0))
+
+
+def side_lengths(quad: np.ndarray) -> np.ndarray:
+    q = np.asarray(quad, dtype=float)
+    return np.linalg.norm(np.roll(q, -1, axis=0) - q, axis=1)
+
+
+def diagonal_intersection(quad: np.ndarray) -> np.ndarray:
+    """Intersection of the diagonals (corner 0–2 and 1–3): the image of the square's centre,
+    exact under perspective (a homography maps lines to lines and incidences to incidences)."""
+    q = np.asarray(quad, dtype=float)
+    h = np.hstack([q, np.ones((4, 1))])
+    p = np.cross(np.cross(h[0], h[2]), np.cross(h[1], h[3]))
+    return p[:2] / p[2]
+
+
+def line_intersection(l1, l2) -> np.ndarray:
+    """Intersection of lines given as (nx, ny, rho) with n·p = rho."""
+    A = np.array([[l1[0], l1[1]], [l2[0], l2[1]]], dtype=float)
+    return np.linalg.solve(A, np.array([l1[2], l2[2]], dtype=float))
+
+
+def corners_from_lines(lines: np.ndarray) -> np.ndarray:
+    """Corner k = intersection of side k − 1 and side k (sides as (nx, ny, rho))."""
+    return np.array([line_intersection(lines[(k - 1) % 4], lines[k]) for k in range(4)])
+
+
+def line_through(p0, p1) -> np.ndarray:
+    """(nx, ny, rho) of the line from p0 to p1, n the outward normal of a clockwise outline."""
+    p0, p1 = np.asarray(p0, dtype=float), np.asarray(p1, dtype=float)
+    t = (p1 - p0) / np.linalg.norm(p1 - p0)
+    n = np.array([t[1], -t[0]])
+    return np.array([n[0], n[1], float(n @ p0)])
+
+
+def expand_quad(quad: np.ndarray, factor: float) -> np.ndarray:
+    """The quadrilateral scaled by `factor` about its diagonal intersection (2D, approximate
+    for a perspective view; used for regions of interest only)."""
+    c = diagonal_intersection(quad)
+    return c + factor * (np.asarray(quad, dtype=float) - c)
+
+
+def map_points(H: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Points (..., 2) through a 3x3 homography."""
+    pts = np.asarray(pts, dtype=float)
+    flat = pts.reshape(-1, 2)
+    h = flat @ H[:, :2].T + H[:, 2]
+    return (h[:, :2] / h[:, 2:3]).reshape(pts.shape)
+
+
+def bounding_box(pts: np.ndarray, pad: float, size: tuple[int, int]) -> tuple[int, int, int, int]:
+    """Integer box (x0, y0, x1, y1), x1/y1 exclusive, holding the points plus `pad`, clipped
+    to an image of `size` (width, height)."""
+    pts = np.asarray(pts, dtype=float).reshape(-1, 2)
+    w, h = size
+    x0 = max(int(np.floor(pts[:, 0].min() - pad)), 0)
+    y0 = max(int(np.floor(pts[:, 1].min() - pad)), 0)
+    x1 = min(int(np.ceil(pts[:, 0].max() + pad)) + 1, w)
+    y1 = min(int(np.ceil(pts[:, 1].max() + pad)) + 1, h)
+    return x0, y0, max(x1, x0), max(y1, y0)
+
+
+def inside_image(pts: np.ndarray, size: tuple[int, int], margin: float = 0.0) -> bool:
+    pts = np.asarray(pts, dtype=float).reshape(-1, 2)
+    w, h = size
+    return bool(np.all((pts[:, 0] >= margin - 0.5) & (pts[:, 0] <= w - 0.5 - margin)
+                       & (pts[:, 1] >= margin - 0.5) & (pts[:, 1] <= h - 0.5 - margin)))
+
+
+# -- raw <-> ideal pixels -------------------------------------------------------------------------
+
+@dataclass(eq=False)
+class PixelMap:
+    """Maps raw image pixels to *ideal* pixels, where the image of a straight 3D line is
+    straight: lens distortion removed and, for a stereo pair, rectified. Edge lines are fitted
+    and intersected in ideal pixels; results are mapped back to raw pixels for display.
+
+    `camera` None: the identity (no lens model known). Otherwise ideal = P · R · undistort(raw)
+    with R (3x3, default identity) and P (3x3 or 3x4, default the camera's K)."""
+
+    camera: CameraModel | None = None
+    R: np.ndarray = field(default_factory=lambda: np.eye(3))
+    P: np.ndarray | None = None
+
+    def __post_init__(self):
+        self.R = np.asarray(self.R, dtype=float).reshape(3, 3)
+        if self.camera is not None and self.P is None:
+            self.P = self.camera.K.copy()
+        if self.P is not None:
+            self.P = np.asarray(self.P, dtype=float)[:3, :3].copy()
+
+    @property
+    def identity(self) -> bool:
+        return self.camera is None
+
+    def to_ideal(self, pts: np.ndarray) -> np.ndarray:
+        pts = np.asarray(pts, dtype=np.float64)
+        if self.identity or pts.size == 0:
+            return pts.copy()
+        out = cv2.undistortPoints(pts.reshape(-1, 1, 2), self.camera.K, self.camera.dist, R=self.R, P=self.P)
+        return out.reshape(pts.shape)
+
+    def to_raw(self, pts: np.ndarray) -> np.ndarray:
+        pts = np.asarray(pts, dtype=np.float64)
+        if self.identity or pts.size == 0:
+            return pts.copy()
+        flat = pts.reshape(-1, 2)
+        h = np.hstack([flat, np.ones((len(flat), 1))]) @ np.linalg.inv(self.P).T   # rectified normalised
+        ray = h @ self.R      # R^T applied to row vectors: back to the camera frame
+        xy = ray[:, :2] / ray[:, 2:3]
+        return self.camera.normalized_to_pixels(xy).reshape(pts.shape)
+
+    def jacobian_scale(self) -> float:
+        """Approximate ideal-pixels-per-raw-pixel near the image centre (for noise scaling)."""
+        if self.identity:
+            return 1.0
+        return float(0.5 * (self.P[0, 0] + self.P[1, 1]) / (0.5 * (self.camera.fx + self.camera.fy)))
