@@ -1,0 +1,321 @@
+"""The Stereo calibration page driven end to end with pytest-qt: pairs from the virtual lab,
+from folders and from the (virtual) cameras; calibrate on the worker thread; drop a pair by
+moving the threshold line; save stereo.yaml and export; Cancel; bad folders; autopilot."""
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from PySide6.QtCore import Qt
+from PySide6.QtWidgets import QFileDialog
+
+from app.pages import stereo_page
+from app.pages.stereo_page import StereoPage
+from app.state import WizardState
+from app.worker import TaskRunner
+from core.board import Board
+from core.project import HARDWARE
+from core.stereo_file import read_stereo_yaml
+from core.virtual_lab.lab import VirtualLab
+from tests.core.stereo_synth import REAL_DATA, real_pairs
+
+WAIT_MS = 90000
+
+
+@pytest.fixture(scope="module")
+def lab():
+    """One virtual lab for the whole file (building one takes ~2 s)."""
+    return VirtualLab.create(seed=0)
+
+
+@pytest.fixture
+def shared_lab(lab, monkeypatch):
+    """The page builds its lab with VirtualLab.create: hand it the module's lab."""
+    monkeypatch.setattr(VirtualLab, "create", classmethod(lambda cls, *a, **kw: lab))
+    return lab
+
+
+@pytest.fixture(scope="module")
+def rendered_folders(lab, tmp_path_factory):
+    """8 virtual-lab pairs written as PNGs into left/ and right/ (like `robocal simulate`)."""
+    root = tmp_path_factory.mktemp("rendered")
+    poses = lab.random_board_poses(8, np.random.default_rng(5))
+    for side in ("left", "right"):
+        (root / side).mkdir()
+    for i, pose in enumerate(poses):
+        left, right = lab.render_checkerboard_pair(pose, np.random.default_rng([5, i]))
+        cv2.imwrite(str(root / "left" / f"img_{i:02d}.png"), left)
+        cv2.imwrite(str(root / "right" / f"img_{i:02d}.png"), right)
+    return root
+
+
+def make_page(qtbot, tmp_path, mode=None):
+    state, tasks = WizardState(), TaskRunner()
+    if mode is None:
+        state.new_project(tmp_path / "project")
+    else:
+        state.new_project(tmp_path / "project", mode=mode)
+    page = StereoPage(state, tasks)
+    qtbot.addWidget(page)
+    page.resize(1100, 900)
+    page.show()
+    return page
+
+
+@pytest.fixture
+def page(qtbot, tmp_path, shared_lab):
+    p = make_page(qtbot, tmp_path)
+    yield p
+    p.tasks.shutdown()
+    p.state.close()
+
+
+def wait(qtbot, page, timeout=WAIT_MS):
+    qtbot.waitUntil(lambda: not page.busy, timeout=timeout)
+
+
+def patch_dirs(monkeypatch, *answers):
+    answers = list(map(str, answers))
+    monkeypatch.setattr(QFileDialog, "getExistingDirectory", lambda *a, **kw: answers.pop(0))
+
+
+# -- the whole walk ------------------------------------------------------------------------
+def test_virtual_lab_pairs_calibrate_drop_outlier_and_export(page, qtbot, tmp_path, monkeypatch):
+    assert page.board == Board(9, 6, 25.0)                      # prefilled from the lab
+    assert not page.calibrate_button.isEnabled() and not page.save_button.isEnabled()
+    page.virtual_count.setValue(12)
+    qtbot.mouseClick(page.virtual_button, Qt.MouseButton.LeftButton)
+    assert page.busy and page.cancel_button.isEnabled()
+    wait(qtbot, page)
+    assert len(page.items) == 12 and page.strip.count() == 12
+    folder = page.state.project.folder / "checkerboard"
+    assert len(list((folder / "left").glob("pair_*.png"))) == 12
+    assert len(list((folder / "right").glob("pair_*.png"))) == 12
+    accepted = len(page.usable_pairs())
+    assert accepted >= 10
+    assert all(v > 0 for v in page.coverage_bars.values().values())
+    assert "12 pairs" in page.count_label.text()
+    assert page.calibrate_button.isEnabled()
+
+    qtbot.mouseClick(page.calibrate_button, Qt.MouseButton.LeftButton)
+    wait(qtbot, page)
+    r = page.result
+    assert r is not None and r.pairs_used == accepted and r.rms_stereo < 0.2
+    series = page.errors_chart.series()
+    assert len(series["pairs"]) == accepted
+    assert page.errors_chart.selected() == []                    # the line starts above every bar
+    assert page.table.find("left", "fx") >= 0 and "±" in page.table.cell_text(page.table.find("left", "fx"), 3)
+    assert page.table.find("stereo", "baseline") >= 0
+    summary = page.summary_view.toPlainText()
+    assert "Cross-validation" in summary and "Epipolar" in summary and "the model" in summary
+    h, w = r.image_size[1], r.image_size[0]
+    assert page.preview.image_shape()[:2] == (h, 2 * w + stereo_page.PREVIEW_GAP)
+    assert page.scatter.counts() == (accepted * 54, accepted * 54)
+    assert "✓" in page.strip.caption(page.items[0].key) and "px" in page.strip.caption(page.items[0].key)
+
+    # drag the threshold just below the highest bar: that pair is selected, then dropped
+    worst = np.maximum(series["left"], series["right"])
+    order = np.argsort(worst)
+    page.errors_chart.set_threshold((worst[order[-1]] + worst[order[-2]]) / 2)
+    assert page.errors_chart.selected() == [int(order[-1])]
+    dropped_pair = int(series["pairs"][order[-1]]) - 1
+    assert page.selected_pairs() == [dropped_pair]
+    assert page.drop_button.isEnabled()
+    qtbot.mouseClick(page.drop_button, Qt.MouseButton.LeftButton)
+    wait(qtbot, page)
+    assert page.result is not r and page.result.pairs_used == accepted - 1
+    assert page.result.excluded == [dropped_pair]
+    dropped = next(a for a in page.items if a.detection.index == dropped_pair)
+    assert page.strip.badge(dropped.key) == "dropped by you"
+    assert page.restore_button.isEnabled()
+
+    assert not page.is_complete()
+    with qtbot.waitSignal(page.completeChanged):
+        qtbot.mouseClick(page.save_button, Qt.MouseButton.LeftButton)
+    path = page.state.project.path("stereo")
+    sf = read_stereo_yaml(path)
+    assert sf.image_size == r.image_size and sf.board == page.board
+    assert abs(sf.rms_stereo - page.result.rms_stereo) < 1e-9
+    assert page.is_complete() and page.state.outputs["stereo"] is page.result
+
+    patch_dirs(monkeypatch, tmp_path / "ros")
+    qtbot.mouseClick(page.ros_button, Qt.MouseButton.LeftButton)
+    assert (tmp_path / "ros" / "left.yaml").is_file() and (tmp_path / "ros" / "right.yaml").is_file()
+    assert "camera_matrix" in (tmp_path / "ros" / "left.yaml").read_text()
+    monkeypatch.setattr(QFileDialog, "getSaveFileName", lambda *a, **kw: (str(tmp_path / "out.json"), "JSON"))
+    qtbot.mouseClick(page.json_button, Qt.MouseButton.LeftButton)
+    data = json.loads((tmp_path / "out.json").read_text())
+    assert data["calibration"]["pairs_used"] == accepted - 1 and len(data["views"]) == accepted - 1
+
+
+def test_capture_takes_one_virtual_pair(page, qtbot):
+    assert page.capture_button.isEnabled()
+    assert "virtual lab" in page.capture_button.toolTip().lower()
+    qtbot.mouseClick(page.capture_button, Qt.MouseButton.LeftButton)
+    wait(qtbot, page)
+    qtbot.mouseClick(page.capture_button, Qt.MouseButton.LeftButton)
+    wait(qtbot, page)
+    assert len(page.items) == 2
+    assert {a.source for a in page.items} == {"virtual camera"}
+    names = sorted(p.name for p in (page.state.project.folder / "checkerboard" / "left").iterdir())
+    assert names == ["pair_000.png", "pair_001.png"]
+
+
+def test_capture_is_disabled_for_hardware_until_the_hardware_issue(qtbot, tmp_path):
+    page = make_page(qtbot, tmp_path, mode=HARDWARE)
+    try:
+        assert not page.capture_button.isEnabled() and not page.virtual_button.isEnabled()
+        assert "hardware issue" in page.capture_button.toolTip()
+        assert page.folders_button.isEnabled()
+        assert page.board == Board(9, 6, 24.0)
+    finally:
+        page.tasks.shutdown()
+        page.state.close()
+
+
+# -- folders ----------------------------------------------------------------------------------
+def test_add_folders_then_change_the_board(page, qtbot, monkeypatch, rendered_folders):
+    patch_dirs(monkeypatch, rendered_folders / "left", rendered_folders / "right")
+    qtbot.mouseClick(page.folders_button, Qt.MouseButton.LeftButton)
+    wait(qtbot, page)
+    assert len(page.items) == 8 and len(page.usable_pairs()) == 8
+    assert page.items[0].detection.name == "img_00.png | img_00.png"
+    assert page.calibrate_button.isEnabled()
+
+    # a wrong board size: every pair is detected again and rejected with the reason shown
+    page.cols_spin.setValue(8)
+    page.apply_board()
+    wait(qtbot, page)
+    assert len(page.items) == 8 and page.usable_pairs() == []
+    assert page.strip.badge(page.items[0].key) == "board not found"
+    assert "8x6" in page.strip.tooltip(page.items[0].key)
+    assert not page.calibrate_button.isEnabled()
+    assert "rejected" in page.status.text()
+
+    page.cols_spin.setValue(9)
+    page.apply_board()
+    wait(qtbot, page)
+    assert len(page.usable_pairs()) == 8 and page.strip.badge(page.items[0].key) is None
+    assert {a.source for a in page.items} == {"folders"}
+    assert page.calibrate()
+    wait(qtbot, page)
+    assert page.result is not None and page.result.pairs_used == 8
+    # 8 pairs are not enough views: calibrated, with the warning in the summary
+    assert "not enough views" in page.summary_view.toPlainText()
+
+
+@pytest.mark.skipif(not REAL_DATA.is_dir(), reason=f"real checkerboard pairs not found at {REAL_DATA}")
+def test_real_pairs_flagged_outlier_dropped(qtbot, tmp_path, monkeypatch):
+    page = make_page(qtbot, tmp_path, mode=HARDWARE)
+    try:
+        left, right = tmp_path / "L", tmp_path / "R"
+        left.mkdir()
+        right.mkdir()
+        for a, b in real_pairs():
+            shutil.copy(a, left / a.name)
+            shutil.copy(b, right / b.name)
+        page.set_board(Board(9, 6, 24.0))
+        assert page.add_folders(left, right)
+        wait(qtbot, page)
+        assert len(page.usable_pairs()) == 25
+        assert page.calibrate()
+        wait(qtbot, page)
+        r = page.result
+        assert r.outliers, "the real data set has a flagged pair"
+        assert page.flagged_button.isEnabled()
+        assert any(page.errors_chart.series()["flagged"])
+        page.select_flagged()
+        assert set(r.outliers) <= set(page.selected_pairs())
+        n = len(page.selected_pairs())
+        assert page.drop_selected()
+        wait(qtbot, page)
+        assert page.result.pairs_used == 25 - n
+        assert abs(page.result.K1[0, 0] / 518.05 - 1) < 0.02
+    finally:
+        page.tasks.shutdown()
+        page.state.close()
+
+
+def test_bad_folders_give_a_clear_message(page, qtbot, tmp_path, rendered_folders):
+    left, right = tmp_path / "left", tmp_path / "right"
+    shutil.copytree(rendered_folders / "left", left)
+    shutil.copytree(rendered_folders / "right", right)
+    (left / "img_08.png").write_bytes((left / "img_00.png").read_bytes())
+    assert not page.add_folders(left, right)                # unequal counts: nothing starts
+    assert not page.busy and page.items == []
+    text = page.status.text()
+    assert "9 left images" in text and "8 right images" in text and "img_08.png" in text
+
+    # a non-image file is ignored (and said so); a truncated image is a rejected pair
+    (left / "img_08.png").unlink()
+    (left / "notes.txt").write_text("taken on Monday")
+    for side in (left, right):
+        for name in [f"img_{i:02d}.png" for i in range(2, 8)]:
+            (side / name).unlink()
+    data = (right / "img_01.png").read_bytes()
+    (right / "img_01.png").write_bytes(data[: len(data) // 2])
+    assert page.add_folders(left, right)
+    wait(qtbot, page)
+    assert len(page.items) == 2
+    assert "notes.txt" in page.status.text()
+    bad = page.items[1]
+    assert not bad.detection.accepted and page.strip.badge(bad.key) == "unreadable"
+    assert "truncated PNG" in page.strip.tooltip(bad.key)
+    assert "rejected" in page.status.text()
+
+
+# -- cancel -------------------------------------------------------------------------------------
+def test_cancel_rendering_keeps_finished_pairs_only(page, qtbot):
+    page.add_virtual_pairs(12)
+    qtbot.waitUntil(lambda: len(page.items) >= 1 or not page.busy, timeout=WAIT_MS)
+    page.cancel()
+    wait(qtbot, page)
+    assert "Cancelled" in page.status.text()
+    assert 1 <= len(page.items) < 12
+    left = page.state.project.folder / "checkerboard" / "left"
+    assert len(list(left.glob("*.png"))) == len(page.items)     # a cancelled batch leaves no files
+    assert not list(left.glob(".*"))                           # nor temporary ones
+
+
+def test_cancel_calibration(page, qtbot, monkeypatch, rendered_folders):
+    assert page.add_folders(rendered_folders / "left", rendered_folders / "right")
+    wait(qtbot, page)
+    assert page.calibrate()
+    page.cancel()
+    wait(qtbot, page)
+    assert page.result is None and "Cancelled" in page.status.text()
+    assert page.calibrate_button.isEnabled() and not page.save_button.isEnabled()
+
+
+# -- autopilot and a project that has a calibration -------------------------------------------------
+def test_autopilot_renders_calibrates_and_saves(page, qtbot, monkeypatch):
+    monkeypatch.setattr(stereo_page, "VIRTUAL_PAIRS", 12)
+    done = []
+    page.autopilot(lambda ok=True, message="": done.append((ok, message)))
+    qtbot.waitUntil(lambda: bool(done), timeout=WAIT_MS)
+    assert done[0][0], done
+    assert "stereo RMS" in done[0][1]
+    assert page.is_complete() and page.state.project.has("stereo")
+
+    # the same project opened again: the step is already done
+    other = WizardState()
+    other.open_project(page.state.project.folder)
+    again = StereoPage(other, page.tasks)
+    qtbot.addWidget(again)
+    assert again.is_complete() and "already has stereo.yaml" in again.status.text()
+    other.close()
+
+
+def test_autopilot_without_pairs_in_a_hardware_project_fails_clearly(qtbot, tmp_path):
+    page = make_page(qtbot, tmp_path, mode=HARDWARE)
+    try:
+        done = []
+        page.autopilot(lambda ok=True, message="": done.append((ok, message)))
+        assert done == [(False, "no checkerboard pairs: add pairs from folders first")]
+    finally:
+        page.tasks.shutdown()
+        page.state.close()
