@@ -411,15 +411,6 @@ class PoseSelectionResult:
         med = self.random_median(index)
         return self.value(index) / med if med not in (0.0, math.inf) else math.nan
 
-    def improvement_text(self, index: str | None = None) -> str:
-        index = index or self.index
-        v, med = self.value(index), self.random_median(index)
-        if lower_is_better(index):
-            return (f"{INDEX_LABELS[index].split(' =')[0]} {v:.4g} vs {med:.4g} for the median of "
-                    f"{self.random.trials} random selections of {self.count} poses ({v / med:.2f}x)")
-        return (f"{index} {v:.4g} vs {med:.4g} for the median of {self.random.trials} random selections "
-                f"of {self.count} poses ({v / med:.2f}x)")
-
     def as_dict(self) -> dict:
         """The CLI's --json object (finite numbers; infinities as null)."""
         sel = {k: _finite(v) for k, v in self.indices.as_dict().items()}
@@ -505,6 +496,8 @@ def select_poses(robot: RobotModel, count: int, *, candidates: int = DEFAULT_CAN
     monitor = Monitor(progress, cancelled)
     if count < 1:
         raise UsageError(f"the number of poses must be at least 1, got {count}")
+    if random_trials < 1:
+        raise UsageError(f"the number of random selections must be at least 1, got {random_trials}")
     targets = list(targets) if targets is not None else ([target] if target in robot.targets else list(robot.targets))
     if not targets:
         raise RoboCalError(f"the robot '{robot.name}' has no target point to measure",
