@@ -42,7 +42,7 @@ class CoverageBars(QWidget):
             bar = QProgressBar()
             bar.setRange(0, 1000)
             bar.setTextVisible(False)
-            bar.setMinimumWidth(60)
+            bar.setMinimumWidth(40)
             value = QLabel("0.00")
             value.setObjectName("hint")
             value.setAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)

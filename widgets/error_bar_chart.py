@@ -15,7 +15,7 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6.QtCore import Signal
 
-from widgets.plot_theme import AXIS, TEXT, colour, legend, style_plot
+from widgets.plot_theme import AXIS, TEXT, colour, style_plot
 
 LEFT = "#1a73e8"
 RIGHT = "#e37400"
@@ -26,14 +26,23 @@ LINE = "#202124"
 WIDTH = 0.38
 
 
-class ErrorBarChart(pg.PlotWidget):
+class ErrorBarChart(pg.GraphicsLayoutWidget):
+    """The legend sits in its own row above the plot, so it never hides a bar."""
+
     selectionChanged = Signal(list)
 
     def __init__(self, parent=None, *, x_label: str = "pair", y_label: str = "RMS reprojection error (px)",
                  names: tuple[str, str] = ("left camera", "right camera")):
-        super().__init__(parent=parent, background="w")
+        super().__init__(parent=parent)
+        self.setBackground("w")
         self.setObjectName("errorBarChart")
-        plot = self.getPlotItem()
+        self.ci.setContentsMargins(2, 2, 2, 2)
+        self.ci.setSpacing(0)
+        self.legend = pg.LegendItem(colCount=4, labelTextColor=TEXT, labelTextSize="8.5pt",
+                                    horSpacing=14, verSpacing=-4)
+        self.addItem(self.legend, row=0, col=0)
+        self.plot = plot = self.addPlot(row=1, col=0)
+        self.ci.layout.setRowStretchFactor(1, 1)
         style_plot(plot, x_label, y_label)
         plot.setMouseEnabled(x=False, y=False)
         self._pairs = np.zeros(0)
@@ -60,8 +69,6 @@ class ErrorBarChart(pg.PlotWidget):
         self.auto_line.setZValue(5)
         for item in (self.left_bars, self.right_bars, self.flags, self.auto_line, self.line):
             plot.addItem(item)
-        self.legend = legend(plot, offset=(-6, 4))
-        self.legend.setColumnCount(4)      # one row along the top: it does not hide bars
         self.legend.addItem(self.left_bars, names[0])
         self.legend.addItem(self.right_bars, names[1])
         self.legend.addItem(self._selected_key, "above the line: to drop")
@@ -69,6 +76,9 @@ class ErrorBarChart(pg.PlotWidget):
         self.line.sigPositionChanged.connect(self._line_moved)
         self.auto_line.hide()
         self.line.hide()
+
+    def getPlotItem(self) -> pg.PlotItem:
+        return self.plot
 
     # -- data -----------------------------------------------------------------------------
     def set_errors(self, pairs: Sequence[float], left: Sequence[float], right: Sequence[float],
@@ -90,13 +100,13 @@ class ErrorBarChart(pg.PlotWidget):
         plot = self.getPlotItem()
         if n:
             plot.setXRange(float(self._pairs.min()) - 0.7, float(self._pairs.max()) + 0.7, padding=0)
-            plot.setYRange(0.0, top * 1.45, padding=0)      # headroom for the legend and the flags
+            plot.setYRange(0.0, top * 1.25, padding=0)      # headroom for the line's label and the flags
             step = 1 if n <= 25 else (2 if n <= 50 else 5)
             ticks = [(float(p), str(int(p))) for i, p in enumerate(self._pairs) if i % step == 0]
             plot.getAxis("bottom").setTicks([ticks])
         else:
             plot.getAxis("bottom").setTicks(None)
-        self.line.setBounds((0.0, top * 1.3))
+        self.line.setBounds((0.0, top * 1.2))
         if auto_threshold is not None and np.isfinite(auto_threshold) and n:
             self.auto_line.setValue(float(auto_threshold))
             self.auto_line.show()

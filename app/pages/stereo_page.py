@@ -27,7 +27,7 @@ from typing import Callable, Sequence
 
 import cv2
 import numpy as np
-from PySide6.QtCore import Qt, QTimer
+from PySide6.QtCore import QSize, Qt, QTimer
 from PySide6.QtWidgets import (QCheckBox, QComboBox, QDoubleSpinBox, QFileDialog, QGridLayout, QGroupBox,
                                QHBoxLayout, QLabel, QProgressBar, QPushButton, QSpinBox, QSplitter,
                                QTabWidget, QTextBrowser, QVBoxLayout, QWidget)
@@ -53,10 +53,12 @@ OUTPUT = "stereo"
 VIRTUAL_PAIRS = 20
 RENDER_CHUNK = 4            # pairs rendered per worker task (thumbnails and bars fill in between)
 FILE_CHUNK = 6              # pairs detected per worker task when adding folders
-THUMB_WIDTH = 120           # px per camera in a thumbnail
+THUMB_WIDTH = 100           # px per camera in a thumbnail
 LINE_SPACING = 40           # px between the epipolar lines of the rectified preview
 PREVIEW_GAP = 8             # px between the rectified left and right images
 PNG_PARAMS = [cv2.IMWRITE_PNG_COMPRESSION, 1]
+VIRTUAL_TOOLTIP = ("The virtual lab's cameras see its checkerboard at well-spread poses; the images are "
+                   "saved into the project (checkerboard/left, checkerboard/right)")
 CAMERA_TOOLTIP_HARDWARE = ("Live cameras arrive with the hardware issue. Meanwhile, save pairs with your "
                            "camera software and use Add from folders.")
 CAMERA_TOOLTIP_VIRTUAL = ("Virtual lab: take one pair with the lab's two cameras, the board held at a random "
@@ -266,23 +268,24 @@ def summary_html(r: StereoCalibrationResult) -> str:
 
 def residual_stats_html(r: StereoCalibrationResult) -> str:
     """RMS of the residuals along x and y, mean (bias) and largest, per camera (px)."""
-    rows = []
-    for label, res in (("left camera", r.residuals_left), ("right camera", r.residuals_right)):
+    cols = []
+    for res in (r.residuals_left, r.residuals_right):
         e = res.reshape(-1, 2)
         e = e[np.all(np.isfinite(e), axis=1)]
         if not len(e):
+            cols.append(["—"] * 5)
             continue
         rms = np.sqrt(np.mean(e ** 2, axis=0))
         mean = np.round(e.mean(axis=0), 3) + 0.0      # no "-0.000"
         worst = float(np.max(np.hypot(e[:, 0], e[:, 1])))
-        rows.append(f"<tr><td><b>{label}</b></td><td align='right'>{rms[0]:.3f}</td>"
-                    f"<td align='right'>{rms[1]:.3f}</td><td align='right'>{mean[0]:+.3f}, {mean[1]:+.3f}</td>"
-                    f"<td align='right'>{worst:.3f}</td></tr>")
-    return ("<p><b>Residuals (px)</b></p><table cellspacing='0' cellpadding='3'>"
-            "<tr><th></th><th align='right'>RMS x</th><th align='right'>RMS y</th>"
-            "<th align='right'>mean x, y</th><th align='right'>max</th></tr>" + "".join(rows) + "</table>"
-            "<p style='color:#5f6368'>The mean should be close to 0 (no bias) and RMS x close to RMS y. "
-            "The largest residual is usually 3–4× the RMS; much more points to one bad corner or pair "
+        cols.append([f"{rms[0]:.3f}", f"{rms[1]:.3f}", f"{mean[0]:+.3f}", f"{mean[1]:+.3f}", f"{worst:.3f}"])
+    names = ["RMS x", "RMS y", "mean x", "mean y", "largest"]
+    rows = "".join(f"<tr><td>{n}</td><td align='right'>{a}</td><td align='right'>{b}</td></tr>"
+                   for n, a, b in zip(names, *cols))
+    return ("<table cellspacing='0' cellpadding='2'><tr><th align='left'>px</th><th align='right'>left</th>"
+            "<th align='right'>&nbsp;right</th></tr>" + rows + "</table>"
+            "<p style='color:#5f6368'>The means should be close to 0 (no bias) and RMS x close to RMS y. "
+            "The largest is usually 3–4× the RMS; much more points to one bad corner or pair "
             "(see Errors per pair).</p>")
 
 
@@ -329,8 +332,6 @@ class StereoPage(WizardPage):
         self.folders_button.clicked.connect(lambda: self.add_folders_dialog())
         self.virtual_button = QPushButton("Render virtual-lab pairs")
         self.virtual_button.setObjectName("virtualButton")
-        self.virtual_button.setToolTip("The virtual lab's cameras see its checkerboard at well-spread poses; the "
-                                       "images are saved into the project (checkerboard/left, checkerboard/right)")
         self.virtual_button.clicked.connect(lambda: self.add_virtual_pairs(self.virtual_count.value()))
         self.virtual_count = QSpinBox()
         self.virtual_count.setRange(1, 60)
@@ -366,7 +367,7 @@ class StereoPage(WizardPage):
         for w in (self.cols_spin, self.rows_spin, self.square_spin):
             w.valueChanged.connect(lambda *_: self._board_timer.start())
 
-        self.strip = ThumbnailStrip()
+        self.strip = ThumbnailStrip(icon_size=QSize(2 * THUMB_WIDTH + 4, int(THUMB_WIDTH * 0.8)))
         self.strip.currentKeyChanged.connect(self._thumbnail_picked)
         self.strip.itemSelectionChanged.connect(self._update_buttons)
         self.count_label = QLabel()
@@ -383,8 +384,6 @@ class StereoPage(WizardPage):
         row1.addWidget(self.virtual_count)
         row1.addWidget(self.capture_button)
         row1.addStretch(1)
-        row1.addWidget(self.remove_button)
-        row1.addWidget(self.clear_button)
         row2 = QHBoxLayout()
         row2.addWidget(QLabel("Board:"))
         row2.addWidget(self.cols_spin)
@@ -393,7 +392,8 @@ class StereoPage(WizardPage):
         row2.addWidget(QLabel("inner corners, square"))
         row2.addWidget(self.square_spin)
         row2.addStretch(1)
-        row2.addWidget(self.count_label)
+        row2.addWidget(self.remove_button)
+        row2.addWidget(self.clear_button)
         pairs_box = QGroupBox("Checkerboard pairs")
         pl = QVBoxLayout(pairs_box)
         pl.setSpacing(4)
@@ -404,23 +404,27 @@ class StereoPage(WizardPage):
         cov.addWidget(QLabel("Coverage:"))
         cov.addWidget(self.coverage_bars, 1)
         pl.addLayout(cov)
-        pl.addWidget(self.advice)
+        arow = QHBoxLayout()
+        arow.addWidget(self.count_label, 0, Qt.AlignmentFlag.AlignTop)
+        arow.addWidget(self.advice, 1)
+        pl.addLayout(arow)
 
         # -- options and calibration ----------------------------------------------------
         self.radial_combo = QComboBox()
-        self.radial_combo.addItem("2 (k1 k2)", 2)
-        self.radial_combo.addItem("3 (k1 k2 k3)", 3)
-        self.radial_combo.addItem("6 (rational k1…k6)", 6)
+        self.radial_combo.addItem("2: k1 k2", 2)
+        self.radial_combo.addItem("3: k1 k2 k3", 3)
+        self.radial_combo.addItem("6: rational", 6)
         self.radial_combo.setCurrentIndex(1)
         self.radial_combo.setToolTip("Radial distortion coefficients: 2 for narrow lenses, 3 usually, 6 for "
                                      "strong wide-angle distortion (needs many well-spread pairs)")
-        self.tangential_check = QCheckBox("tangential p1 p2")
+        self.tangential_check = QCheckBox("tangential")
         self.tangential_check.setChecked(True)
-        self.tangential_check.setToolTip("Decentring distortion of a lens not exactly square to the sensor")
-        self.aspect_check = QCheckBox("fix aspect ratio")
-        self.aspect_check.setToolTip("Keep fx = fy (square pixels)")
-        self.principal_check = QCheckBox("fix principal point")
-        self.principal_check.setToolTip("Keep (cx, cy) at the image centre: steadier with few or poorly spread "
+        self.tangential_check.setToolTip("Estimate the tangential coefficients p1, p2: decentring distortion of a lens "
+                                         "not exactly square to the sensor")
+        self.aspect_check = QCheckBox("fx = fy")
+        self.aspect_check.setToolTip("Fix the aspect ratio: keep fx = fy (square pixels)")
+        self.principal_check = QCheckBox("fix centre")
+        self.principal_check.setToolTip("Fix the principal point: keep (cx, cy) at the image centre: steadier with few or poorly spread "
                                         "pairs")
         self.calibrate_button = QPushButton("Calibrate")
         self.calibrate_button.setObjectName("calibrateButton")
@@ -434,11 +438,17 @@ class StereoPage(WizardPage):
         self.progress.setTextVisible(True)
         self.progress.setFormat("")
         self.progress.setVisible(False)
-        options_box = QGroupBox("Camera model and calibration")
+        options_box = QWidget()
+        options_box.setObjectName("optionsRow")
         ol = QGridLayout(options_box)
+        ol.setContentsMargins(0, 0, 0, 0)
         ol.setHorizontalSpacing(8)
         orow = QHBoxLayout()
-        orow.addWidget(QLabel("Radial coefficients:"))
+        model = QLabel("Camera model")
+        model.setObjectName("sectionHeading")
+        orow.addWidget(model)
+        orow.addSpacing(6)
+        orow.addWidget(QLabel("radial:"))
         orow.addWidget(self.radial_combo)
         orow.addWidget(self.tangential_check)
         orow.addWidget(self.aspect_check)
@@ -561,7 +571,7 @@ class StereoPage(WizardPage):
         self.status.setWordWrap(True)
         self.status.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
         xrow = QHBoxLayout()
-        xrow.addWidget(self.status, 1)
+        xrow.addStretch(1)
         xrow.addWidget(self.save_button)
         xrow.addWidget(QLabel("Export:"))
         xrow.addWidget(self.ros_button)
@@ -583,6 +593,7 @@ class StereoPage(WizardPage):
         layout.setContentsMargins(0, 0, 0, 0)
         layout.setSpacing(6)
         layout.addWidget(self.splitter, 1)
+        layout.addWidget(self.status)
         layout.addLayout(xrow)
 
         state.projectChanged.connect(self._context_changed)
@@ -672,7 +683,8 @@ class StereoPage(WizardPage):
         self._update_buttons()
 
     def on_leave(self) -> None:
-        self._board_timer.stop()
+        if self._board_timer.isActive():
+            self.apply_board()
 
     def is_complete(self) -> bool:
         return self.saved_path is not None and self.saved_path.is_file()
@@ -696,9 +708,11 @@ class StereoPage(WizardPage):
         if not self.state.virtual:
             self._finish_autopilot(False, "no checkerboard pairs: add pairs from folders first")
             return
-        if self._lab is not None and self._lab.board != self._board:
-            self.set_board(self._lab.board)
-        if not self.add_virtual_pairs(VIRTUAL_PAIRS, then=self._autopilot_calibrate, board_from_lab=True):
+        lab_board = self._default_board()
+        if lab_board != self._board:          # the lab's board: pairs of another board cannot join
+            self.clear_pairs()
+            self.set_board(lab_board)
+        if not self.add_virtual_pairs(VIRTUAL_PAIRS, then=self._autopilot_calibrate):
             self._finish_autopilot(False, self.status.text() or "could not render the virtual-lab pairs")
 
     def _autopilot_calibrate(self) -> None:
@@ -817,8 +831,7 @@ class StereoPage(WizardPage):
             w.setEnabled(not busy and has_project)
         self.virtual_button.setEnabled(not busy and has_project and virtual)
         self.virtual_count.setEnabled(not busy and has_project and virtual)
-        self.virtual_button.setToolTip(self.virtual_button.toolTip() if virtual else
-                                       "Only in a virtual-lab project")
+        self.virtual_button.setToolTip(VIRTUAL_TOOLTIP if virtual else "Only in a virtual-lab project")
         self.capture_button.setEnabled(not busy and has_project and virtual)
         self.capture_button.setToolTip(CAMERA_TOOLTIP_VIRTUAL if virtual else CAMERA_TOOLTIP_HARDWARE)
         self.remove_button.setEnabled(not busy and bool(self.strip.selectedItems()))
@@ -890,7 +903,7 @@ class StereoPage(WizardPage):
         return True
 
     def add_virtual_pairs(self, n: int = VIRTUAL_PAIRS, then: Callable[[], None] | None = None, *,
-                          board_from_lab: bool = False, source: str = "virtual lab") -> bool:
+                          source: str = "virtual lab") -> bool:
         """Render n pairs of the virtual lab's checkerboard (saved into the project), detect them."""
         if not self._need_project():
             return False
@@ -906,8 +919,6 @@ class StereoPage(WizardPage):
         def prepared(value):
             lab_, poses = value
             self._lab = lab_
-            if board_from_lab and lab_.board != self._board:
-                self.set_board(lab_.board)
             board = self._board
             paths = [(folder / "left" / f"pair_{first + i:03d}.png", folder / "right" / f"pair_{first + i:03d}.png")
                      for i in range(len(poses))]
@@ -975,6 +986,9 @@ class StereoPage(WizardPage):
         new = Board(self.cols_spin.value(), self.rows_spin.value(), float(self.square_spin.value()))
         if new == self._board:
             return
+        if self.busy:                      # after the running task
+            self._board_timer.start()
+            return
         old, self._board = self._board, new
         if not self.items:
             self._changed()
@@ -982,8 +996,6 @@ class StereoPage(WizardPage):
         if (old.cols, old.rows) == (new.cols, new.rows):
             self._changed()
             self._set_status(f"Square size {new.square:g} mm: calibrate again to use it.")
-            return
-        if self.busy:
             return
         pairs = [(Path(a.detection.left_path), Path(a.detection.right_path), a.source) for a in self.items]
         self.items.clear()
@@ -1036,8 +1048,8 @@ class StereoPage(WizardPage):
         total = len(self.items)
         accepted = sum(1 for a in self.items if a.detection.accepted)
         dropped = sum(1 for a in self.items if a.excluded)
-        self.count_label.setText(f"{total} pairs: {accepted} accepted, {total - accepted} rejected"
-                                 + (f", {dropped} dropped" if dropped else ""))
+        self.count_label.setText(f"<b>{total} pairs</b>: {accepted} accepted, {total - accepted} rejected"
+                                 + (f", {dropped} dropped" if dropped else "") + ".")
         cov = self._coverage()
         self.coverage_bars.set_values(cov.bars)
         usable = len(self.usable_pairs())
@@ -1079,6 +1091,8 @@ class StereoPage(WizardPage):
 
     # -- calibration -----------------------------------------------------------------------------
     def calibrate(self) -> bool:
+        if self._board_timer.isActive():
+            self.apply_board()             # a board edit not applied yet
         if self.busy:
             self._set_status("Busy: wait for the running task or cancel it.", ok=False)
             return False
@@ -1102,12 +1116,12 @@ class StereoPage(WizardPage):
         self._show_result()
         self._refresh_pairs()
         cv = result.cross_validation
-        text = (f"Calibrated from {result.pairs_used} pairs: stereo RMS {result.rms_stereo:.3f} px, epipolar "
+        text = (f"Calibrated: {result.pairs_used} pairs, stereo RMS {result.rms_stereo:.3f} px, epipolar "
                 f"{result.epipolar_rms:.3f} px" + (f", cross-validation {cv.rms_observed_px:.3f} px" if cv else "")
-                + f", baseline {result.baseline_mm:.2f} mm. Review the errors, drop outliers if needed, then "
-                  "Save stereo.yaml to finish this step.")
-        if result.warnings:
-            text += f" {len(result.warnings)} warning(s): see Summary."
+                + f", baseline {result.baseline_mm:.2f} mm"
+                + (f" ({len(result.warnings)} warning{'s' if len(result.warnings) > 1 else ''}: see Summary)"
+                   if result.warnings else "")
+                + ". Drop outliers if needed, then Save stereo.yaml.")
         self._set_status(text, ok=True)
         if self._autopilot_done is not None:
             QTimer.singleShot(0, self._autopilot_save)
