@@ -171,6 +171,24 @@ class WizardState(QObject):
             self._update_connection()
         return self._lab
 
+    @property
+    def has_lab(self) -> bool:
+        return self._lab is not None
+
+    def adopt_lab(self, lab) -> None:
+        """Take a lab a page built on a worker thread (VirtualLab.create takes ~2 s, too long
+        for the GUI thread), so that later pages reuse it. Ignored if the state already has
+        one, or if it was built for another robot, seed or noise."""
+        if self._lab is not None or lab is None or self.robot is None:
+            return
+        if (getattr(lab, "seed", None), getattr(lab, "noise", None)) != (self.seed, float(self.noise)):
+            return
+        nominal = getattr(lab, "nominal_robot", None)
+        if nominal is None or nominal.name != self.robot.name or nominal.dof != self.robot.dof:
+            return
+        self._set_lab(lab)
+        self._update_connection()
+
     def _set_lab(self, lab) -> None:
         if lab is self._lab:
             return

@@ -487,6 +487,7 @@ class IdentificationPage(WizardPage):
             _, lab = value
             if self._lab is None:
                 self._lab = lab
+                self.state.adopt_lab(lab)
             self._refresh_source()
             self._set_status(f"Ideal synthetic measurements written to {path} ({DEFAULT_POSES} poses, "
                              f"σ = {DEFAULT_SIGMA_MM:g} mm, no images).", ok=True)
@@ -556,6 +557,7 @@ class IdentificationPage(WizardPage):
         self._set_busy(False)
         if run.lab is not None and self._lab is None:
             self._lab = run.lab
+            self.state.adopt_lab(run.lab)
         self.run_result = run
         self.saved_path = None
         self.state.set_output(OUTPUT, run.result)

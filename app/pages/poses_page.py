@@ -348,6 +348,7 @@ class PosesPage(WizardPage):
         self._set_busy(False)
         if run.lab is not None:
             self._lab = run.lab
+            self.state.adopt_lab(run.lab)
         self.run_result = run
         self.loaded = None
         written = ""

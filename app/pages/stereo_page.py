@@ -919,6 +919,7 @@ class StereoPage(WizardPage):
         def prepared(value):
             lab_, poses = value
             self._lab = lab_
+            self.state.adopt_lab(lab_)
             board = self._board
             paths = [(folder / "left" / f"pair_{first + i:03d}.png", folder / "right" / f"pair_{first + i:03d}.png")
                      for i in range(len(poses))]

@@ -74,6 +74,21 @@ def test_lab_is_created_lazily_once_and_drives_the_connection(state, fake_lab, q
     assert state.lab is not lab and len(fake_lab.created) == 2
 
 
+def test_a_lab_built_on_a_worker_is_adopted_once(state, fake_lab, qtbot):
+    state.seed, state.noise = 7, 0.0
+    state.choose_preset("educational_6r")
+    other_seed = FakeLab.create(robot=state.robot, seed=8, noise=0.0)
+    state.adopt_lab(other_seed)                       # built for another seed: not this lab
+    assert not state.has_lab
+    built = FakeLab.create(robot=state.robot, seed=7, noise=0.0)
+    with qtbot.waitSignal(state.labChanged):
+        state.adopt_lab(built)
+    assert state.has_lab and state.lab is built and len(fake_lab.created) == 2
+    assert state.robot_connection.model is built.true_robot
+    state.adopt_lab(FakeLab.create(robot=state.robot, seed=7, noise=0.0))
+    assert state.lab is built                         # the first one stays
+
+
 def test_lab_missing_is_a_clear_error(state, monkeypatch):
     monkeypatch.setattr(WizardState, "lab_available", staticmethod(lambda: False))
     with pytest.raises(RoboCalError, match="virtual lab is not available"):
