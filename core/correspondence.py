@@ -210,6 +210,7 @@ class WindowSweep:
     reliabilities: np.ndarray    # (S,)
 
 
+REFINE_PIXELS = 6000    # samples of the window used by the plane-warped refinement (at most, about)
 NOISE_FLOOR = 0.5       # grey levels² per pixel: about the quantisation noise of two 8-bit images
 
 
@@ -273,15 +274,39 @@ class _Warped:
         self.u, self.v, self.g, self.I, self.J = u, v, g, I, J
         self.off = rect.disparity_offset
         self.cache: dict[float, float] = {}
+        self.anchors: dict[int, tuple] = {}
 
-    def __call__(self, d: float) -> float:
+    def _maps(self, d: float):
+        """Raw right-image positions of the warped window at disparity d: exact at the anchor
+        (a whole disparity), linear within 4 px of it (the rectification map's curvature over
+        a few pixels is ~1e-5 px)."""
+        near = [a for a in self.anchors if abs(a - d) <= 4.0]
+        if near:
+            a = min(near, key=lambda k: abs(k - d))
+        else:
+            a = int(np.round(d))
+            X0 = self.u + self.I - (self.off + (a - self.off) * self.g)
+            Y = self.v + self.J
+            mx0, my0 = self.rect.raw_of("right", X0, Y)
+            mx1, my1 = self.rect.raw_of("right", X0 - self.g, Y)
+            self.anchors[a] = (mx0, my0, mx1 - mx0, my1 - my0)
+        mx0, my0, dx, dy = self.anchors[a]
+        t = np.float32(d - a)
+        return mx0 + t * dx, my0 + t * dy
+
+    def __call__(self, d: float, stride: int = 1) -> float:
+        """The warped criteria at disparity d (on every `stride`-th pixel of the window)."""
         if not np.isfinite(d):
             return float("inf")
-        key = round(float(d), 6)
+        key = (round(float(d), 6), stride)
         if key not in self.cache:
-            dd = self.off + (d - self.off) * self.g
-            samples = self.rect.sample(self.right, "right", self.u + self.I - dd, self.v + self.J)
-            diff = self.patch - samples
+            mx, my = self._maps(d)
+            if stride > 1:
+                mx, my, patch = mx[::stride, ::stride], my[::stride, ::stride], self.patch[::stride, ::stride]
+            else:
+                patch = self.patch
+            samples = _remap_region(self.right, mx, my)
+            diff = patch - samples
             bad = ~np.isfinite(diff)
             if bad.mean() > 0.02:
                 self.cache[key] = float("inf")
@@ -289,17 +314,18 @@ class _Warped:
                 self.cache[key] = float(np.mean(diff[~bad] ** 2))
         return self.cache[key]
 
-    def refine(self, d_start: float, reach: int = 2, max_walk: int = 6, fine: bool = True) -> tuple[float, float, float]:
+    def refine(self, d_start: float, reach: int = 2, max_walk: int = 6, fine: bool = True,
+               stride: int = 1) -> tuple[float, float, float]:
         """(disparity, minimum, curvature a) of the warped criteria near `d_start` (`fine`
         False: the integer grid and one parabola only)."""
         base = float(np.round(d_start))
-        vals = {k: self(base + k) for k in range(-reach, reach + 1)}
+        vals = {k: self(base + k, stride) for k in range(-reach, reach + 1)}
         for _ in range(max_walk):                     # walk downhill past the edge of the grid
             k_min = min(vals, key=vals.get)
             if k_min == min(vals):
-                vals[k_min - 1] = self(base + k_min - 1)
+                vals[k_min - 1] = self(base + k_min - 1, stride)
             elif k_min == max(vals):
-                vals[k_min + 1] = self(base + k_min + 1)
+                vals[k_min + 1] = self(base + k_min + 1, stride)
             else:
                 break
         k_min = min(vals, key=vals.get)
@@ -313,11 +339,11 @@ class _Warped:
             return d1, max(vals[k_min] - b * b / (4.0 * a), 0.0) if a > 0 else vals[k_min], a
         # second pass: a parabola on a finer grid around the first estimate
         h = 0.3
-        cm, c0, cp = self(d1 - h), self(d1), self(d1 + h)
+        cm, c0, cp = self(d1 - h, stride), self(d1, stride), self(d1 + h, stride)
         delta2, a2 = _parabola_vertex(cm, c0, cp)
         if a2 > 0:
             d2 = d1 + h * float(np.clip(delta2, -1.0, 1.0))
-            return d2, min(self(d2), c0), a2 / (h * h)
+            return d2, min(self(d2, stride), c0), a2 / (h * h)
         return d1, c0, a
 
 
@@ -413,9 +439,11 @@ def find_disparity(rect: StereoRectification, left: np.ndarray, right: np.ndarra
         J, I = np.mgrid[-hh:hh + 1, -hw:hw + 1].astype(float)
         g = plane_disparity_ratio(plane_normal, rect.P1, u + I, v + J, u, v)
         warped = _Warped(rect, right, patch, u, v, g, I, J)
-        # candidates are compared on every other pixel of large windows (4x fewer samples)
-        st = 2 if h * w > 2500 else 1
-        coarse_w = _Warped(rect, right, patch[::st, ::st], u, v, g[::st, ::st], I[::st, ::st], J[::st, ::st])
+        # large windows are sampled on a sparser grid (at most ~REFINE_PIXELS samples for the
+        # refinement, 4x fewer for comparing the candidates): thousands of pixels already pin
+        # the disparity to a few thousandths of a pixel
+        fine_st = max(1, int(np.ceil(np.sqrt(h * w / REFINE_PIXELS))))
+        st = 2 * fine_st if h * w > 2500 else fine_st
         guess = res.plain_disparity if disparity_guess is None else float(disparity_guess)
         refined = []
         crit = plain
@@ -430,10 +458,11 @@ def find_disparity(rect: StereoRectification, left: np.ndarray, right: np.ndarra
                     chosen.append(int(m))
                 if len(chosen) >= candidates:
                     break
-            coarse = sorted((coarse_w.refine(float(disp[m]), reach=1, fine=False) + (m,) for m in chosen),
+            coarse = sorted((warped.refine(float(disp[m]), reach=1, fine=False, stride=st) + (m,) for m in chosen),
                             key=lambda r: r[1])
             # the two best are refined alike on the full window: best and second are compared fairly
-            refined = sorted((warped.refine(c[0], reach=1) + (c[3],) for c in coarse[:2]), key=lambda r: r[1])
+            refined = sorted((warped.refine(c[0], reach=1, stride=fine_st) + (c[3],) for c in coarse[:2]),
+                             key=lambda r: r[1])
             best_d = refined[0][0]
             if abs(best_d - guess) <= max(2.0, 0.03 * abs(guess - off)):
                 break
@@ -441,14 +470,15 @@ def find_disparity(rect: StereoRectification, left: np.ndarray, right: np.ndarra
         d1, m1, a1, best_index = refined[0]
         res.warped = True
         res.disparity, res.minimum = d1, m1
-        res.sigma_disparity = float(np.sqrt(max(m1, 1e-6) / (n * a1))) if a1 > 0 else float("inf")
+        n_used = ((h + fine_st - 1) // fine_st) * ((w + fine_st - 1) // fine_st)
+        res.sigma_disparity = float(np.sqrt(max(m1, 1e-6) / (n_used * a1))) if a1 > 0 else float("inf")
         if len(refined) > 1:
             res.second_disparity, res.second_minimum = refined[1][0], refined[1][1]
         else:
             res.second_minimum = float(crit.max())
         res.reliability = _ratio(res.minimum, res.second_minimum)
-        ks = np.array(sorted(warped.cache))
-        res.refined_disparities = ks
+        ks = sorted(k for k in warped.cache if k[1] == fine_st)
+        res.refined_disparities = np.array([k[0] for k in ks])
         res.refined_criteria = np.array([warped.cache[k] for k in ks])
         res.criteria = crit
     res.mismatch = res.minimum / var

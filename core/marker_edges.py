@@ -49,7 +49,11 @@ class EdgeOptions:
     max_corner_shift: float = 0.12         # fitted corner vs predicted, fraction of the mean side
     min_corner_shift_px: float = 4.0
     iterations: int = 12
-    sigma_floor_px: float = 0.0            # px, added in quadrature to the predicted point sigma
+    # px, added in quadrature to the reference point's sigma from the edge-fit residuals: the
+    # systematic edge errors the residuals do not show (edge-model mismatch, image formation).
+    # 0.003 px makes the predicted 3D uncertainty match the errors on the virtual lab (bench
+    # `marker`); real lenses and sensors may need more.
+    sigma_floor_px: float = 0.003
 
 
 @dataclass
@@ -320,7 +324,8 @@ def fit_outline(image: np.ndarray, predicted: np.ndarray, pixel_map: PixelMap | 
         params = None
         line = lines[k]
         for _ in range(2):
-            c0, c1 = corners_from_lines(lines)[k], corners_from_lines(lines)[(k + 1) % 4]
+            cl = corners_from_lines(lines)
+            c0, c1 = cl[k], cl[(k + 1) % 4]
             n, tau, t0, t1 = _side_frame(line, c0, c1)
             dd = cand_ideal @ n - line[2]
             tt = cand_ideal @ tau

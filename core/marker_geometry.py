@@ -53,15 +53,22 @@ def diagonal_intersection(quad: np.ndarray) -> np.ndarray:
     """Intersection of the diagonals (corner 0–2 and 1–3): the image of the square's centre,
     exact under perspective (a homography maps lines to lines and incidences to incidences)."""
     q = np.asarray(quad, dtype=float)
-    h = np.hstack([q, np.ones((4, 1))])
-    p = np.cross(np.cross(h[0], h[2]), np.cross(h[1], h[3]))
-    return p[:2] / p[2]
+    (x0, y0), (x1, y1), (x2, y2), (x3, y3) = q
+    # lines through (0, 2) and (1, 3) as a·x + b·y = c, intersected by Cramer's rule
+    a1, b1 = y2 - y0, x0 - x2
+    c1 = a1 * x0 + b1 * y0
+    a2, b2 = y3 - y1, x1 - x3
+    c2 = a2 * x1 + b2 * y1
+    det = a1 * b2 - a2 * b1
+    return np.array([(c1 * b2 - c2 * b1) / det, (a1 * c2 - a2 * c1) / det])
 
 
 def line_intersection(l1, l2) -> np.ndarray:
     """Intersection of lines given as (nx, ny, rho) with n·p = rho."""
-    A = np.array([[l1[0], l1[1]], [l2[0], l2[1]]], dtype=float)
-    return np.linalg.solve(A, np.array([l1[2], l2[2]], dtype=float))
+    det = float(l1[0] * l2[1] - l1[1] * l2[0])
+    if abs(det) < 1e-12:
+        raise np.linalg.LinAlgError("parallel lines")
+    return np.array([(l1[2] * l2[1] - l1[1] * l2[2]) / det, (l1[0] * l2[2] - l1[2] * l2[0]) / det])
 
 
 def corners_from_lines(lines: np.ndarray) -> np.ndarray:

@@ -65,7 +65,7 @@ class LocatorOptions:
     disparity_tolerance: float = 2.0       # px, |edge disparity − SSD disparity|
     max_size_error: float | None = 0.2     # relative; None: the marker size is not checked
     sigma_floor_px: float = 0.0            # added in quadrature to each reference point's sigma
-    general_check: bool = True             # also triangulate with eq. (22) from the raw points
+    general_check: bool = True             # also triangulate with eq. (22) from the raw points (not when tracking)
 
 
 @dataclass
@@ -222,7 +222,7 @@ class MarkerLocator:
             # around the predicted disparity, wide enough for a second minimum to show
             ref_r = self.rect.right_map.to_ideal(map_points(predicted[1], self.trained.reference_px[None]))[0]
             d_pred = u_l - ref_r[0]
-            half = max(3.0 * window[1], 60.0)
+            half = max(1.0 * window[1], 40.0)
             d_range = (d_pred - half, d_pred + half)
         normal, guess = None, None
         n_candidates = 3 if predicted is None else 2
@@ -291,7 +291,7 @@ class MarkerLocator:
                 return _reject(loc, "check", f"the located marker is {loc.size_mm:.1f} mm wide, the trained one "
                                f"{self.trained.outer_size:.1f} mm: a wrong match, a wrong marker size or a stereo "
                                "calibration that no longer fits")
-        if opt.general_check:
+        if opt.general_check and predicted is None:          # a cross-check, skipped when tracking
             try:
                 loc.point_general = triangulate_general(self.rect.rig, det_l.reference, det_r.reference, sigma).point
             except RoboCalError:
