@@ -1,13 +1,68 @@
-"""`robocal locate`: 3D marker reference point from one stereo pair. Not built yet (issue 4)."""
+"""`robocal locate`: the 3D marker reference point from one stereo pair.
+
+Prints `x y z` (mm, left camera frame). `--json` adds the image points in both images (raw
+and rectified), the disparities (SSD and from the two reference points), the criteria minimum,
+the reliability figure, the standard deviations and the triangulated marker size.
+
+`--marker` is a training image of the marker (png, jpg, ...), a marker description (.json) or
+a trained marker (.npz). For an image, a marker description with the same name beside it
+(M.png + M.json) gives the outline and the physical size; otherwise the outline is found
+automatically and the size is `--marker-size` (default: the shipped marker's 40 mm; the 3D
+point does not depend on it, and without a known size the size check is skipped).
+"""
 from __future__ import annotations
 
-from app.commands import not_built
+from app.commands import CommandResult
 
-HELP = "3D marker reference point from one stereo pair (not built yet)"
+HELP = "3D marker reference point (mm, left camera frame) from one stereo pair"
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("rest", nargs="*", help="arguments of the step, once it is built")
+    parser.add_argument("--stereo", required=True, metavar="S", help="stereo calibration file (stereo.yaml)")
+    parser.add_argument("--marker", required=True, metavar="M",
+                        help="marker training image (png/jpg), marker description (.json) or trained marker (.npz)")
+    parser.add_argument("--left", required=True, metavar="L", help="left camera image")
+    parser.add_argument("--right", required=True, metavar="R", help="right camera image")
+    parser.add_argument("--marker-size", type=float, metavar="MM",
+                        help="side of the marker's outer black square in mm (default: from the marker "
+                             "description beside the image, else 40)")
 
 
-run = not_built("marker", 4)
+def setup_locator(args):
+    """(MarkerLocator, size known) from --stereo, --marker and --marker-size."""
+    from core.correspondence import StereoRectification
+    from core.errors import UsageError
+    from core.marker import load_marker
+    from core.marker_location import LocatorOptions, MarkerLocator
+    from core.stereo_file import read_stereo_yaml
+
+    if args.marker_size is not None and not args.marker_size > 0:
+        raise UsageError("--marker-size must be positive (mm)")
+    stereo = read_stereo_yaml(args.stereo)
+    rect = StereoRectification.from_stereo_file(stereo)
+    trained, known = load_marker(args.marker, args.marker_size)
+    options = LocatorOptions(max_size_error=0.2 if known else None)
+    return MarkerLocator(trained, rect, options), known
+
+
+def run(args) -> CommandResult:
+    from core.checkerboard import load_gray
+    from core.errors import RoboCalError
+
+    locator, known = setup_locator(args)
+    images = []
+    for side, path in (("left", args.left), ("right", args.right)):
+        img, why = load_gray(path)
+        if img is None:
+            raise RoboCalError(f"cannot read the {side} image: {why}", source=path)
+        images.append(img)
+    loc = locator.locate(images[0], images[1])
+    if not loc.ok:
+        raise RoboCalError(f"marker not located: {loc.reason}", source=args.left if loc.stage in ("left", "ssd")
+                           else None,
+                           hint="Check that both images show the whole marker and belong to this stereo calibration.")
+    x, y, z = (float(v) for v in loc.point)
+    data = loc.to_dict()
+    data.update(stereo=str(args.stereo), marker=str(args.marker), left_image=str(args.left),
+                right_image=str(args.right), marker_size_mm=locator.trained.outer_size, marker_size_known=known)
+    return CommandResult(text=f"{x:.3f} {y:.3f} {z:.3f}", data=data)

@@ -1,13 +1,102 @@
-"""`robocal measure`: batch of pose images to a measurements file. Not built yet (issue 4)."""
+"""`robocal measure`: a batch of pose image pairs -> a measurements file (target `marker`).
+
+Images `DIR/left/*` and `DIR/right/*` are paired by sorted file name, and the k-th pair is
+the k-th row of the joints file (header `pose,q1,...,qn`, degrees; mm for prismatic joints
+when `--robot` says so). Each located marker is appended to `--out` at once (flushed to
+disk); each pose that gives no point goes to `<out stem>.rejects.csv` (e.g. meas.rejects.csv)
+with the reason. An existing output is continued with `--resume` (poses already measured or
+rejected are skipped) or replaced with `--overwrite`; otherwise it is refused.
+"""
 from __future__ import annotations
 
-from app.commands import not_built
+from pathlib import Path
 
-HELP = "Batch of pose images to a measurements file (not built yet)"
+from app.commands import CommandResult, ProgressLine
+
+HELP = "Batch of pose image pairs to a measurements file (marker located in 3D per pose)"
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("rest", nargs="*", help="arguments of the step, once it is built")
+    parser.add_argument("--stereo", required=True, metavar="S", help="stereo calibration file (stereo.yaml)")
+    parser.add_argument("--marker", required=True, metavar="M",
+                        help="marker training image (png/jpg), marker description (.json) or trained marker (.npz)")
+    parser.add_argument("--images", required=True, metavar="DIR", help="folder with left/ and right/ image folders")
+    parser.add_argument("--joints", required=True, metavar="J.csv", help="joint values per pose (pose,q1,...,qn)")
+    parser.add_argument("--out", required=True, metavar="meas.csv", help="measurements file to write")
+    parser.add_argument("--robot", metavar="R.json", help="robot model: checks the joint count and joint types")
+    parser.add_argument("--marker-size", type=float, metavar="MM",
+                        help="side of the marker's outer black square in mm (default: from the marker "
+                             "description beside the image, else 40)")
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("--resume", action="store_true", help="continue an existing output (skip poses done)")
+    group.add_argument("--overwrite", action="store_true", help="replace an existing output and its rejects file")
 
 
-run = not_built("measurement", 4)
+def run(args) -> CommandResult:
+    from app.commands.locate import setup_locator
+    from core.checkerboard import load_gray, pair_images
+    from core.errors import RoboCalError, UsageError
+    from core.measurement_run import rejects_path_for, run_measurements
+    from core.pose_file import read_poses
+    from core.robot_file import read_robot
+
+    out = Path(args.out)
+    if out.is_dir():
+        raise UsageError(f"--out '{out}' is a folder; give a file name")
+    rejects = rejects_path_for(out)
+    existing = [p for p in (out, rejects) if p.exists() and p.stat().st_size > 0]
+    if existing and not (args.resume or args.overwrite):
+        raise RoboCalError("the output already exists", source=existing[0],
+                           hint="Use --resume to continue it, --overwrite to start again, or another --out.")
+    robot = read_robot(args.robot) if args.robot else None
+    if robot is not None and "marker" not in robot.targets:
+        raise RoboCalError("the robot model has no 'marker' target", source=args.robot,
+                           hint='Add "targets": {"marker": [x, y, z]} (the marker centre in the tool frame).')
+    poses = read_poses(args.joints, robot)
+    images = Path(args.images)
+    if not images.is_dir():
+        raise RoboCalError("no such folder", source=images, hint="Give the folder holding left/ and right/.")
+    pairs, _ = pair_images(images / "left", images / "right")
+    if len(pairs) != len(poses):
+        raise RoboCalError(f"{len(pairs)} image pairs in {images} but {len(poses)} poses in the joints file",
+                           source=args.joints, hint="Give one row per image pair, in the order of the file names.")
+    locator, _ = setup_locator(args)
+    if args.overwrite:
+        for p in (out, rejects):
+            p.unlink(missing_ok=True)
+    by_pose = {int(pid): pair for pid, pair in zip(poses.pose, pairs)}
+
+    def capture_pose(pid, q):
+        out_pair = []
+        for side, path in zip(("left", "right"), by_pose[pid]):
+            img, why = load_gray(path)
+            if img is None:
+                raise RoboCalError(f"cannot read the {side} image: {why}", source=path)
+            out_pair.append(img)
+        return tuple(out_pair)
+
+    progress = ProgressLine("measure")
+    try:
+        result = run_measurements(poses, out, locate=locator.locate, capture_pose=capture_pose, rejects=rejects,
+                                  resume=True, keep_locations=False, progress=progress)
+    finally:
+        progress.close()
+    data = result.summary()
+    data["points"] = [{"pose": o.pose, "x": float(o.point[0]), "y": float(o.point[1]), "z": float(o.point[2]),
+                       "sigma": [float(v) for v in o.sigma] if o.sigma is not None else None}
+                      for o in result.measured]
+    n_new = len(result.measured)
+    done_before = len(result.skipped)
+    if n_new == 0 and result.rejected and not done_before:
+        first = result.rejected[0]
+        raise RoboCalError(f"none of the {len(poses)} poses could be measured (reasons in {rejects}); "
+                           f"pose {first.pose}: {first.reason}",
+                           hint="Check the stereo calibration and the marker image.")
+    lines = [f"Measured {n_new} of {len(poses)} poses into {out}"
+             + (f" ({done_before} done in an earlier run)" if done_before else "")
+             + (f"; {len(result.rejected)} rejected, reasons in {rejects}:" if result.rejected else ".")]
+    for o in result.rejected[:10]:
+        lines.append(f"  pose {o.pose}: {o.reason}")
+    if len(result.rejected) > 10:
+        lines.append(f"  ... and {len(result.rejected) - 10} more")
+    return CommandResult(text="\n".join(lines), data=data)
