@@ -127,7 +127,7 @@ def _location_3d(report, lab, locator: MarkerLocator) -> None:
     report.info("3D RMS error, chapter: left reference + SSD disparity (plane-warped)", rms(err_ssd), "mm")
     plain = np.linalg.norm(np.array(err_plain), axis=1)
     report.info("3D median error, left reference + plain SSD disparity (eq. 26-27)", float(np.median(plain)), "mm")
-    report.info("  plain SSD: points more than 1 mm off (wrong minimum)", int(np.sum(~(plain <= 1.0))), "")
+    report.info("  plain SSD: points more than 1 mm off", int(np.sum(~(plain <= 1.0))), "")
     report.info("3D RMS error, SIFT alone (homography centres, eq. 22)", rms(err_sift), "mm")
     if rejected:
         report.info(f"  rejected ({len(rejected)}): first reason", rejected[0][:60])
