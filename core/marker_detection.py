@@ -52,8 +52,8 @@ class AreaDetection:
     reason: str = ""
     image_size: tuple[int, int] = (0, 0)
     mode: str = ""                          # "half", "full", "roi" (SIFT) or "predicted" (no SIFT)
-    keypoints: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))      # scene px
-    match_scene: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))    # (M, 2) scene px
+    keypoints: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))      # scene px, all passes
+    match_scene: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))    # (M, 2) scene px, last pass
     match_train: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))    # (M, 2) training px
     inliers: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))       # (M,)
     homography: np.ndarray | None = None    # 3x3, training px -> scene px
@@ -117,14 +117,9 @@ class MarkerDetection:
 
 # -- SIFT -------------------------------------------------------------------------------------
 
-_MATCHER = None
-
-
 def _matcher():
-    global _MATCHER
-    if _MATCHER is None:
-        _MATCHER = cv2.BFMatcher(cv2.NORM_L2)
-    return _MATCHER
+    """A brute-force L2 matcher (one per call: cheap, and safe on worker threads)."""
+    return cv2.BFMatcher(cv2.NORM_L2)
 
 
 def sift_features(image: np.ndarray, *, half: bool = False, roi=None) -> tuple[np.ndarray, np.ndarray | None]:
