@@ -369,16 +369,36 @@ class MarkerTracker:
     def reset(self) -> None:
         self.last = None
 
-    def track(self, left: np.ndarray, right: np.ndarray, predicted_pose: np.ndarray | None = None) -> MarkerLocation:
+    def track(self, left: np.ndarray, right: np.ndarray, predicted_pose: np.ndarray | None = None,
+              predicted_point: np.ndarray | None = None) -> MarkerLocation:
+        """Locate the marker near where it is expected.
+
+        `predicted_pose` (4x4, plate frame -> left camera frame) or `predicted_point` (3,) mm
+        (the marker target from the robot model's forward kinematics); without either, the
+        last location. A point alone moves the last outlines there (or, with no last
+        location, assumes the marker faces the camera)."""
+        loc_ = self.locator
         predicted = None
         if predicted_pose is not None:
-            predicted = self.locator.predicted_homographies(predicted_pose)
+            predicted = loc_.predicted_homographies(predicted_pose)
+        elif predicted_point is not None:
+            X = np.asarray(predicted_point, dtype=float).reshape(3)
+            if self.last is not None and self.last.ok:
+                rig = loc_.rect.rig
+                moved = []
+                for det, cam, P in ((self.last.left, rig.left, X), (self.last.right, rig.right, rig.to_right(X))):
+                    shift = cam.project(P[None])[0] - det.reference
+                    moved.append(np.array([[1, 0, shift[0]], [0, 1, shift[1]], [0, 0, 1.0]])
+                                 @ _fitted_h(loc_.trained, det))
+                predicted = (moved[0], moved[1])
+            else:
+                facing = tf.make_transform(np.diag([1.0, -1.0, -1.0]), X)
+                predicted = loc_.predicted_homographies(facing)
         elif self.last is not None and self.last.ok:
-            trained = self.locator.trained
-            predicted = (_fitted_h(trained, self.last.left), _fitted_h(trained, self.last.right))
-        loc = self.locator.locate(left, right, predicted=predicted)
+            predicted = (_fitted_h(loc_.trained, self.last.left), _fitted_h(loc_.trained, self.last.right))
+        loc = loc_.locate(left, right, predicted=predicted)
         if not loc.ok and predicted is not None and loc.stage in ("left", "right", "ssd", "check"):
-            loc = self.locator.locate(left, right)
+            loc = loc_.locate(left, right)
         self.last = loc if loc.ok else None
         return loc
 

@@ -179,6 +179,12 @@ def test_tracking_from_a_predicted_pose_and_from_the_last_one(locator, pairs):
     assert jumped.ok and np.linalg.norm(jumped.point - T2[:3, 3]) < 0.05
     tracker.reset()
     assert tracker.last is None
+    # a predicted point only (no orientation): first with no last location, then moving the last one
+    T, left, right = pairs[0]
+    loc = tracker.track(left, right, predicted_point=T[:3, 3] + [2.0, -1.0, 3.0])
+    assert loc.ok and loc.mode == "tracking" and np.linalg.norm(loc.point - T[:3, 3]) < 0.05
+    loc = tracker.track(left, right, predicted_point=T[:3, 3] + [1.0, 1.0, 0.0])
+    assert loc.ok and loc.left.area.mode == "predicted"
 
 
 def test_window_sweep_at_the_located_point(locator, pairs):
