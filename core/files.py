@@ -67,6 +67,22 @@ def atomic_write_json(path: str | Path, data) -> Path:
     return atomic_write_text(path, json.dumps(data, indent=2, ensure_ascii=False, default=json_default) + "\n")
 
 
+def drop_partial_last_line(path: str | Path) -> bool:
+    """Cut a partly written last line (a run killed mid-write) off an append-only text file,
+    so that appending goes on after the last complete line. True if there was one."""
+    path = Path(path)
+    if not path.exists():
+        return False
+    data = path.read_bytes()
+    if not data or data.endswith(b"\n"):
+        return False
+    with open(path, "r+b") as handle:
+        handle.truncate(data.rfind(b"\n") + 1)
+        handle.flush()
+        os.fsync(handle.fileno())
+    return True
+
+
 def read_json(path: str | Path) -> dict:
     """Read a JSON object, with a clear message for a missing or malformed file."""
     path = Path(path)

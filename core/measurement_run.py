@@ -31,6 +31,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from core.errors import RoboCalError
+from core.files import drop_partial_last_line
 from core.kinematics import RobotModel
 from core.measurements import MeasurementWriter
 from core.pose_file import PoseList
@@ -103,6 +104,7 @@ class RejectsWriter:
     def __post_init__(self):
         self.path = Path(self.path)
         header = ",".join(["pose", "target"] + [f"q{i + 1}" for i in range(self.dof)] + ["reason"])
+        drop_partial_last_line(self.path)
         existing = self.path.read_bytes() if self.path.exists() else b""
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
@@ -120,8 +122,6 @@ class RejectsWriter:
                                    source=self.path, hint="Write to a new file.")
             if found is None:
                 self._write(header + "\n")
-            elif not existing.endswith(b"\n"):
-                self._write("\n")
 
     def _write(self, text: str) -> None:
         self._handle.write(text)
@@ -170,20 +170,6 @@ def _existing_measurements(path: Path, target: str) -> tuple[dict[int, np.ndarra
             except RoboCalError as exc:
                 raise RoboCalError(exc.problem, source=path, hint=exc.hint) from None
     return {int(meas.pose[i]): meas.q_file[i] for i in range(meas.n_points) if meas.target[i] == target}, sigmas
-
-
-def _drop_partial_line(path: Path) -> bool:
-    """Cut a partly written last line (a run killed mid-write) off the file; True if there was one."""
-    if not path.exists():
-        return False
-    data = path.read_bytes()
-    if not data or data.endswith(b"\n"):
-        return False
-    with open(path, "r+b") as handle:
-        handle.truncate(data.rfind(b"\n") + 1)
-        handle.flush()
-        os.fsync(handle.fileno())
-    return True
 
 
 # -- the run --------------------------------------------------------------------------------------
@@ -276,9 +262,9 @@ def run_measurements(poses: PoseList, out: str | Path, *, locate: Callable, capt
         if i is not None and (len(q) != dof or np.max(np.abs(q - q_files[i])) > JOINT_TOLERANCE):
             raise RoboCalError(f"pose {pid} in the file has other joint values than in the pose list", source=out,
                                hint="This file belongs to another pose list: write to a new file.")
-    if resume:
-        _drop_partial_line(out)          # not a measurement: that pose is measured again
-        _drop_partial_line(rejects)
+    if resume:                           # a partial row is no measurement: that pose is measured again
+        drop_partial_last_line(out)
+        drop_partial_last_line(rejects)
     writer = MeasurementWriter(out, dof, sigmas=True if sigmas is None else sigmas)
     rej_writer = None
     result = MeasurementRunResult(out, rejects, len(poses))

@@ -33,7 +33,7 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from core.errors import RoboCalError
-from core.files import atomic_write_text
+from core.files import atomic_write_text, drop_partial_last_line
 from core.kinematics import RobotModel
 
 FORMAT_FAMILY = "robocal.measurements"
@@ -382,6 +382,9 @@ class MeasurementWriter:
         self.path = Path(self.path)
         header = ",".join(header_columns(self.dof, self.sigmas))
         existing = self._existing_header()
+        if existing is not None and existing[0] is not None and not existing[1]:
+            # an interrupted write left a partial row: it is no measurement, cut it off
+            drop_partial_last_line(self.path)
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._handle = open(self.path, "a", encoding="utf-8", newline="")
@@ -395,8 +398,6 @@ class MeasurementWriter:
                     raise RoboCalError(f"the file's columns ({existing[0]}) differ from the ones to write "
                                        f"({header})", source=self.path,
                                        hint="Write to a new file, or use the robot the file was started with.")
-                if not existing[1]:   # an interrupted write left a partial last line: end it
-                    self._write("\n")
         except OSError as exc:
             raise RoboCalError(f"cannot open the file for writing ({exc.strerror})", source=self.path,
                                hint="Check the disk space and permissions.") from exc
