@@ -19,7 +19,7 @@ NOT_BUILT = "app.pages.not_built:NotBuiltPage"
 PAGES: dict[Step, str] = {
     Step.SETUP: "app.pages.setup_page:SetupPage",
     Step.STEREO: "app.pages.stereo_page:StereoPage",            # issue 3
-    Step.MARKER: NOT_BUILT,            # issue 4
+    Step.MARKER: "app.pages.marker_page:MarkerPage",            # issue 4
     Step.POSES: "app.pages.poses_page:PosesPage",
     Step.MEASUREMENT: NOT_BUILT,       # issue 4
     Step.IDENTIFICATION: "app.pages.identification_page:IdentificationPage",    # issue 5

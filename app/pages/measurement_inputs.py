@@ -1,0 +1,89 @@
+"""What the Marker and Measurement pages both need from the project: the trained marker
+(marker.npz beside project.json) and the stereo rectification (the project's stereo.yaml, or
+the Stereo step's result not yet saved).
+
+Files in the project folder written by the Marker step:
+  marker.npz                  the trained marker (core.marker_training, robocal.trained_marker/1)
+  marker_training.png         the image it was trained from (the crop, when cropped)
+  marker_verification.json    the last verification of that marker (robocal.marker_verification/1)
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from core.correspondence import StereoRectification
+from core.errors import RoboCalError
+from core.marker_training import TrainedMarker
+from core.stereo_file import StereoFile, read_stereo_yaml
+
+MARKER_OUTPUT = "marker"
+STEREO_OUTPUT = "stereo"
+MARKER_FILE = "marker.npz"
+TRAINING_FILE = "marker_training.png"
+VERIFICATION_FILE = "marker_verification.json"
+VERIFICATION_FORMAT = "robocal.marker_verification/1"
+
+
+def marker_file(project) -> Path:
+    return Path(project.folder) / MARKER_FILE
+
+
+def verification_file(project) -> Path:
+    return Path(project.folder) / VERIFICATION_FILE
+
+
+def project_marker(state) -> TrainedMarker | None:
+    """The trained marker: the Marker step's output, else the project's marker.npz, else None.
+    Raises RoboCalError when marker.npz exists but cannot be read."""
+    trained = state.outputs.get(MARKER_OUTPUT)
+    if trained is not None:
+        return trained
+    project = state.project
+    if project is None or not marker_file(project).is_file():
+        return None
+    return TrainedMarker.load(marker_file(project))
+
+
+@dataclass
+class StereoSource:
+    """Where the stereo rectification comes from, in words for the page."""
+
+    rect: StereoRectification | None
+    kind: str            # "file" (stereo.yaml), "result" (calibrated, not saved), "preview" (lab's true rig), ""
+    label: str           # one line for the user
+    problem: str = ""    # why there is none (or why stereo.yaml cannot be used)
+
+
+def stereo_source(state) -> StereoSource:
+    """The project's stereo.yaml; else the Stereo step's result in memory; else none, with why."""
+    project = state.project
+    problem = ""
+    if project is not None and project.has("stereo"):
+        path = project.path("stereo")
+        try:
+            sf = read_stereo_yaml(path)
+            rect = StereoRectification.from_stereo_file(sf)
+        except RoboCalError as exc:
+            problem = f"the project's stereo.yaml cannot be used: {exc.message}"
+        else:
+            w, h = sf.image_size
+            return StereoSource(rect, "file", f"stereo.yaml: {w}x{h} px, stereo RMS {sf.rms_stereo:.3f} px, "
+                                              f"baseline {sf.baseline_mm:.1f} mm")
+    result = state.outputs.get(STEREO_OUTPUT)
+    if result is not None:
+        try:
+            sf = StereoFile.from_result(result)
+            rect = StereoRectification.from_stereo_file(sf)
+        except (RoboCalError, AttributeError) as exc:
+            problem = problem or f"the stereo calibration cannot be used: {exc}"
+        else:
+            return StereoSource(rect, "result", f"stereo calibration of step 2 (not saved yet): stereo RMS "
+                                                f"{sf.rms_stereo:.3f} px, baseline {sf.baseline_mm:.1f} mm")
+    return StereoSource(None, "", "no stereo calibration", problem or "no stereo calibration yet (step 2)")
+
+
+def preview_source(lab) -> StereoSource:
+    """The virtual lab's TRUE cameras (a preview before calibrating; not a calibration)."""
+    return StereoSource(StereoRectification.from_rig(lab.rig), "preview",
+                        "PREVIEW: the virtual lab's true cameras (not a calibration; calibrate in step 2 to measure)")

@@ -1,0 +1,226 @@
+"""The Marker page driven by pytest-qt on the virtual lab: capture and train (worker), the
+live pair with every detection layer drawn, the SSD plots, the 3D point, the verification
+run, a training image with too few features, the preview without a stereo calibration,
+the saved marker on reopening, and the autopilot."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from PySide6.QtCore import Qt
+from PySide6.QtWidgets import QMessageBox
+
+from app.pages.marker_page import TAB_LIVE, TAB_SSD, MarkerPage
+from app.pages.measurement_inputs import MARKER_FILE, TRAINING_FILE, VERIFICATION_FILE
+from app.pages.registry import page_class
+from app.pages.steps import Step
+from app.worker import TaskRunner
+from core.marker_training import TrainedMarker
+from tests.app.virtual_inputs import lab_state, make_lab
+
+SCREENSHOT = Path("/tmp/robocal-marker-page.png")
+
+
+@pytest.fixture(scope="module")
+def lab():
+    return make_lab()
+
+
+@pytest.fixture
+def boxes(monkeypatch):
+    shown = []
+    for kind in ("critical", "warning", "information"):
+        monkeypatch.setattr(QMessageBox, kind,
+                            lambda parent, title, text, *a, _k=kind, **kw: shown.append((_k, title, text)))
+    return shown
+
+
+def make_page(qtbot, lab, stereo=True):
+    state, tasks = lab_state(lab, stereo=stereo), TaskRunner()
+    page = MarkerPage(state, tasks)
+    qtbot.addWidget(page)
+    page.resize(900, 760)
+    page.show()
+    page.on_enter()
+    return page
+
+
+@pytest.fixture
+def page(qtbot, lab, boxes):
+    p = make_page(qtbot, lab)
+    yield p
+    p.tasks.shutdown()
+    p.state.close()
+
+
+def wait(qtbot, page, timeout=60000):
+    qtbot.waitUntil(lambda: not page.busy, timeout=timeout)
+
+
+def test_registered_for_the_marker_step():
+    assert page_class(Step.MARKER) is MarkerPage
+
+
+def test_train_locate_plot_and_verify(qtbot, page, boxes):
+    state = page.state
+    assert not page.is_complete()
+    assert "stereo.yaml" in page.stereo_label.text() and page.stereo.kind == "file"
+    assert not page.preview_button.isVisible()
+    # a training image from the virtual lab's camera: the outline is found automatically
+    qtbot.mouseClick(page.capture_button, Qt.MouseButton.LeftButton)
+    wait(qtbot, page)
+    assert page.training_image is not None and page.training_image.outline is not None
+    assert page.training_view.overlays["auto_outline"].getData()[0] is not None
+    # train on a worker: keypoints, outline and reference drawn, files in the project
+    qtbot.mouseClick(page.train_button, Qt.MouseButton.LeftButton)
+    assert page.busy
+    wait(qtbot, page)
+    t = page.trained
+    assert t is not None and t.n_image_features >= 100 and page.status.text().startswith("✓ Trained")
+    assert np.allclose(t.reference_px, [239.5, 239.5], atol=0.1)
+    assert len(page.training_view.overlays["inliers"].data) == t.n_image_features
+    assert str(t.n_image_features) in page.training_info.text()
+    folder = state.project.folder
+    assert TrainedMarker.load(folder / MARKER_FILE).n_features == t.n_features
+    assert cv2.imread(str(folder / TRAINING_FILE), cv2.IMREAD_GRAYSCALE).shape == t.image.shape
+    assert state.outputs["marker"] is t
+    assert not page.is_complete()                       # trained, not yet located
+    # a live pair: every stage drawn in both images
+    with qtbot.waitSignal(page.completeChanged, timeout=60000):
+        qtbot.mouseClick(page.next_button, Qt.MouseButton.LeftButton)
+        wait(qtbot, page)
+    live = page.live
+    assert live.location.ok, live.location.reason
+    assert page.tabs.currentIndex() == TAB_LIVE
+    for view in (page.left_view, page.right_view):
+        assert len(view.overlays["inliers"].data) >= 10
+        assert len(view.overlays["edges"].data) >= 50
+        assert len(view.overlays["fitted"].getData()[0]) > 0
+        assert len(view.overlays["reference"].getData()[0]) > 0
+        assert len(view.overlays["roi"].getData()[0]) == 8          # 4 segments
+        assert len(view.overlays["sift_outline"].getData()[0]) == 8
+    # zoomed on the marker: the view shows about the marker, not the whole 1280 px image
+    xr = page.left_view.plot.viewRange()[0]
+    assert xr[1] - xr[0] < 600
+    # the 3D point with its sigma, and the error against the truth
+    assert "3D point" in page.point_label.text() and "±" in page.point_label.text()
+    assert live.error < 0.05                             # the true rig: a few thousandths of a mm
+    assert "Error against the lab's true marker position" in page.point_label.text()
+    assert "SIFT matches agree" in page.details_label.text()
+    # Fig. 16 and Fig. 17
+    assert page.criteria_plot.has_data() and page.sweep_plot.has_data()
+    assert list(page.sweep_plot.sizes) == list(range(5, 38, 2))
+    c = live.location.correspondence
+    x, y = page.criteria_plot.curve.getData()
+    assert len(x) == len(c.disparities)
+    assert page.criteria_plot.line.value() == pytest.approx(c.disparity)
+    axis = page.criteria_plot.plot_item.getAxis
+    assert axis("bottom").labelText == "disparity (px)"
+    assert axis("left").labelText == "SSD criteria (grey level², per pixel)"
+    assert "window size" in page.sweep_plot.plot_item.getAxis("bottom").labelText
+    assert page.is_complete() and (folder / VERIFICATION_FILE).is_file()
+    page.tabs.setCurrentIndex(TAB_SSD)
+    # the verification run over a few random poses
+    page.verify_spin.setValue(4)
+    qtbot.mouseClick(page.verify_button, Qt.MouseButton.LeftButton)
+    assert page.cancel_button.isEnabled()
+    wait(qtbot, page)
+    v = page.verification
+    assert v.n == 4 and v.n_located >= 3 and v.median_error < 0.05
+    text = page.verify_summary.text()
+    assert f"{v.n_located} of 4" in text and "median 3D error" in text and "RMS 3D error" in text
+    assert page.precision_plot.n_errors == v.n_located and page.precision_plot.n_sigmas == v.n_located
+    assert "Verification" in page.status.text()
+    assert boxes == []
+    page.grab().save(str(SCREENSHOT))
+    assert SCREENSHOT.stat().st_size > 10000
+
+
+def test_too_few_features_says_why(qtbot, page, tmp_path, boxes):
+    # a plain black square: the outline is found, but SIFT has almost nothing to match
+    img = np.full((400, 400), 215, np.uint8)
+    img[100:300, 100:300] = 20
+    path = tmp_path / "plain.png"
+    cv2.imwrite(str(path), img)
+    assert page.load_image(path)
+    assert page.training_image.outline is not None
+    assert page.train()
+    wait(qtbot, page)
+    assert page.trained is None and not page.is_complete()
+    text = page.status.text()
+    assert text.startswith("✗") and "SIFT features" in text and "at least 40" in text and "texture" in text
+    assert not (page.state.project.folder / MARKER_FILE).exists()
+    assert boxes == []                                  # on the page, not in a message box
+
+
+def test_crop_rectangle_trains_what_is_inside(qtbot, page):
+    # the lab's training image with a second, larger dark square beside the marker
+    base = page.state.lab.render_training_image()
+    img = np.full((480, 900), 120, np.uint8)
+    img[:, :480] = base
+    img[60:420, 520:880] = 10
+    path = Path(page.state.project.folder) / "two_squares.png"
+    cv2.imwrite(str(path), img)
+    assert page.load_image(path)
+    page.crop_check.setChecked(True)
+    assert page.training_view.crop_visible
+    page.training_view.set_crop_box((100, 100, 380, 380))
+    page._crop_changed(page.training_view.crop_box())
+    assert "found" in page.status.text()
+    assert page.train()
+    wait(qtbot, page)
+    t = page.trained
+    assert t is not None, page.status.text()
+    assert t.image.shape == (280, 280)                  # trained on the crop
+    assert np.allclose(page.trained_offset, [100, 100])
+    assert np.allclose(t.reference_px + page.trained_offset, [239.5, 239.5], atol=0.2)
+
+
+def test_preview_with_the_true_cameras_without_stereo(qtbot, lab, boxes):
+    page = make_page(qtbot, lab, stereo=False)
+    try:
+        assert page.stereo.rect is None and page.preview_button.isVisibleTo(page)
+        assert "no stereo calibration" in page.stereo_label.text()
+        assert page.use_preview()
+        assert page.stereo.kind == "preview" and "PREVIEW" in page.stereo_label.text()
+        assert not page.preview_button.isVisibleTo(page)
+        # a stereo.yaml written later takes over from the preview
+        from tests.app.virtual_inputs import true_stereo_yaml
+        true_stereo_yaml(lab, page.state.project.path("stereo"))
+        page.on_enter()
+        assert page.stereo.kind == "file"
+    finally:
+        page.tasks.shutdown()
+        page.state.close()
+
+
+def test_saved_and_verified_marker_counts_on_reopening(qtbot, page, lab):
+    assert page.capture_training() and not page.train()       # busy: one task at a time
+    wait(qtbot, page)
+    assert page.train()
+    wait(qtbot, page)
+    assert page.next_pose()
+    wait(qtbot, page)
+    assert page.is_complete()
+    again = MarkerPage(page.state, page.tasks)
+    qtbot.addWidget(again)
+    again.on_enter()
+    assert again.trained is not None and again.verified and again.is_complete()
+    assert "already has a trained marker" in again.status.text()
+    # without the verification record the saved marker is trained but not verified
+    (page.state.project.folder / VERIFICATION_FILE).unlink()
+    third = MarkerPage(page.state, page.tasks)
+    qtbot.addWidget(third)
+    assert third.trained is not None and not third.is_complete()
+
+
+def test_autopilot_trains_and_verifies(qtbot, page):
+    outcome = []
+    page.autopilot(lambda ok=True, message="": outcome.append((ok, message)))
+    qtbot.waitUntil(lambda: bool(outcome), timeout=90000)
+    ok, message = outcome[0]
+    assert ok, message
+    assert page.is_complete() and page.verification.n == 10 and page.verification.n_located >= 9
+    assert "SIFT features" in message and "located" in message

@@ -1,0 +1,40 @@
+"""Inputs the Marker and Measurement page tests share: the virtual lab (built once per test
+module: ~1 s), a stereo.yaml of its true rig (the calibration itself is tested elsewhere),
+and a state with a temporary project that has adopted the lab."""
+from __future__ import annotations
+
+import cv2
+
+from core.stereo_file import StereoFile, write_stereo_yaml
+
+
+def make_lab():
+    from core.virtual_lab.lab import VirtualLab
+    return VirtualLab.create(seed=0, noise=0.5)          # the educational 6R arm
+
+
+def true_stereo_yaml(lab, path):
+    from core.virtual_lab.lab import DEFAULT_BOARD
+
+    rig = lab.rig
+    size = (rig.left.width, rig.left.height)
+    R1, R2, P1, P2, Q, *_ = cv2.stereoRectify(rig.left.K, rig.left.dist, rig.right.K, rig.right.dist, size,
+                                              rig.R, rig.T.reshape(3, 1), flags=cv2.CALIB_ZERO_DISPARITY, alpha=0)
+    data = StereoFile(size, rig.left.K, rig.left.dist, rig.right.K, rig.right.dist, rig.R, rig.T,
+                      rig.essential(), rig.fundamental(), R1, R2, P1, P2, Q, 0.02, 0.02, 0.03, DEFAULT_BOARD)
+    return write_stereo_yaml(path, data)
+
+
+def lab_state(lab, *, stereo: bool = True):
+    """A WizardState on a temporary virtual-lab project with the educational 6R arm, the lab
+    adopted (its robot connection: a SimulatedRobot over the lab's true robot)."""
+    from app.state import WizardState
+
+    state = WizardState(seed=0, noise=0.5)
+    state.temporary_project()
+    state.choose_preset("educational_6r")
+    state.adopt_lab(lab)
+    assert state.has_lab and state.lab is lab
+    if stereo:
+        true_stereo_yaml(lab, state.project.path("stereo"))
+    return state
