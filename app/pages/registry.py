@@ -21,7 +21,7 @@ PAGES: dict[Step, str] = {
     Step.STEREO: "app.pages.stereo_page:StereoPage",            # issue 3
     Step.MARKER: "app.pages.marker_page:MarkerPage",            # issue 4
     Step.POSES: "app.pages.poses_page:PosesPage",
-    Step.MEASUREMENT: NOT_BUILT,       # issue 4
+    Step.MEASUREMENT: "app.pages.measurement_page:MeasurementPage",    # issue 4
     Step.IDENTIFICATION: "app.pages.identification_page:IdentificationPage",    # issue 5
     Step.EXPORT: "app.pages.export_page:ExportPage",            # issue 5
 }

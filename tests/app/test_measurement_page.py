@@ -1,0 +1,290 @@
+"""The Measurement page driven by pytest-qt on the virtual lab: a run that is cancelled after a
+few poses keeps every measurement on disk; resuming continues without losing or repeating
+any; pause and continue; a pose outside the joint limits is refused and reported; the Stop
+key stops the robot and the run, and nothing more is sent; start over moves the files aside;
+the autopilot."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from PySide6.QtCore import Qt
+from PySide6.QtWidgets import QApplication, QMessageBox
+
+from app.pages.measurement_page import MEASURED, PENDING, REJECTED, MeasurementPage
+from app.pages.registry import page_class
+from app.pages.steps import Step
+from app.worker import TaskRunner
+from core.marker_training import train_marker
+from core.measurement_run import read_rejects, rejects_path_for
+from core.measurements import read_measurements
+from core.pose_file import write_poses
+from tests.app.virtual_inputs import lab_state, make_lab
+
+N_POSES = 10
+
+
+@pytest.fixture(scope="module")
+def lab():
+    return make_lab()
+
+
+@pytest.fixture(scope="module")
+def trained(lab):
+    return train_marker(lab.render_training_image(), outer_size=lab.marker.outer_size)
+
+
+@pytest.fixture(scope="module")
+def q_file(lab):
+    Q = lab.random_visible_poses(N_POSES, np.random.default_rng(5))
+    return lab.nominal_robot.q_to_file(Q)
+
+
+@pytest.fixture
+def boxes(monkeypatch):
+    shown = []
+    for kind in ("critical", "warning", "information"):
+        monkeypatch.setattr(QMessageBox, kind,
+                            lambda parent, title, text, *a, _k=kind, **kw: shown.append((_k, title, text)))
+    return shown
+
+
+def ready_state(lab, trained, q_file):
+    state = lab_state(lab)
+    trained.save(state.project.folder / "marker.npz")
+    write_poses(state.project.path("poses"), q_file)
+    return state
+
+
+@pytest.fixture
+def page(qtbot, lab, trained, q_file, boxes):
+    state, tasks = ready_state(lab, trained, q_file), TaskRunner()
+    p = MeasurementPage(state, tasks)
+    qtbot.addWidget(p)
+    p.resize(900, 760)
+    p.show()
+    p.on_enter()
+    yield p
+    tasks.shutdown()
+    state.close()
+
+
+def measured_ids(page) -> list[int]:
+    path = page.measurements_path()
+    if not path.is_file():
+        return []
+    return [int(p) for p in read_measurements(path).pose]
+
+
+def page_ids(page, status=MEASURED) -> list[int]:
+    return [r.pose for r in page.rows if r.status == status]
+
+
+def test_registered_for_the_measurement_step():
+    assert page_class(Step.MEASUREMENT) is MeasurementPage
+
+
+def test_cancel_keeps_every_measurement_and_resume_continues(qtbot, page, boxes):
+    assert page.poses is not None and len(page.rows) == N_POSES and not page.is_complete()
+    assert page.n_min == 9                                  # 25 identifiable parameters, 3 equations per pose
+    assert "poses.csv" in page.source_label.text() and "stereo.yaml" in page.source_label.text()
+    assert page.start_button.text() == "Start"
+    qtbot.mouseClick(page.start_button, Qt.MouseButton.LeftButton)
+    assert page.busy and page.cancel_button.isEnabled() and page.pause_button.isEnabled()
+    qtbot.waitUntil(lambda: len(page_ids(page)) >= 2, timeout=30000)
+    # each pose shown as measured is already on disk (written and flushed per pose)
+    assert set(page_ids(page)) <= set(measured_ids(page))
+    qtbot.mouseClick(page.cancel_button, Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: not page.busy, timeout=30000)
+    first = measured_ids(page)
+    assert 2 <= len(first) < N_POSES
+    assert sorted(page_ids(page)) == sorted(first)          # the table is the file
+    assert page.result.cancelled and "Cancelled" in page.status.text() and "Resume" in page.status.text()
+    assert page.start_button.text() == "Resume" and page.start_button.isEnabled()
+    pending = page_ids(page, PENDING)
+    assert pending and len(pending) + len(first) + len(page_ids(page, REJECTED)) == N_POSES
+    rows_before = {p: page.rows[page._row_of[p]].point.copy() for p in first}
+    # resume: the rest is measured, nothing twice, nothing lost
+    qtbot.mouseClick(page.start_button, Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+    r = page.result
+    assert not r.cancelled and sorted(o.pose for o in r.skipped) == sorted(first)
+    ids = measured_ids(page)
+    assert len(ids) == len(set(ids))                          # no pose twice
+    assert set(first) <= set(ids)                             # none lost
+    assert len(ids) + len(read_rejects(rejects_path_for(page.measurements_path()))) == N_POSES
+    for p in first:                                           # the earlier points are kept as they were
+        np.testing.assert_allclose(page.rows[page._row_of[p]].point, rows_before[p], atol=1e-3)
+    assert not page_ids(page, PENDING) and len(ids) >= N_POSES - 1
+    assert not page.start_button.isEnabled()                  # nothing left to measure
+    # the points drawn in both views, the current pair as a thumbnail, the summary
+    for view in page.views.views:
+        assert len(view.selected.data) == len(ids) and len(view.cameras.data) == 2
+    assert page.thumb.image_shape()[1] > 600
+    assert f"<b>{len(ids)}</b> measured" in page.summary.text()
+    assert "Identification needs at least" in page.summary.text()
+    assert page.state.outputs["measurements"] == page.measurements_path()
+    assert boxes == []
+
+
+def test_pause_and_continue(qtbot, page):
+    assert page.start()
+    qtbot.waitUntil(lambda: len(page_ids(page)) >= 1, timeout=30000)
+    page.pause()
+    assert page.paused and page.pause_button.text() == "Continue"
+    qtbot.waitUntil(lambda: "paused" in page.progress.format(), timeout=30000)
+    done = len(measured_ids(page))
+    qtbot.wait(600)
+    assert page.busy and len(measured_ids(page)) == done        # nothing measured while paused
+    page.pause(False)
+    assert not page.paused
+    qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+    assert not page.result.cancelled and not page_ids(page, PENDING)
+
+
+def test_pose_outside_the_joint_limits_is_refused_and_reported(qtbot, page, q_file, tmp_path):
+    bad = np.array(q_file[:3], dtype=float)
+    bad[1, 1] = 400.0                                         # J2 far outside its limits
+    path = tmp_path / "mixed.csv"
+    write_poses(path, bad)
+    assert page.load_csv(path)
+    assert len(page.rows) == 3 and "mixed.csv" in page.source_label.text()
+    robot = page.state.robot_connection
+    moves = robot.move_count
+    assert page.start()
+    qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+    row = page.rows[1]
+    assert row.status == REJECTED and "outside its limits" in row.reason and "not moved" in row.reason
+    assert robot.move_count == moves + 2                      # the refused pose sent nothing
+    rejects = read_rejects(rejects_path_for(page.measurements_path()))
+    assert 1 in rejects and "outside its limits" in rejects[1][2]
+    assert "rejected" in page.table.item(1, 5).text()
+    assert "outside its limits" in page.table.item(1, 5).toolTip()
+    assert "1</b> rejected" in page.summary.text() and "outside its limits" in page.summary.text()
+
+
+def test_start_over_moves_the_files_aside(qtbot, page):
+    assert page.start()
+    qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+    n = len(measured_ids(page))
+    assert page.start_over(confirm=False)
+    folder = page.state.project.folder
+    old = sorted(folder.glob("measurements.old-*.csv"))
+    assert len(old) == 1 and len(read_measurements(old[0]).pose) == n         # kept, not deleted
+    assert not page.measurements_path().exists()
+    assert all(r.status == PENDING for r in page.rows) and page.start_button.text() == "Start"
+
+
+def test_missing_inputs_are_said(qtbot, lab, q_file, boxes):
+    state, tasks = lab_state(lab), TaskRunner()
+    try:
+        write_poses(state.project.path("poses"), q_file)
+        page = MeasurementPage(state, tasks)
+        qtbot.addWidget(page)
+        assert not page.start()
+        assert "no trained marker" in page.status.text() and "step 3" in page.status.text()
+    finally:
+        tasks.shutdown()
+        state.close()
+
+
+def test_stop_key_stops_the_robot_and_the_run(qtbot, lab, trained, q_file, boxes):
+    from app.main_window import MainWindow
+
+    state = ready_state(lab, trained, q_file)
+    win = MainWindow(state)
+    qtbot.addWidget(win)
+    try:
+        win.show()
+        page = win.go_to(Step.MEASUREMENT)
+        robot = state.robot_connection
+        assert page.start()
+        qtbot.waitUntil(lambda: len(page_ids(page)) >= 1, timeout=30000)
+        win.activateWindow()
+        qtbot.waitUntil(lambda: QApplication.activeWindow() is win, timeout=5000)
+        qtbot.keyClick(win, Qt.Key.Key_Escape)
+        assert robot.stopped
+        qtbot.wait(50)                                            # a move already under way when Esc came
+        moves_at_stop = robot.move_count
+        qtbot.waitUntil(lambda: not page.busy, timeout=30000)
+        assert robot.move_count == moves_at_stop                 # nothing more sent after Stop
+        assert "Robot stopped" in page.status.text() and "Resume after stop" in page.status.text()
+        first = measured_ids(page)
+        assert first and sorted(first) == sorted(page_ids(page)) and page_ids(page, PENDING)
+        # a stopped robot is not started again by the page
+        assert not page.start() and "stopped" in page.status.text()
+        win.resume_robot()
+        assert page.start()
+        qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+        ids = measured_ids(page)
+        assert len(ids) == len(set(ids)) and set(first) <= set(ids) and not page_ids(page, PENDING)
+    finally:
+        win.close()
+
+
+def test_autopilot_measures_the_poses(qtbot, page):
+    outcome = []
+    page.autopilot(lambda ok=True, message="": outcome.append((ok, message)))
+    qtbot.waitUntil(lambda: bool(outcome), timeout=90000)
+    ok, message = outcome[0]
+    assert ok, message
+    assert "measured" in message and "needs 9" in message and page.is_complete()
+    ids = measured_ids(page)
+    assert len(ids) >= 9 and len(set(ids)) == len(ids)
+    # run again: everything is done, the autopilot finishes at once without measuring twice
+    again = []
+    page.autopilot(lambda ok=True, message="": again.append((ok, message)))
+    assert again and again[0][0] and measured_ids(page) == ids
+
+
+def test_measurements_of_another_pose_list_are_not_counted(qtbot, page, q_file):
+    assert page.start()
+    qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+    assert page.is_complete()
+    other = np.array(q_file, dtype=float)
+    other[:, 0] += 1.0                                        # the same pose numbers, other joint values
+    write_poses(page.state.project.path("poses"), other)
+    page.on_enter()
+    assert not page_ids(page) and not page.is_complete()
+    assert "another pose list" in page.status.text() and page.over_button.isEnabled()
+    assert page.start()                                       # the run refuses the file and says why
+    qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+    assert "another pose list" in page.status.text() and "Start over" in page.status.text()
+    assert page.start_over(confirm=False) and page.start()
+    qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+    assert len(page_ids(page)) >= 9
+
+
+def test_demo_autopilot_identifies_from_the_measured_points(qtbot, tmp_path):
+    """The classroom demo end to end (in-process): the Identification step must use the points
+    the Measurement step measured, not the synthetic ideal ones."""
+    import io
+
+    from app import messages
+    from app.autopilot import Autopilot
+    from app.main_window import MainWindow
+    from app.state import WizardState
+
+    messages.set_non_interactive(True)
+    state = WizardState()
+    win = MainWindow(state)
+    qtbot.addWidget(win)
+    try:
+        win.show()
+        state.temporary_project()
+        state.choose_preset("educational_6r")
+        out = io.StringIO()
+        pilot = Autopilot(win, out=out)
+        with qtbot.waitSignal(pilot.finished, timeout=120000) as blocker:
+            pilot.start()
+        assert blocker.args == [0], out.getvalue()
+        text = out.getvalue()
+        assert "[3/7] Marker: done" in text and "[5/7] Measurement: done (30 poses measured" in text
+        path = state.project.path("measurements")
+        meas = read_measurements(path)
+        assert len(meas.pose) >= 28 and meas.sigma is not None
+        run = win.page(Step.IDENTIFICATION).run_result
+        assert run.synthetic is None and run.source == path          # the measured points, not ideal ones
+        assert 0.005 < run.result.after.rms_mm < 0.1 and run.result.before.rms_mm > 1.0
+    finally:
+        win.close()
+        messages.set_non_interactive(False)
