@@ -219,6 +219,14 @@ class IdentificationResult:
     huber: float | None = None
     date: str = ""
     warnings: list[str] = field(default_factory=list)
+    weighted: bool = False             # the measurements gave sx, sy, sz: sigma_hat is unitless
+
+    @property
+    def sigma_hat_text(self) -> str:
+        """σ̂ with its meaning: mm per axis, or the factor on the measurements' own sigmas."""
+        if self.weighted:
+            return f"{self.sigma_hat:.4g} × the measurements' own σ (1 means they were right)"
+        return f"{self.sigma_hat:.4g} mm per axis"
 
     @property
     def n_iterations(self) -> int:
@@ -249,7 +257,7 @@ class IdentificationResult:
             "n_poses": self.n_poses, "n_points": self.n_points,
             "rms_before_mm": self.before.rms_mm, "rms_after_mm": self.after.rms_mm,
             "mean_after_mm": self.after.mean_mm, "max_after_mm": self.after.max_mm,
-            "sigma_hat": self.sigma_hat, "dof": self.dof,
+            "sigma_hat": self.sigma_hat, "sigma_hat_unit": "1" if self.weighted else "mm", "dof": self.dof,
             "iterations": self.n_iterations, "converged": self.converged,
             "rank": self.rank, "n_parameters": len(self.estimated),
             "condition_number": _finite(self.condition_number),
@@ -315,16 +323,6 @@ def _weights0(meas: Measurements) -> np.ndarray:
     return np.ones((meas.n_points, 3)) if meas.sigma is None else 1.0 / meas.sigma ** 2
 
 
-def kabsch(source: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """Rigid transform T (4x4) minimising Σ |T·source_i − target_i|² (Kabsch/Umeyama, no scale)."""
-    cs, ct = source.mean(axis=0), target.mean(axis=0)
-    H = (source - cs).T @ (target - ct)
-    U, _, Vt = np.linalg.svd(H)
-    d = np.sign(np.linalg.det(Vt.T @ U.T)) or 1.0
-    R = Vt.T @ np.diag([1.0, 1.0, d]) @ U.T
-    return tf.make_transform(R, ct - R @ cs)
-
-
 def register_base(model: RobotModel, meas: Measurements) -> RobotModel:
     """A copy of `model` whose base pose best maps its predictions onto the measurements."""
     meas = _with_q(meas, model)
@@ -336,7 +334,7 @@ def register_base(model: RobotModel, meas: Measurements) -> RobotModel:
             f"the {len(P)} measured points lie on a line, so the robot's position in the camera "
             f"frame cannot be found", source=meas.source or None,
             hint="Measure more poses, moving several joints (at least 3 points not on a line).")
-    T = kabsch(P, meas.xyz)
+    T = tf.kabsch(P, meas.xyz)
     out = model.copy()
     out.base = T @ model.base
     return out
@@ -763,7 +761,8 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
         observability=fit.observability, before=before, after=after, weights=fit.weights,
         outliers=fit.outliers, validation=validation, measurements_source=meas.source,
         n_poses=train.n_poses, n_points=train.n_points, huber=huber,
-        date=datetime.now(timezone.utc).replace(microsecond=0).isoformat(), warnings=warnings)
+        date=datetime.now(timezone.utc).replace(microsecond=0).isoformat(), warnings=warnings,
+        weighted=train.sigma is not None)
     model.calibration = result.calibration_section()
     return result
 

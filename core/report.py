@@ -143,7 +143,8 @@ def _identification_section(calibration: dict | None, source: str, accuracy: dic
                  f"{'converged' if s.get('converged') else 'not converged'}; "
                  f"{_e(s.get('n_parameters', '?'))} parameters estimated, rank {_e(s.get('rank', '?'))}, "
                  f"condition number κ = {_g(s.get('condition_number'))}; "
-                 f"σ̂ = {_f(s.get('sigma_hat'), 4)} mm per axis.</p>")
+                 f"σ̂ = {_f(s.get('sigma_hat'), 4)} "
+                 f"{'× the measurements’ own σ' if s.get('sigma_hat_unit') == '1' else 'mm per axis'}.</p>")
     parts.append("<p><b>Position errors on the fitted poses (mm)</b></p>")
     parts.append(_stats_table([("before (nominal model, base registered)", {"rms_mm": s.get("rms_before_mm")}),
                                ("after (calibrated model)", {"mean_mm": s.get("mean_after_mm"),

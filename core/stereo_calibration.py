@@ -61,6 +61,7 @@ from core.checkerboard import (MIN_PAIRS_TO_CALIBRATE, Coverage, DetectionResult
 from core.errors import RoboCalError, UsageError
 from core.stereo_rig import StereoRig
 from core.task import Monitor
+from core.transforms import best_rotation
 
 DIST_NAMES = ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6")
 MIN_VIEWS_PER_HALF = 4
@@ -885,7 +886,7 @@ def compare_cameras(Ka, Da, Kb, Db, image_size: tuple[int, int], observed_points
     fit_set = ok & inside
     if fit_set.sum() < 3:
         fit_set = ok
-    Rab = _kabsch(ray_a[fit_set], ray_b[fit_set])
+    Rab = best_rotation(ray_a[fit_set], ray_b[fit_set])
     rotated = ray_a @ Rab.T
     proj, _ = cv2.projectPoints(rotated.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), Kb, Db)
     diff = np.linalg.norm(proj.reshape(-1, 2) - px, axis=1)
@@ -909,11 +910,3 @@ def _rays(px: np.ndarray, K, D) -> tuple[np.ndarray, np.ndarray]:
     ok = np.all(np.isfinite(rays), axis=1) & (np.linalg.norm(back.reshape(-1, 2) - px, axis=1) < 0.05)
     norm = np.linalg.norm(rays, axis=1, keepdims=True)
     return rays / np.where(norm > 0, norm, 1.0), ok
-
-
-def _kabsch(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Rotation R minimising Σ|R·a − b|² over unit vectors."""
-    H = a.T @ b
-    U, _, Vt = np.linalg.svd(H)
-    d = np.sign(np.linalg.det(Vt.T @ U.T)) or 1.0
-    return Vt.T @ np.diag([1.0, 1.0, d]) @ U.T

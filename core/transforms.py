@@ -68,3 +68,17 @@ def transform_points(T: np.ndarray, points: np.ndarray) -> np.ndarray:
 def rotation_angle(R: np.ndarray) -> float:
     """Angle (rad) of a rotation matrix."""
     return float(np.arccos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)))
+
+
+def best_rotation(source: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """Rotation R (3x3) minimising Σ |R·source_i − target_i|² (no translation; SVD, no reflection)."""
+    U, _, Vt = np.linalg.svd(np.asarray(source, dtype=float).T @ np.asarray(target, dtype=float))
+    d = np.sign(np.linalg.det(Vt.T @ U.T)) or 1.0
+    return Vt.T @ np.diag([1.0, 1.0, d]) @ U.T
+
+
+def kabsch(source: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """Rigid transform T (4x4) minimising Σ |T·source_i − target_i|² (Kabsch/Umeyama, no scale)."""
+    cs, ct = source.mean(axis=0), target.mean(axis=0)
+    R = best_rotation(source - cs, target - ct)
+    return make_transform(R, ct - R @ cs)

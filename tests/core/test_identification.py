@@ -15,7 +15,7 @@ from core.calibration_jacobian import (all_parameters, apply_step, calibration_j
 from core.errors import Cancelled, RoboCalError, UsageError
 from core.identifiability import (FIXED_BY_USER, HAYATI, NOT_IDENTIFIABLE, analyse, check_data,
                                   observability_indices, observation_matrix, random_configurations)
-from core.identification import (error_stats, evaluate, identify, identify_files, kabsch, kfold_poses,
+from core.identification import (error_stats, evaluate, identify, identify_files, kfold_poses,
                                  register_base, split_poses, write_calibrated_model)
 from core.kinematics import PRISMATIC, Joint, RobotModel, robot_path
 from core.measurements import write_measurements
@@ -163,7 +163,7 @@ def test_kabsch_and_base_registration(presets):
     rng = np.random.default_rng(3)
     P = rng.normal(0, 100, (10, 3))
     T = tf.pose_to_matrix([100, -20, 900], [0.3, -1.0, 2.0])
-    np.testing.assert_allclose(kabsch(P, tf.transform_points(T, P)), T, atol=1e-9)
+    np.testing.assert_allclose(tf.kabsch(P, tf.transform_points(T, P)), T, atol=1e-9)
     nominal = presets["educational_6r"]
     true = nominal.copy()
     true.base = T
@@ -402,3 +402,15 @@ def test_check_data_returns_indices(presets):
     Q = random_configurations(nominal, 30, seed=4)
     obs = check_data(nominal, Q, ["marker"] * 30, ident)
     assert obs.rank == len(ident.free) and obs.o1 > 0 and obs.n_points == 30
+
+
+def test_sigma_hat_is_unitless_when_the_measurements_carry_sigmas(presets):
+    nominal = presets["educational_6r"]
+    true = perturbed_model(nominal, 4)
+    plain = identify(nominal, simulate_measurements(true, 40, sigma_mm=0.05, rng=1))
+    weighted = identify(nominal, simulate_measurements(true, 40, sigma_mm=0.05, rng=1, with_sigma=True))
+    assert not plain.weighted and "mm per axis" in plain.sigma_hat_text
+    assert plain.sigma_hat == pytest.approx(0.05, rel=0.25)
+    assert weighted.weighted and "own σ" in weighted.sigma_hat_text
+    assert weighted.sigma_hat == pytest.approx(1.0, rel=0.25)          # the given sigmas were right
+    assert weighted.calibration_section()["statistics"]["sigma_hat_unit"] == "1"

@@ -37,6 +37,18 @@ def test_a_shifted_base_gives_exactly_the_shift(robot):
     assert c.summary()["rms_mm"] == pytest.approx(5.0)
 
 
+def test_alignment_removes_a_frame_offset_but_not_a_geometry_error(robot):
+    Q = random_configurations(robot, 40, seed=3)
+    moved = robot.copy()                                   # the same robot in a tilted frame
+    moved.base = tf.pose_to_matrix([2.0, -1.0, 0.5], np.deg2rad([0.05, -0.03, 0.04])) @ robot.base
+    c = compare_models(robot, moved, Q, align=True)
+    assert c.aligned and c.rms_mm < 1e-9 and c.raw_rms_mm > 2.0
+    bent = moved.copy()
+    bent.joints[2].a += 0.5                                # a real geometric error stays visible
+    c = compare_models(robot, bent, Q, align=True)
+    assert 0.05 < c.rms_mm < 0.5 and c.raw_rms_mm > c.rms_mm
+
+
 def test_statistics_match_a_direct_computation(robot):
     other = perturbed_model(robot, 3, base_xyz=(0, 0, 0), base_rpy_deg=(0, 0, 0))
     other.targets["tip"] = np.array([0.0, 10.0, 40.0])
