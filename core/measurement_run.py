@@ -39,7 +39,8 @@ from core.pose_file import PoseList
 REJECTS_FAMILY = "robocal.rejects"
 REJECTS_FORMAT = f"{REJECTS_FAMILY}/1"
 REJECTS_TAG = f"# {REJECTS_FORMAT} ; poses that gave no measurement, with the reason"
-JOINT_TOLERANCE = 1e-3         # file units (deg / mm): the same pose when resuming
+JOINT_TOLERANCE = 0.05         # file units (deg / mm): the same pose when resuming (a real robot
+                               # records the joint values its encoders report, not the commanded ones)
 
 
 def rejects_path_for(out: str | Path) -> Path:
@@ -307,21 +308,25 @@ def run_measurements(poses: PoseList, out: str | Path, *, locate: Callable, capt
                         raise _PoseRejected(exc.problem) from None
                     driver.move_to(q)          # a robot that is stopped or disconnected aborts the run
                     q_now = driver.current_joints()
+                    q_record = driver.model.q_to_file(q_now)   # what the robot reports it reached
                 else:
-                    q_now = q
+                    q_now, q_record = q, q_file
                 try:
                     pair = capture(q_now) if capture is not None else capture_pose(pid, q_now)
                 except RoboCalError as exc:
                     raise _PoseRejected(f"capture failed: {exc.message}") from None
                 if pair is None or len(pair) != 2 or pair[0] is None or pair[1] is None:
                     raise _PoseRejected("capture failed: no image pair")
+                if driver is not None and driver.stopped:
+                    raise RoboCalError("the robot was stopped while this pose was captured; it is not recorded",
+                                       source=driver.name, hint="Resume the robot, then resume the run.")
                 location = locate(pair[0], pair[1])
                 if not location.ok:
                     raise _PoseRejected(location.reason)
                 point = np.asarray(location.point, dtype=float)
                 sig = (np.maximum(np.asarray(location.sigma, dtype=float), 1e-6)      # written with 6 decimals
                        if location.covariance is not None else None)
-                writer.append(pid, target, q_file, point, sig if writer.sigmas else None)
+                writer.append(pid, target, q_record, point, sig if writer.sigmas else None)
                 outcome.status, outcome.point, outcome.sigma = "measured", point, sig
             except _PoseRejected as rej:
                 reason = str(rej)

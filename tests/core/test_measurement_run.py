@@ -178,6 +178,35 @@ def test_driver_refuses_joints_outside_limits_and_stops_abort(tmp_path):
     assert not (tmp_path / "n.csv").exists() or "marker" not in (tmp_path / "n.csv").read_text()
 
 
+class EncoderRobot(SimulatedRobot):
+    """Reaches every pose 0.01° off on joint 1, as real encoders report it."""
+
+    def current_joints(self):
+        q = super().current_joints().copy()
+        q[0] += np.deg2rad(0.01)
+        return q
+
+
+def test_the_reported_joint_values_are_recorded_and_a_stop_during_capture_records_nothing(tmp_path):
+    robot_model = scenes.lab().true_robot
+    Q = np.deg2rad([[10.0, 20, 30, 0, 40, 0], [12.0, 22, 28, 5, 35, 10], [15.0, 18, 25, 0, 30, 0]])
+    poses = poses_from_internal(Q, robot_model)
+    with EncoderRobot(robot_model) as robot:
+        run_measurements(poses, tmp_path / "m.csv", locate=fake_locate, capture=fake_capture, driver=robot)
+    meas = read_measurements(tmp_path / "m.csv")
+    np.testing.assert_allclose(meas.q_file[:, 0], poses.q_file[:, 0] + 0.01, atol=1e-6)
+    np.testing.assert_allclose(meas.q_file[:, 1:], poses.q_file[:, 1:], atol=1e-6)
+
+    with SimulatedRobot(robot_model) as robot:
+        def capture_then_stop(q):
+            robot.stop()                  # Esc pressed while the cameras were grabbing
+            return fake_capture(q)
+
+        with pytest.raises(RoboCalError, match="stopped while this pose was captured"):
+            run_measurements(poses, tmp_path / "s.csv", locate=fake_locate, capture=capture_then_stop, driver=robot)
+    assert "marker" not in (tmp_path / "s.csv").read_text()
+
+
 def test_virtual_lab_run_with_the_real_pipeline(tmp_path):
     from core.correspondence import StereoRectification
     from core.marker_location import MarkerLocator
