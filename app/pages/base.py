@@ -99,5 +99,13 @@ class WizardPage(QWidget):
                                 on_cancelled=on_cancelled, on_progress=on_progress,
                                 label=label or self.title, **kwargs)
 
+    def _set_status(self, text: str, ok: bool | None = None) -> None:
+        """Show `text` in the page's status line (`self.status`, a QLabel named pageStatus):
+        green when ok, amber otherwise (the main window's style sheet)."""
+        self.status.setText(text)
+        self.status.setProperty("ok", "true" if ok else "false")
+        self.status.style().unpolish(self.status)
+        self.status.style().polish(self.status)
+
     def show_error(self, message: str) -> None:
         show_error(self, message, f"RoboCal: {self.title}")

@@ -346,12 +346,6 @@ class ExportPage(WizardPage):
         colour = {True: "#188038", False: "#80868b", None: "#5f6368"}[ok]
         label.setStyleSheet(f"color: {colour};")
 
-    def _set_status(self, text: str, ok: bool | None) -> None:
-        self.status.setText(text)
-        self.status.setProperty("ok", bool(ok))
-        self.status.style().unpolish(self.status)
-        self.status.style().polish(self.status)
-
     def row_text(self, key: str) -> str:
         """Target and status of one row (tests)."""
         row = self.rows[key]

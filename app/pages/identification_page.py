@@ -619,12 +619,6 @@ class IdentificationPage(WizardPage):
             self.progress.setFormat("")
         self._update_export_buttons()
 
-    def _set_status(self, text: str, ok: bool | None) -> None:
-        self.status.setText(text)
-        self.status.setProperty("ok", bool(ok))
-        self.status.style().unpolish(self.status)
-        self.status.style().polish(self.status)
-
     # -- options widgets -----------------------------------------------------------------
     def _validation_changed(self, *_):
         mode = self.validation_combo.currentIndex()

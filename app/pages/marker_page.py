@@ -864,12 +864,6 @@ class MarkerPage(WizardPage):
         self.cancel_button.setEnabled(busy)
         self.compare_button.setEnabled(not busy and virtual)
 
-    def _set_status(self, text: str, ok: bool | None) -> None:
-        self.status.setText(text)
-        self.status.setProperty("ok", "true" if ok else "false")
-        self.status.style().unpolish(self.status)
-        self.status.style().polish(self.status)
-
     # -- stereo preview -----------------------------------------------------------------------
     def use_preview(self, then=None) -> bool:
         """Virtual lab without a stereo calibration: locate with the lab's true cameras."""

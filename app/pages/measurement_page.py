@@ -773,12 +773,6 @@ class MeasurementPage(WizardPage):
         self.over_button.setEnabled(not busy and (done_before or on_disk))
         self.load_button.setEnabled(not busy)
 
-    def _set_status(self, text: str, ok: bool | None) -> None:
-        self.status.setText(text)
-        self.status.setProperty("ok", "true" if ok else "false")
-        self.status.style().unpolish(self.status)
-        self.status.style().polish(self.status)
-
     def _ready_status(self) -> None:
         c = self.counts()
         if getattr(self, "_file_problem", ""):

@@ -391,12 +391,6 @@ class PosesPage(WizardPage):
         for w in (self.count_spin, self.index_combo, self.candidates_spin, self.margin_spin, self.seed_spin):
             w.setEnabled(not busy)
 
-    def _set_status(self, text: str, ok: bool | None) -> None:
-        self.status.setText(text)
-        self.status.setProperty("ok", bool(ok))
-        self.status.style().unpolish(self.status)
-        self.status.style().polish(self.status)
-
     # -- drawing ---------------------------------------------------------------------------
     def _index_changed(self, *_):
         """Show the curve of the newly chosen index for the current selection (the selection

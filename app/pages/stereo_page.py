@@ -672,12 +672,6 @@ class StereoPage(WizardPage):
         self._set_status(message, ok=ok)
         self.notify_complete()
 
-    def _set_status(self, text: str, ok: bool | None = None) -> None:
-        self.status.setText(text)
-        self.status.setProperty("ok", "true" if ok else "false")
-        self.status.style().unpolish(self.status)
-        self.status.style().polish(self.status)
-
     # -- WizardPage ---------------------------------------------------------------------------
     def on_enter(self) -> None:
         self._update_buttons()
