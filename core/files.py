@@ -83,17 +83,25 @@ def drop_partial_last_line(path: str | Path) -> bool:
     return True
 
 
-def read_json(path: str | Path) -> dict:
-    """Read a JSON object, with a clear message for a missing or malformed file."""
+def read_text(path: str | Path, kind: str) -> str:
+    """The text of a UTF-8 file (a byte-order mark is dropped), with one clear message for a
+    missing, unreadable or binary file; `kind` names what was expected ("a JSON file")."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        return path.read_text(encoding="utf-8-sig")
     except FileNotFoundError as exc:
         raise RoboCalError("file not found", source=path, hint="Check the path.") from exc
+    except IsADirectoryError as exc:
+        raise RoboCalError("this is a folder, not a file", source=path, hint=f"Give {kind}.") from exc
     except OSError as exc:
         raise RoboCalError(f"cannot read the file ({exc.strerror})", source=path) from exc
     except UnicodeDecodeError as exc:
-        raise RoboCalError("not a text file", source=path, hint="Give a JSON file.") from exc
+        raise RoboCalError("not a text file", source=path, hint=f"Give {kind}.") from exc
+
+
+def read_json(path: str | Path) -> dict:
+    """Read a JSON object, with a clear message for a missing or malformed file."""
+    text = read_text(path, "a JSON file")
     try:
         data = json.loads(text)
     except json.JSONDecodeError as exc:

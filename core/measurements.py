@@ -33,7 +33,7 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from core.errors import RoboCalError
-from core.files import atomic_write_text, drop_partial_last_line
+from core.files import atomic_write_text, drop_partial_last_line, read_text
 from core.kinematics import RobotModel
 
 FORMAT_FAMILY = "robocal.measurements"
@@ -222,14 +222,7 @@ def read_measurements(path: str | Path, robot: RobotModel | None = None) -> Meas
     and the column, and says what to do.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except FileNotFoundError as exc:
-        raise RoboCalError("file not found", source=path, hint="Check the path.") from exc
-    except OSError as exc:
-        raise RoboCalError(f"cannot read the file ({exc.strerror})", source=path) from exc
-    except UnicodeDecodeError as exc:
-        raise RoboCalError("not a text file", source=path, hint="Give a measurements CSV file.") from exc
+    text = read_text(path, "a measurements CSV file")
 
     minor = None
     layout = None

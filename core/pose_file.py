@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from core.errors import RoboCalError
-from core.files import atomic_write_text
+from core.files import atomic_write_text, read_text
 from core.kinematics import RobotModel
 
 
@@ -54,14 +54,7 @@ def read_poses(path: str | Path, robot: RobotModel | None = None) -> PoseList:
     """Read poses.csv; with `robot`, check the joint count and the limits and convert to
     internal units. Errors name the file and line and say what to do."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except FileNotFoundError as exc:
-        raise RoboCalError("file not found", source=path, hint="Check the path.") from exc
-    except OSError as exc:
-        raise RoboCalError(f"cannot read the file ({exc.strerror})", source=path) from exc
-    except UnicodeDecodeError as exc:
-        raise RoboCalError("not a text file", source=path, hint="Give a poses CSV file.") from exc
+    text = read_text(path, "a poses CSV file")
     header = None
     poses, rows = [], []
     for line_no, raw in enumerate(text.splitlines(), start=1):

@@ -112,3 +112,11 @@ def test_failed_write_leaves_previous_file(tmp_path, monkeypatch):
 def test_round_trip_dict_is_stable():
     data = robot_to_dict(robot_from_dict(_preset_dict("abb_irb120")))
     assert robot_to_dict(robot_from_dict(data)) == data
+
+
+def test_a_folder_or_a_binary_file_is_refused_clearly(tmp_path):
+    with pytest.raises(RoboCalError, match="this is a folder, not a file"):
+        read_robot(tmp_path)
+    (tmp_path / "robot.json").write_bytes(b"\x89PNG\r\n\x1a\n\xff\xfe")
+    with pytest.raises(RoboCalError, match="not a text file. Give a JSON file"):
+        read_robot(tmp_path / "robot.json")
