@@ -7,7 +7,7 @@ from pathlib import Path
 
 from PySide6.QtCore import QEvent, QObject, QSize, Qt, Signal
 from PySide6.QtGui import QAction, QCloseEvent, QIcon, QKeyEvent, QKeySequence
-from PySide6.QtWidgets import (QApplication, QDockWidget, QHBoxLayout, QLabel, QMainWindow,
+from PySide6.QtWidgets import (QApplication, QDockWidget, QHBoxLayout, QLabel, QMainWindow, QMenu,
                                QProgressBar, QPushButton, QSplitter, QStackedWidget, QStyle,
                                QVBoxLayout, QWidget)
 
@@ -42,8 +42,8 @@ QPushButton#nextButton { font-weight: 600; }
 
 
 class _StopKeyWhileModal(QObject):
-    """Qt blocks the window's shortcuts while a modal dialog is open. The Stop keys must still
-    stop the robot then (the dialog gets the key too: Esc also closes it)."""
+    """Qt blocks the window's shortcuts while a modal dialog or a menu is open. The Stop keys
+    must still stop the robot then (the dialog or menu gets the key too: Esc also closes it)."""
 
     def __init__(self, window: "MainWindow"):
         super().__init__(window)
@@ -51,7 +51,9 @@ class _StopKeyWhileModal(QObject):
         self._last = (None, 0.0)
 
     def eventFilter(self, obj, event) -> bool:
-        if (event.type() == QEvent.Type.KeyPress and QApplication.activeModalWidget() is not None
+        blocked = (QApplication.activeModalWidget() is not None
+                   or isinstance(QApplication.activePopupWidget(), QMenu))   # menus eat Esc too
+        if (event.type() == QEvent.Type.KeyPress and blocked
                 and isinstance(event, QKeyEvent) and not event.isAutoRepeat()):
             key, mods = event.key(), event.modifiers() & ~Qt.KeyboardModifier.KeypadModifier
             if ((key == Qt.Key.Key_Escape and mods == Qt.KeyboardModifier.NoModifier)

@@ -137,6 +137,8 @@ class WizardState(QObject):
             new = SimulatedRobot(truth if isinstance(truth, RobotModel) else self.robot)
             new.connect()
         if old is not None:
+            if old.stopped and new is not None:
+                new.stop()                  # a Stop latches until the user resumes, whatever replaced the driver
             old.stop()
             old.disconnect()
         self.robot_connection = new

@@ -129,7 +129,10 @@ class _Job(QRunnable):
             log.error("task %r failed", self.handle.label, exc_info=exc)
             self.signals.error.emit(hid, error_message(exc))
         else:
-            self.signals.result.emit(hid, value)
+            if self.handle.event.is_set():     # Cancel (or Stop) came while fn ran without
+                self.signals.cancelled.emit(hid)   # checking it: the result is not used
+            else:
+                self.signals.result.emit(hid, value)
 
 
 class TaskRunner(QObject):
@@ -157,6 +160,7 @@ class TaskRunner(QObject):
         self._tasks: dict[int, TaskHandle] = {}
         self._next_id = 1
         self._interval = progress_interval
+        self._closing = False
         _RUNNERS.add(self)
 
     # -- starting and stopping -----------------------------------------------------------
@@ -169,6 +173,10 @@ class TaskRunner(QObject):
         on a worker thread. Callbacks run on the GUI thread."""
         handle = TaskHandle(self._next_id, label)
         self._next_id += 1
+        if self._closing:                   # the window is closing: no new work, no callbacks
+            handle.running, handle.outcome = False, "cancelled"
+            handle.event.set()
+            return handle
         handle.on_result, handle.on_error = on_result, on_error
         handle.on_cancelled, handle.on_progress = on_cancelled, on_progress
         was_busy = self.busy
@@ -186,10 +194,6 @@ class TaskRunner(QObject):
     @property
     def busy(self) -> bool:
         return bool(self._tasks)
-
-    def active_count(self) -> int:
-        """Tasks started and not yet delivered (queued, running, or result in flight)."""
-        return len(self._tasks)
 
     def running_tasks(self) -> list[TaskHandle]:
         return list(self._tasks.values())
@@ -210,7 +214,9 @@ class TaskRunner(QObject):
                 return False
 
     def shutdown(self, timeout_ms: int = 30000) -> bool:
-        """Cancel everything and wait for the threads (closing the window, test teardown)."""
+        """Cancel everything, refuse new work, and wait for the threads (closing the window,
+        test teardown)."""
+        self._closing = True
         self.cancel_all()
         done = self.wait(timeout_ms)
         self._pool.waitForDone(timeout_ms)

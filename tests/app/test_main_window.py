@@ -287,3 +287,13 @@ def test_stop_key_works_while_a_modal_dialog_is_open(ready_window, qtbot):
     qtbot.keyClick(ready_window, Qt.Key.Key_A)        # other keys do nothing
     assert robot.stop_count == 2
     dialog.deleteLater()
+
+
+def test_stop_key_works_while_a_menu_is_open(ready_window, qtbot):
+    robot = ready_window.state.robot_connection
+    menu = ready_window.menuBar().actions()[0].menu()
+    menu.popup(ready_window.mapToGlobal(ready_window.rect().center()))
+    qtbot.waitUntil(lambda: QApplication.activePopupWidget() is menu, timeout=5000)
+    qtbot.keyClick(menu, Qt.Key.Key_Escape)           # Esc stops the robot and closes the menu
+    assert robot.stopped and robot.stop_count == 1
+    qtbot.waitUntil(lambda: not menu.isVisible(), timeout=5000)

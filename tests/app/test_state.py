@@ -89,6 +89,15 @@ def test_a_lab_built_on_a_worker_is_adopted_once(state, fake_lab, qtbot):
     assert state.lab is built                         # the first one stays
 
 
+def test_a_stop_survives_a_new_robot_connection(state, fake_lab, qtbot):
+    state.seed, state.noise = 7, 0.0
+    state.choose_preset("educational_6r")
+    state.robot_connection.stop()                 # Esc while a page built the lab on a worker
+    state.adopt_lab(FakeLab.create(robot=state.robot, seed=7, noise=0.0))
+    assert state.robot_connection.model is state.lab.true_robot
+    assert state.robot_connection.stopped         # the new driver refuses to move until Resume
+
+
 def test_lab_missing_is_a_clear_error(state, monkeypatch):
     monkeypatch.setattr(WizardState, "lab_available", staticmethod(lambda: False))
     with pytest.raises(RoboCalError, match="virtual lab is not available"):

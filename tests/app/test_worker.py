@@ -158,6 +158,32 @@ def test_cancel_all_before_start_never_runs_the_function(qtbot):
     assert out.cancelled and not ran
 
 
+def test_a_cancel_during_a_function_that_never_checks_drops_its_result(qtbot, runner):
+    started, gate = threading.Event(), threading.Event()
+
+    def build_lab():                              # takes no `cancelled`: cannot stop early
+        started.set()
+        gate.wait(10)
+        return "lab"
+
+    out = Outcome()
+    handle = runner.start(build_lab, **out.kwargs())
+    assert started.wait(10)
+    handle.cancel()                               # e.g. the Stop key while it runs
+    gate.set()
+    qtbot.waitUntil(lambda: not runner.busy, timeout=10000)
+    assert out.cancelled and out.result is None and handle.outcome == "cancelled"
+
+
+def test_no_new_work_once_shutting_down(qtbot):
+    runner = TaskRunner()
+    assert runner.shutdown(10000)
+    ran, out = [], Outcome()
+    handle = runner.start(lambda: ran.append(1), **out.kwargs())
+    assert handle.outcome == "cancelled" and not runner.busy
+    assert runner.wait(1000) and not ran and out.result is None
+
+
 def test_function_without_progress_keywords(qtbot, runner):
     out = Outcome()
     runner.start(lambda a, b=0: a + b, 2, b=3, **out.kwargs())
