@@ -214,9 +214,9 @@ class Identifiability:
 
 
 def random_configurations(model: RobotModel, count: int, seed: int = 0) -> np.ndarray:
-    """Configurations drawn uniformly within the joint limits (internal units)."""
-    lo, hi = model.limits()
-    lo, hi = np.maximum(lo, -np.pi * 2), np.minimum(hi, np.pi * 2)
+    """Configurations drawn uniformly within the joint limits (internal units; revolute
+    ranges wider than ±180° sampled within ±180°)."""
+    lo, hi = model.sampling_range()
     return np.random.default_rng(seed).uniform(lo, hi, size=(count, model.dof))
 
 

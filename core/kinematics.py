@@ -80,6 +80,31 @@ class RobotModel:
     def limits(self) -> tuple[np.ndarray, np.ndarray]:
         return (np.array([j.min for j in self.joints]), np.array([j.max for j in self.joints]))
 
+    def sampling_range(self, margin=0.0) -> tuple[np.ndarray, np.ndarray]:
+        """Joint limits shrunk by `margin` (file units: deg for revolute joints, mm for
+        prismatic; a scalar or one per joint), revolute ranges clipped to ±180°; internal
+        units. Raises RoboCalError when a margin leaves no range."""
+        from core.errors import RoboCalError
+
+        lo, hi = self.limits()
+        rev = self.revolute_mask()
+        m = np.broadcast_to(np.asarray(margin, dtype=float), (self.dof,))
+        if np.any(m < 0):
+            raise RoboCalError("joint margins must not be negative", hint="Give margins of 0 or more degrees.")
+        m_int = np.where(rev, np.deg2rad(m), m)
+        lo = np.where(rev, np.maximum(lo, -np.pi), lo) + m_int
+        hi = np.where(rev, np.minimum(hi, np.pi), hi) - m_int
+        bad = np.flatnonzero(lo >= hi)
+        if len(bad):
+            i = int(bad[0])
+            j = self.joints[i]
+            unit = "°" if j.revolute else " mm"
+            width = (np.rad2deg(j.max - j.min) if j.revolute else j.max - j.min)
+            raise RoboCalError(f"a joint margin of {m[i]:g}{unit} leaves no range for joint {i + 1} "
+                               f"(its limits span {width:g}{unit})",
+                               hint=f"Use a margin smaller than {width / 2:g}{unit}.")
+        return lo, hi
+
     def within_limits(self, q, margin: float = 0.0) -> np.ndarray:
         """True where every joint value of q (..., n) lies inside its limits (internal units)."""
         lo, hi = self.limits()

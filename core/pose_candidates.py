@@ -208,30 +208,6 @@ def below_floor(robot: RobotModel, Q, floor: float, clearance: float = FLOOR_CLE
 
 
 # -- sampling -------------------------------------------------------------------------------
-def sampling_range(robot: RobotModel, margin=DEFAULT_MARGIN_DEG) -> tuple[np.ndarray, np.ndarray]:
-    """Joint limits shrunk by `margin` (deg for revolute joints, mm for prismatic; a scalar or one
-    per joint), revolute ranges clipped to ±180°. Internal units. Raises RoboCalError when a
-    margin leaves no range."""
-    lo, hi = robot.limits()
-    rev = robot.revolute_mask()
-    m = np.broadcast_to(np.asarray(margin, dtype=float), (robot.dof,))
-    if np.any(m < 0):
-        raise RoboCalError("joint margins must not be negative", hint="Give margins of 0 or more degrees.")
-    m_int = np.where(rev, np.deg2rad(m), m)
-    lo = np.where(rev, np.maximum(lo, -np.pi), lo) + m_int
-    hi = np.where(rev, np.minimum(hi, np.pi), hi) - m_int
-    bad = np.flatnonzero(lo >= hi)
-    if len(bad):
-        i = int(bad[0])
-        j = robot.joints[i]
-        unit = "°" if j.revolute else " mm"
-        width = (np.rad2deg(j.max - j.min) if j.revolute else j.max - j.min)
-        raise RoboCalError(f"a joint margin of {m[i]:g}{unit} leaves no range for joint {i + 1} "
-                           f"(its limits span {width:g}{unit})",
-                           hint=f"Use a margin smaller than {width / 2:g}{unit}.")
-    return lo, hi
-
-
 def generate_candidates(robot: RobotModel, count: int, *, seed: int = 0, margin=DEFAULT_MARGIN_DEG,
                         rig: StereoRig | None = None, plate_size=None, target: str = "marker",
                         visibility: VisibilityOptions | None = None, floor: float | None = None,
@@ -249,7 +225,7 @@ def generate_candidates(robot: RobotModel, count: int, *, seed: int = 0, margin=
         raise RoboCalError(f"the robot '{robot.name}' has no target '{target}'",
                            hint="Add it to the robot model's targets (e.g. \"marker\": [0, 0, 25]).")
     monitor = Monitor(progress, cancelled)
-    lo, hi = sampling_range(robot, margin)
+    lo, hi = robot.sampling_range(margin)
     rng = np.random.default_rng(seed)
     radii = collision_radii(robot) if collision else None
     vis_opts = (visibility or VisibilityOptions()).as_kwargs()

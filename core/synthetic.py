@@ -48,9 +48,7 @@ def simulate_measurements(true: RobotModel, n_poses: int, *, sigma_mm: float = 0
     rng = np.random.default_rng(rng)
     targets = list(true.targets) if targets is None else list(targets)
     if Q is None:
-        lo, hi = true.limits()
-        m = np.deg2rad(margin_deg)
-        lo, hi = np.maximum(lo + m, -np.pi), np.minimum(hi - m, np.pi)
+        lo, hi = true.sampling_range(margin_deg)      # margin in deg (revolute) / mm (prismatic)
         Q = rng.uniform(lo, hi, size=(n_poses, true.dof))
     Q = np.atleast_2d(Q)
     Qp = np.repeat(Q, len(targets), axis=0)

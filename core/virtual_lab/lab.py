@@ -174,11 +174,7 @@ class VirtualLab:
         visibility_options.setdefault("min_depth", POSE_DEPTH[0])
         visibility_options.setdefault("max_depth", POSE_DEPTH[1])
         robot = self.true_robot
-        lo, hi = robot.limits()
-        rev = robot.revolute_mask()
-        margin = np.where(rev, np.deg2rad(1.0), 1.0)
-        lo = np.where(rev, np.maximum(lo, -np.pi), lo) + margin
-        hi = np.where(rev, np.minimum(hi, np.pi), hi) - margin
+        lo, hi = robot.sampling_range(1.0)
         found: list[np.ndarray] = []
         for _ in range(max_tries):
             if len(found) >= n:

@@ -143,3 +143,16 @@ def test_rpy_round_trip(rpy):
     np.testing.assert_allclose(tf.rpy_to_matrix(tf.matrix_to_rpy(R)), R, atol=1e-9)
     T = tf.pose_to_matrix([1, 2, 3], rpy)
     np.testing.assert_allclose(tf.invert(T) @ T, np.eye(4), atol=1e-12)
+
+
+def test_sampling_range_keeps_each_joints_units():
+    model = RobotModel("gantry", [
+        Joint(type="prismatic", d=0.0, alpha=np.pi / 2, min=0.0, max=300.0),
+        Joint(type="revolute", a=50.0, min=-np.deg2rad(270), max=np.deg2rad(270)),
+    ])
+    lo, hi = model.sampling_range(5.0)
+    np.testing.assert_allclose(lo, [5.0, -np.pi + np.deg2rad(5)])     # 5 mm, and 5° inside ±180°
+    np.testing.assert_allclose(hi, [295.0, np.pi - np.deg2rad(5)])
+    from core.identifiability import random_configurations
+    Q = random_configurations(model, 500, seed=1)
+    assert Q[:, 0].max() > 200.0 and Q[:, 0].min() >= 0.0            # the whole prismatic stroke

@@ -10,7 +10,7 @@ from core.errors import Cancelled, RoboCalError, UsageError
 from core.identifiability import analyse, characteristic_scales, observability_indices, observation_matrix
 from core.kinematics import robot_path
 from core.pose_candidates import (REJECT_COLLISION, REJECT_FACING, REJECT_FLOOR, REJECT_IMAGE, arm_polyline,
-                                  generate_candidates, sampling_range, segment_distance, self_collision)
+                                  generate_candidates, segment_distance, self_collision)
 from core.pose_file import format_poses, read_poses, write_poses
 from core.pose_ordering import distance_matrix, order_poses, path_length
 from core.pose_selection import (INDEX_KEYS, INDEXES, _score, _Selector, indices_from_eigenvalues, lab_options,
@@ -161,7 +161,7 @@ def test_candidates_respect_margins_and_are_rounded(arm):
     qf = arm.q_to_file(c.Q)
     np.testing.assert_allclose(qf, np.round(qf, 3), atol=1e-9)
     with pytest.raises(RoboCalError, match="leaves no range for joint 2"):
-        sampling_range(arm, 100.0)
+        arm.sampling_range(100.0)
 
 
 def test_visibility_rejections(lab):
