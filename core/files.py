@@ -71,15 +71,19 @@ def drop_partial_last_line(path: str | Path) -> bool:
     """Cut a partly written last line (a run killed mid-write) off an append-only text file,
     so that appending goes on after the last complete line. True if there was one."""
     path = Path(path)
-    if not path.exists():
-        return False
-    data = path.read_bytes()
-    if not data or data.endswith(b"\n"):
-        return False
-    with open(path, "r+b") as handle:
-        handle.truncate(data.rfind(b"\n") + 1)
-        handle.flush()
-        os.fsync(handle.fileno())
+    try:
+        if not path.exists():
+            return False
+        data = path.read_bytes()
+        if not data or data.endswith(b"\n"):
+            return False
+        with open(path, "r+b") as handle:
+            handle.truncate(data.rfind(b"\n") + 1)
+            handle.flush()
+            os.fsync(handle.fileno())
+    except OSError as exc:
+        raise RoboCalError(f"cannot repair the file's interrupted last line ({exc.strerror})", source=path,
+                           hint="Check the file's permissions.") from exc
     return True
 
 

@@ -150,7 +150,8 @@ def random_marker_pose(lab, rng: np.random.Generator, *, depth=(400.0, 900.0), m
         if both and not lab.rig.right.in_image(lab.rig.right.project(lab.rig.to_right(corners)), margin).all():
             continue
         return T
-    raise RuntimeError("no random marker pose found in view")
+    raise RoboCalError("no random marker pose keeps the marker in view of the cameras",
+                       hint="Check the virtual lab's cameras and the marker size.")
 
 
 def view_tilt(T: np.ndarray) -> float:

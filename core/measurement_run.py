@@ -58,9 +58,15 @@ def poses_from_internal(Q, robot: RobotModel, ids=None) -> PoseList:
     return PoseList(q_file=q_file, Q=Q, pose=np.arange(len(Q)) if ids is None else np.asarray(ids, int))
 
 
-def _internal(poses: PoseList) -> np.ndarray:
-    """Joint values in internal units; a list read without a robot counts all joints as revolute."""
-    return np.asarray(poses.Q, dtype=float) if poses.Q is not None else np.deg2rad(np.asarray(poses.q_file, float))
+def _internal(poses: PoseList, driver) -> np.ndarray | None:
+    """Joint values in internal units: the list's own, else converted with the driver's robot
+    model; None for a list read without a robot and no robot to move (only the pose ids matter
+    then, as for images captured beforehand)."""
+    if poses.Q is not None:
+        return np.asarray(poses.Q, dtype=float)
+    if driver is not None:
+        return np.asarray(driver.model.q_from_file(poses.q_file), dtype=float)
+    return None
 
 
 # -- rejects file -----------------------------------------------------------------------------------
@@ -106,8 +112,8 @@ class RejectsWriter:
         self.path = Path(self.path)
         header = ",".join(["pose", "target"] + [f"q{i + 1}" for i in range(self.dof)] + ["reason"])
         drop_partial_last_line(self.path)
-        existing = self.path.read_bytes() if self.path.exists() else b""
         try:
+            existing = self.path.read_bytes() if self.path.exists() else b""
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._handle = open(self.path, "a", encoding="utf-8", newline="")
         except OSError as exc:
@@ -125,9 +131,13 @@ class RejectsWriter:
                 self._write(header + "\n")
 
     def _write(self, text: str) -> None:
-        self._handle.write(text)
-        self._handle.flush()
-        os.fsync(self._handle.fileno())
+        try:
+            self._handle.write(text)
+            self._handle.flush()
+            os.fsync(self._handle.fileno())
+        except OSError as exc:
+            raise RoboCalError(f"cannot write the file ({exc.strerror})", source=self.path,
+                               hint="Check the disk space and permissions.") from exc
 
     def append(self, pose: int, target: str, q_file: Sequence[float], reason: str) -> None:
         buf = io.StringIO()
@@ -244,7 +254,7 @@ def run_measurements(poses: PoseList, out: str | Path, *, locate: Callable, capt
     rejects = Path(rejects) if rejects is not None else rejects_path_for(out)
     ids = np.asarray(poses.pose, dtype=int).reshape(-1)
     q_files = np.atleast_2d(np.asarray(poses.q_file, dtype=float))
-    Q_all = _internal(poses).reshape(q_files.shape)
+    Q_all = _internal(poses, driver)
     dof = q_files.shape[1]
     if len(set(ids.tolist())) != len(ids):
         raise RoboCalError("the pose list has a pose number twice", source=getattr(poses, "path", None),
@@ -281,7 +291,7 @@ def run_measurements(poses: PoseList, out: str | Path, *, locate: Callable, capt
     try:
         for i, pid in enumerate(ids):
             pid = int(pid)
-            q, q_file = Q_all[i], q_files[i]
+            q, q_file = (Q_all[i] if Q_all is not None else None), q_files[i]
             if pid in done_meas:
                 result.outcomes.append(PoseOutcome(i, pid, q_file, "skipped", "measured in an earlier run"))
                 continue

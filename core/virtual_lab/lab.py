@@ -16,6 +16,7 @@ import numpy as np
 from core import transforms as tf
 from core.board import Board
 from core.camera import CameraModel
+from core.errors import RoboCalError
 from core.kinematics import RobotModel, robot_path
 from core.robot_file import read_robot
 from core.stereo_rig import StereoRig
@@ -184,7 +185,9 @@ class VirtualLab:
             ok = self.visibility(Q, **visibility_options).visible & self._above_table(Q)
             found.extend(Q[ok][: n - len(found)])
         if len(found) < n:
-            raise RuntimeError(f"found only {len(found)} of {n} visible configurations for {robot.name}")
+            raise RoboCalError(f"found only {len(found)} of {n} configurations of {robot.name} where both "
+                               f"cameras see the marker", hint="Check the robot's joint limits and its marker "
+                               "target (the marker must face the cameras in some poses).")
         return np.array(found[:n]).reshape(n, robot.dof)
 
     def _above_table(self, Q, clearance: float = 15.0) -> np.ndarray:
@@ -211,7 +214,8 @@ class VirtualLab:
         T = np.concatenate(pool_T)
         F = np.concatenate(pool_f)
         if len(T) < n:
-            raise RuntimeError(f"found only {len(T)} visible board poses for the board {b.cols}x{b.rows}")
+            raise RoboCalError(f"found only {len(T)} of {n} poses of the {b.cols}x{b.rows} board that both "
+                               f"cameras see whole", hint="Use a smaller board (fewer or smaller squares).")
         chosen = [int(rng.integers(len(T)))]
         dist = np.linalg.norm(F - F[chosen[0]], axis=1)
         while len(chosen) < n:

@@ -238,3 +238,9 @@ def test_virtual_lab_run_with_the_real_pipeline(tmp_path):
         assert np.linalg.norm(meas.xyz[k] - truth) < 0.15
         assert np.all(meas.sigma[k] < 0.05)
     assert result.measured[0].location.left.ok            # what the GUI draws is kept
+
+
+def test_an_unusable_rejects_path_is_a_clear_error(tmp_path):
+    (tmp_path / "m.rejects.csv").mkdir()              # a folder where the rejects file should be
+    with pytest.raises(RoboCalError, match="m.rejects.csv"):
+        RejectsWriter(tmp_path / "m.rejects.csv", 6)
