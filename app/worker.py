@@ -87,9 +87,6 @@ class TaskHandle:
         """Ask the function to stop (it sees `cancelled()` become True)."""
         self.event.set()
 
-    @property
-    def cancel_requested(self) -> bool:
-        return self.event.is_set()
 
     def __repr__(self) -> str:
         return f"<TaskHandle {self.id} {self.label!r} running={self.running} outcome={self.outcome}>"
@@ -115,7 +112,8 @@ class _Job(QRunnable):
         kwargs = dict(self.kwargs)
         if _accepts(self.fn, "progress"):
             kwargs.setdefault("progress", self._progress)
-        if _accepts(self.fn, "cancelled"):
+        honours_cancel = _accepts(self.fn, "cancelled")
+        if honours_cancel:
             kwargs.setdefault("cancelled", self.handle.event.is_set)
         try:
             if self.handle.event.is_set():
@@ -129,9 +127,9 @@ class _Job(QRunnable):
             log.error("task %r failed", self.handle.label, exc_info=exc)
             self.signals.error.emit(hid, error_message(exc))
         else:
-            if self.handle.event.is_set():     # Cancel (or Stop) came while fn ran without
-                self.signals.cancelled.emit(hid)   # checking it: the result is not used
-            else:
+            if self.handle.event.is_set() and not honours_cancel:
+                self.signals.cancelled.emit(hid)   # Cancel (or Stop) came while fn, which cannot
+            else:                                  # see it, ran: its result is not used
                 self.signals.result.emit(hid, value)
 
 

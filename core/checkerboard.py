@@ -111,10 +111,6 @@ class PairDetection:
     def image_size(self) -> tuple[int, int] | None:
         return self.left.image_size
 
-    @property
-    def file_names(self) -> tuple[str, str]:
-        return Path(self.left_path).name, Path(self.right_path).name
-
 
 @dataclass
 class Coverage:

@@ -207,11 +207,6 @@ class Identifiability:
     def exclusion(self, name: str) -> Exclusion | None:
         return next((e for e in self.excluded if e.name == name), None)
 
-    @property
-    def not_identifiable(self) -> list[Exclusion]:
-        """Parameters removed because the data or the model cannot determine them."""
-        return [e for e in self.excluded if e.status != FIXED_BY_USER]
-
 
 def random_configurations(model: RobotModel, count: int, seed: int = 0) -> np.ndarray:
     """Configurations drawn uniformly within the joint limits (internal units; revolute

@@ -406,7 +406,6 @@ def levenberg_marquardt(model: RobotModel, meas: Measurements, free: Sequence[Pa
     lam, nu = float(damping), 2.0
     converged, done = False, 0
     floor = 1e-18 * len(b)          # (1e-9 mm)² per coordinate: exact to round-off
-    p = len(free)
     for _ in range(max_iterations * 4):
         if done >= max_iterations:
             break

@@ -79,10 +79,6 @@ class MarkerDescription:
         w, h = self.plate_size[0] / 2.0, self.plate_size[1] / 2.0
         return np.array([[cx - w, cy + h, 0], [cx + w, cy + h, 0], [cx + w, cy - h, 0], [cx - w, cy - h, 0]])
 
-    @property
-    def plate_radius(self) -> float:
-        """Distance from the reference point to the farthest plate corner, mm."""
-        return float(np.linalg.norm(self.plate_corners()[:, :2], axis=1).max())
 
     # -- image ----------------------------------------------------------------------------
     @property

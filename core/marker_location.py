@@ -421,10 +421,6 @@ def square_pose(corners: np.ndarray, K: np.ndarray, size: float = 2.0) -> tuple[
     return n / np.linalg.norm(n), t
 
 
-def plane_normal(corners: np.ndarray, K: np.ndarray) -> np.ndarray:
-    """Unit normal of the plane of a square seen with these 4 image corners (see square_pose)."""
-    return square_pose(corners, K)[0]
-
 
 def _fitted_h(trained: TrainedMarker, det: MarkerDetection) -> np.ndarray:
     """Homography training px -> raw px through the fitted corners (better than SIFT's)."""

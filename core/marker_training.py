@@ -24,7 +24,7 @@ import numpy as np
 from core.errors import RoboCalError
 from core.files import atomic_write_bytes
 from core.marker_edges import EdgeOptions, OutlineFit, fit_outline
-from core.marker_geometry import (diagonal_intersection, expand_quad, is_convex, line_through, order_corners,
+from core.marker_geometry import (expand_quad, is_convex, line_through, order_corners,
                                   side_lengths, signed_area)
 from core.task import Monitor
 
@@ -103,10 +103,6 @@ class TrainedMarker:
         s = self.outer_size / 2.0
         return np.array([[-s, s, 0.0], [s, s, 0.0], [s, -s, 0.0], [-s, -s, 0.0]])
 
-    def plate_homography(self) -> np.ndarray:
-        """3x3 homography from plate coordinates (X, Y) mm to training-image pixels."""
-        H, _ = cv2.findHomography(self.outline_mm()[:, :2], self.outline, 0)
-        return H
 
     # -- file -------------------------------------------------------------------------------
     def to_bytes(self) -> bytes:
@@ -370,6 +366,3 @@ def train_from_description(description, *, min_features: int = MIN_FEATURES) -> 
                         source=str(description.image_path))
 
 
-def diagonal_reference(quad) -> np.ndarray:
-    """The reference point of an outline: the intersection of its diagonals."""
-    return diagonal_intersection(np.asarray(quad, dtype=float))

@@ -27,7 +27,6 @@ collision, floor, outside an image, not facing the cameras, depth out of range.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Sequence
 
 import numpy as np
 

@@ -61,13 +61,6 @@ from core.stereo_rig import StereoRig
 from core.task import Monitor
 
 INDEXES = ("cond", "O1", "O3", "O4", "O5")
-INDEX_LABELS = {
-    "cond": "condition number κ = σ₁/σ_L",
-    "O1": "O1 (D-optimal): (σ₁⋯σ_L)^(1/L)/√m",
-    "O3": "O3 (E-optimal): σ_L",
-    "O4": "O4 (noise amplification): σ_L²/σ₁",
-    "O5": "O5 (A-optimal): 1/Σσᵢ⁻²",
-}
 #: keys of ObservabilityIndices.as_dict() for each index
 INDEX_KEYS = {"cond": "condition_number", "O1": "O1", "O3": "O3", "O4": "O4", "O5": "O5"}
 DEFAULT_CANDIDATES = 2000

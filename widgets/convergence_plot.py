@@ -25,8 +25,6 @@ class ConvergencePlot(pg.PlotWidget):
         self.x = np.zeros(0)
         self.y = np.zeros(0)
 
-    def set_y_label(self, text: str) -> None:
-        self.getPlotItem().setLabel("left", text, color=TEXT, size="9pt")
 
     def set_history(self, iterations, values, stages=None) -> None:
         for line in self._markers:

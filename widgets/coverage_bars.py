@@ -73,5 +73,3 @@ class CoverageBars(QWidget):
     def values(self) -> dict[str, float]:
         return dict(self._values)
 
-    def is_good(self, name: str) -> bool:
-        return self._values[name] >= self.threshold

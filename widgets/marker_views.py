@@ -138,10 +138,6 @@ class MarkerImageView(ImageView):
         self.message.setText(text or "")
         self.message.setPos(8, 8)
 
-    @property
-    def marker_box(self):
-        """(x0, y0, x1, y1) of the marker (fitted or SIFT outline, else the ROI) last shown."""
-        return self._marker_box
 
     def zoom_to(self, box=None, factor: float = 2.2) -> None:
         """Frame `box` (x0, y0, x1, y1; default the marker) enlarged by `factor`, or the whole image."""

@@ -38,13 +38,6 @@ def readable_axes() -> dict:
     return {"left": ReadableAxis("left"), "bottom": ReadableAxis("bottom")}
 
 
-def plot_widget(x_label: str, y_label: str, title: str | None = None) -> pg.PlotWidget:
-    """A PlotWidget with our look, axis labels (units in the text, e.g. "position error (mm)")
-    and no context menu."""
-    widget = pg.PlotWidget(background=BACKGROUND, axisItems=readable_axes())
-    style_plot(widget.getPlotItem(), x_label, y_label, title)
-    return widget
-
 
 def style_plot(plot: pg.PlotItem, x_label: str, y_label: str, title: str | None = None) -> None:
     font = QFont()

@@ -14,15 +14,6 @@ class CommandResult:
     exit_code: int = 0
 
 
-def not_built(step: str, issue: int):
-    """run() of a subcommand whose step is not built yet: says so plainly."""
-    from core.errors import RoboCalError
-
-    def run(args):
-        raise RoboCalError(f"the {step} step is not built yet (issue {issue}); nothing was done")
-
-    return run
-
 
 class ProgressLine:
     """One updating progress line on stderr when it is a terminal; silent otherwise (so pipes,

@@ -1113,7 +1113,6 @@ class MarkerPage(WizardPage):
             self.criteria_plot.set_curve(c.disparities, plain, minimum=(c.plain_disparity, c.plain_minimum),
                                          second=second, searched=c.criteria if c.warped else None,
                                          disparity=c.disparity)
-            reliability = c.reliability
             self.ssd_note.setText(
                 f"Window {c.window[1]}×{c.window[0]} px (the marker's apparent size) on the left reference point, "
                 f"slid along the same row of the rectified right image: d* = {c.disparity:.2f} px, reliability "

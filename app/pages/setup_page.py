@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 from PySide6.QtCore import Qt
-from PySide6.QtWidgets import (QButtonGroup, QComboBox, QFileDialog, QFormLayout, QGroupBox,
+from PySide6.QtWidgets import (QButtonGroup, QComboBox, QFileDialog, QGroupBox,
                                QHBoxLayout, QLabel, QPushButton, QRadioButton, QVBoxLayout)
 
 from app import project_actions

@@ -217,3 +217,22 @@ def test_error_message_helper():
     assert error_message(RoboCalError("x", hint="Do y.")) == "x. Do y."
     assert error_message(KeyError("k")) == "KeyError: 'k'"
     assert error_message(RuntimeError()) == "RuntimeError"
+
+
+def test_a_function_that_honours_cancel_keeps_its_partial_result(qtbot, runner):
+    started = threading.Event()
+
+    def measure(*, cancelled=None):                # stops early and returns what it did
+        started.set()
+        done = 0
+        while not cancelled():
+            done += 1
+            time.sleep(0.002)
+        return {"cancelled": True, "done": done}
+
+    out = Outcome()
+    handle = runner.start(measure, **out.kwargs())
+    assert started.wait(10)
+    handle.cancel()
+    qtbot.waitUntil(lambda: not runner.busy, timeout=10000)
+    assert out.result is not None and out.result["cancelled"] and not out.cancelled

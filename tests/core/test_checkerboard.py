@@ -249,7 +249,6 @@ def test_view_params_of_a_frontal_centred_board():
 
 def test_coverage_bars_and_enough_rule():
     from core.checkerboard import PairDetection, Detection
-    b = Board(9, 6, 1.0)
 
     def pair(i, params):
         p = PairDetection(i, f"p{i}", "l", "r", Detection(True), Detection(True), accepted=True)
