@@ -46,7 +46,7 @@ def load_marker(path: str | Path, outer_size: float | None = None) -> tuple[Trai
       default marker's 40 mm when not given (then "not known": the 3D point does not depend
       on it, only the size check is skipped).
     `outer_size` (mm) overrides the size in every case."""
-    from core.checkerboard import load_gray
+    from core.images import load_gray
     from core.marker_description import MarkerDescription
 
     path = Path(path)

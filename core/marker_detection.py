@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from core.images import to_gray8
 from core.marker_edges import EdgeOptions, OutlineFit, fit_outline
 from core.marker_geometry import (PixelMap, bounding_box, expand_quad, inside_image, is_convex, line_through,
                                   map_points, side_lengths, signed_area)
@@ -271,7 +272,7 @@ def find_marker_area(trained: TrainedMarker, image: np.ndarray, *, search_roi=No
                      options: DetectionOptions | None = None) -> AreaDetection:
     """The SIFT stage: where the marker is (homography, outline, ROI) or why it is not found."""
     opt = options or DetectionOptions()
-    img = _gray(image)
+    img = to_gray8(image)
     size = (img.shape[1], img.shape[0])
     t_start = time.perf_counter()
     passes = []
@@ -346,13 +347,6 @@ def check_in_view(trained: TrainedMarker, area: AreaDetection, margin: float = 1
     return area
 
 
-def _gray(image: np.ndarray) -> np.ndarray:
-    img = np.asarray(image)
-    if img.ndim == 3:
-        img = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
-    return img
-
-
 def detect_marker(trained: TrainedMarker, image: np.ndarray, *, pixel_map: PixelMap | None = None,
                   predicted: np.ndarray | None = None, search_roi=None,
                   options: DetectionOptions | None = None) -> MarkerDetection:
@@ -362,7 +356,7 @@ def detect_marker(trained: TrainedMarker, image: np.ndarray, *, pixel_map: Pixel
     `search_roi`: (x0, y0, x1, y1) to run SIFT there only. `pixel_map`: raw -> ideal pixels
     (the camera's undistortion, or a rectification) in which the edges are fitted."""
     opt = options or DetectionOptions()
-    img = _gray(image)
+    img = to_gray8(image)
     size = (img.shape[1], img.shape[0])
     t0 = time.perf_counter()
     if predicted is not None:

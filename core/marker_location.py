@@ -55,6 +55,7 @@ from core import transforms as tf
 from core.correspondence import (DEFAULT_MAX_MISMATCH, DEFAULT_MAX_RELIABILITY, Correspondence,
                                  StereoRectification, WindowSweep, find_disparity, odd, window_sweep)
 from core.errors import RoboCalError
+from core.images import require_gray8
 from core.marker_detection import DetectionOptions, MarkerDetection, detect_marker
 from core.marker_geometry import bounding_box, expand_quad, map_points
 from core.marker_training import TrainedMarker
@@ -152,17 +153,6 @@ def _reject(loc: MarkerLocation, stage: str, reason: str) -> MarkerLocation:
     return loc
 
 
-def _gray(image: np.ndarray) -> np.ndarray:
-    if image is None:
-        raise RoboCalError("no image")
-    img = np.asarray(image)
-    if img.ndim == 3:
-        img = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
-    if img.dtype != np.uint8:
-        raise RoboCalError(f"expected an 8-bit image, got {img.dtype}")
-    return img
-
-
 class MarkerLocator:
     """Locates the trained marker in stereo pairs of one calibrated rig."""
 
@@ -176,7 +166,7 @@ class MarkerLocator:
 
     # -- helpers ------------------------------------------------------------------------------
     def _check_images(self, left, right):
-        left, right = _gray(left), _gray(right)
+        left, right = require_gray8(left), require_gray8(right)
         w, h = self.rect.image_size
         for name, img in (("left", left), ("right", right)):
             if img.shape != (h, w):

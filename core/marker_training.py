@@ -22,6 +22,7 @@ import cv2
 import numpy as np
 
 from core.errors import RoboCalError
+from core.images import to_gray8
 from core.files import atomic_write_bytes
 from core.marker_edges import EdgeOptions, OutlineFit, fit_outline
 from core.marker_geometry import (expand_quad, is_convex, line_through, order_corners,
@@ -164,7 +165,7 @@ class TrainedMarker:
 def find_outline(image: np.ndarray) -> np.ndarray:
     """The largest dark convex quadrilateral not touching the image border: the marker's outer
     square, (4, 2) px clockwise from the top-left corner (about ±1 px; refined later)."""
-    img = _gray(image)
+    img = to_gray8(image)
     h, w = img.shape
     blur = cv2.GaussianBlur(img, (0, 0), 1.0)
     _, dark = cv2.threshold(blur, 0, 255, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
@@ -194,15 +195,6 @@ def find_outline(image: np.ndarray) -> np.ndarray:
     # contour pixels lie on the dark side: move half a pixel outwards
     quad = order_corners(best.astype(float))
     return expand_quad(quad, 1.0 + 0.5 / max(float(side_lengths(quad).mean()) / 2.0, 1.0))
-
-
-def _gray(image: np.ndarray) -> np.ndarray:
-    img = np.asarray(image)
-    if img.ndim == 3:
-        img = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
-    if img.dtype != np.uint8:
-        raise RoboCalError(f"expected an 8-bit image, got {img.dtype}")
-    return img
 
 
 def _run_lengths(img: np.ndarray, quad: np.ndarray, inward: bool, threshold: float, limit: float) -> np.ndarray:
@@ -243,7 +235,7 @@ def train_marker(image: np.ndarray, outline=None, *, outer_size: float = DEFAULT
     dark quadrilateral. `outer_size`: the side of the outer square in mm. Raises RoboCalError
     when the image shows no usable square or gives SIFT too few features."""
     monitor = Monitor(progress, cancelled)
-    img = _gray(image)
+    img = to_gray8(image)
     if min(img.shape) < 48:
         raise RoboCalError(f"the training image is only {img.shape[1]}x{img.shape[0]} px",
                            hint="Use an image where the marker is at least 100 px wide.")

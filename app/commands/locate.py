@@ -46,7 +46,7 @@ def setup_locator(args):
 
 
 def run(args) -> CommandResult:
-    from core.checkerboard import load_gray
+    from core.images import load_gray
     from core.errors import RoboCalError
 
     locator, known = setup_locator(args)

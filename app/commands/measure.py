@@ -34,7 +34,8 @@ def add_arguments(parser) -> None:
 
 def run(args) -> CommandResult:
     from app.commands.locate import setup_locator
-    from core.checkerboard import load_gray, pair_images
+    from core.checkerboard import pair_images
+    from core.images import load_gray
     from core.errors import RoboCalError, UsageError
     from core.measurement_run import rejects_path_for, run_measurements
     from core.pose_file import read_poses

@@ -99,7 +99,7 @@ def capture_training_image(lab=None, lab_args=None, *, progress=None, cancelled=
 
 
 def load_training_image(path: str | Path) -> TrainingImage:
-    from core.checkerboard import load_gray
+    from core.images import load_gray
 
     path = Path(path)
     image, why = load_gray(path)

@@ -36,9 +36,10 @@ from app.pages.base import WizardPage
 from app.pages.steps import Step
 from core.board import Board
 from core.checkerboard import (MIN_BAR, MIN_GOOD_PAIRS, MIN_PAIRS_TO_CALIBRATE, PairDetection, coverage,
-                               detect_pair, load_gray, pair_images, screen_pairs)
+                               detect_pair, pair_images, screen_pairs)
 from core.errors import RoboCalError
 from core.files import atomic_write_bytes
+from core.images import load_gray
 from core.stereo_calibration import CalibrationOptions, StereoCalibrationResult, calibrate_stereo
 from core.stereo_file import read_stereo_yaml, write_ros_camera_info, write_stereo_json, write_stereo_yaml
 from core.task import Monitor

@@ -69,7 +69,7 @@ def test_locate_json(dataset, capsys):
 
 def test_locate_with_a_trained_marker_file_and_size(dataset, tmp_path, capsys):
     from core.marker_training import train_marker
-    from core.checkerboard import load_gray
+    from core.images import load_gray
 
     ds, truth = dataset
     npz = train_marker(load_gray(ds / "marker" / "training.png")[0]).save(tmp_path / "m.npz")

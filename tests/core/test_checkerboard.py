@@ -7,10 +7,11 @@ import numpy as np
 import pytest
 
 from core.board import Board
-from core.checkerboard import (Coverage, DetectionOptions, board_symmetries, coverage, decode_gray,
-                               detect_corners, detect_folders, detect_pair, detect_pairs, grid_deviation, load_gray,
+from core.checkerboard import (Coverage, DetectionOptions, board_symmetries, coverage,
+                               detect_corners, detect_folders, detect_pair, detect_pairs, grid_deviation,
                                match_order, pair_images, param_distance, screen_pairs, summarize_rejections,
                                view_params)
+from core.images import decode_gray, load_gray
 from core.errors import Cancelled, RoboCalError
 from tests.core.stereo_synth import REAL_DATA, real_pairs
 

@@ -1,0 +1,79 @@
+"""Image files and arrays: decoding that never raises for a bad file, and grayscale conversion.
+
+Every image RoboCal analyses (checkerboards, marker pairs, training images) goes through
+`to_gray8`: gray, BGR or BGRA, 8 or 16 bit (16-bit values are scaled by 1/256) or float
+(stretched to its range), always 8-bit grayscale out.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from core.errors import RoboCalError
+
+
+def load_gray(path: str | Path) -> tuple[np.ndarray | None, str | None]:
+    """An 8-bit grayscale image, or (None, reason). Never raises for a bad file.
+
+    Truncated JPEG/PNG files are recognised before decoding (OpenCV would otherwise return
+    a half-grey image for a truncated JPEG, with a libjpeg warning on stderr).
+    """
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        return None, "file not found"
+    except IsADirectoryError:
+        return None, "is a folder, not an image"
+    except OSError as exc:
+        return None, f"cannot read the file ({exc.strerror or exc})"
+    return decode_gray(data)
+
+
+def decode_gray(data: bytes) -> tuple[np.ndarray | None, str | None]:
+    """Decode encoded image bytes to 8-bit grayscale, or (None, reason)."""
+    if not data:
+        return None, "empty file"
+    if data[:3] == b"\xff\xd8\xff":
+        if not data.rstrip(b"\x00\r\n ").endswith(b"\xff\xd9"):
+            return None, "truncated JPEG (the file ends before the image data)"
+    elif data[:8] == b"\x89PNG\r\n\x1a\n":
+        if b"IEND" not in data[-32:]:
+            return None, "truncated PNG (the file ends before the image data)"
+    try:
+        image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    except cv2.error:
+        image = None
+    if image is None:
+        return None, "not a readable image"
+    return to_gray8(image), None
+
+
+def to_gray8(image: np.ndarray) -> np.ndarray:
+    """Any OpenCV image (gray/BGR/BGRA, 8 or 16 bit, float) as 8-bit grayscale."""
+    img = np.asarray(image)
+    if img.ndim == 3 and img.shape[2] == 1:
+        img = img[:, :, 0]
+    if img.ndim == 3:
+        code = cv2.COLOR_BGRA2GRAY if img.shape[2] == 4 else cv2.COLOR_BGR2GRAY
+        img = cv2.cvtColor(img, code)
+    if img.dtype == np.uint8:
+        return img
+    if img.dtype == np.uint16:
+        return (img >> 8).astype(np.uint8)
+    img = img.astype(np.float64)
+    lo, hi = float(np.nanmin(img)), float(np.nanmax(img))
+    scale = 255.0 / (hi - lo) if hi > lo else 0.0
+    return np.clip((img - lo) * scale, 0, 255).astype(np.uint8)
+
+
+def require_gray8(image, what: str = "image") -> np.ndarray:
+    """`to_gray8` of an array that must be there (a RoboCalError names `what` otherwise)."""
+    if image is None:
+        raise RoboCalError(f"no {what}")
+    img = np.asarray(image)
+    if img.ndim not in (2, 3) or img.size == 0:
+        raise RoboCalError(f"the {what} is not an image (array of shape {img.shape})")
+    return to_gray8(img)

@@ -1,0 +1,36 @@
+"""core.images: every image format RoboCal reads becomes the same 8-bit grayscale."""
+import cv2
+import numpy as np
+import pytest
+
+from core.errors import RoboCalError
+from core.images import decode_gray, require_gray8, to_gray8
+from core.marker_training import train_marker
+from core.virtual_lab.lab import VirtualLab
+
+
+def test_formats_become_8_bit_gray():
+    gray = np.arange(256, dtype=np.uint8).reshape(16, 16)
+    bgr = cv2.cvtColor(gray, cv2.COLOR_GRAY2BGR)
+    assert np.array_equal(to_gray8(bgr), gray)
+    assert np.array_equal(to_gray8(cv2.cvtColor(bgr, cv2.COLOR_BGR2BGRA)), gray)
+    assert np.array_equal(to_gray8(gray.astype(np.uint16) << 8), gray)          # 16 bit
+    assert np.array_equal(to_gray8(gray[:, :, None]), gray)
+    assert to_gray8(gray.astype(np.float32) / 255.0).max() == 255                 # float, stretched
+    ok, png16 = cv2.imencode(".png", gray.astype(np.uint16) << 8)
+    assert np.array_equal(decode_gray(png16.tobytes())[0], gray)
+
+
+def test_missing_or_shapeless_images_are_refused_clearly():
+    with pytest.raises(RoboCalError, match="no left image"):
+        require_gray8(None, "left image")
+    with pytest.raises(RoboCalError, match="not an image"):
+        require_gray8(np.zeros(5), "left image")
+
+
+def test_a_16_bit_training_image_trains_like_the_8_bit_one():
+    image = VirtualLab.create(seed=0).render_training_image()
+    eight = train_marker(image)
+    sixteen = train_marker(image.astype(np.uint16) << 8)       # an industrial camera's 16-bit PNG
+    np.testing.assert_allclose(sixteen.outline, eight.outline, atol=1e-9)
+    assert sixteen.n_features == eight.n_features
