@@ -419,12 +419,18 @@ class MainWindow(QMainWindow):
 
     # -- misc ----------------------------------------------------------------------------
     def save_screenshot(self, path: str | Path) -> Path:
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        if not self.grab().save(str(path), "PNG"):
-            from core.errors import RoboCalError
-            raise RoboCalError("cannot write the screenshot", source=path)
-        return path
+        """The whole window as a PNG, written atomically (RoboCalError if it cannot be)."""
+        from PySide6.QtCore import QBuffer, QByteArray, QIODevice
+
+        from core.errors import RoboCalError
+        from core.files import atomic_write_bytes
+
+        data = QByteArray()
+        buffer = QBuffer(data)
+        buffer.open(QIODevice.OpenModeFlag.WriteOnly)
+        if not self.grab().save(buffer, "PNG"):
+            raise RoboCalError("cannot encode the screenshot", source=path)
+        return atomic_write_bytes(path, bytes(data))
 
     def _about(self) -> None:
         show_info(self, "RoboCal makes a robot arm more accurate with two ordinary cameras: "

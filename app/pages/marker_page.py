@@ -995,7 +995,11 @@ class MarkerPage(WizardPage):
         ok, png = cv2.imencode(".png", trained.image)
         if ok:
             atomic_write_bytes(Path(project.folder) / TRAINING_FILE, png.tobytes())
-        verification_file(project).unlink(missing_ok=True)
+        try:                               # the old verification was of another marker
+            verification_file(project).unlink(missing_ok=True)
+        except OSError as exc:
+            raise RoboCalError(f"cannot remove the old verification record ({exc.strerror})",
+                               source=verification_file(project)) from exc
         return path
 
     def _set_trained(self, trained: TrainedMarker, offset, path: Path | None) -> None:
