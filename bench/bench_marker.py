@@ -14,7 +14,6 @@ from core.marker_location import MarkerLocator, MarkerTracker
 from core.marker_training import train_marker
 from core.triangulation import triangulate_general, triangulate_rectified
 from core.virtual_lab.lab import VirtualLab
-from core.virtual_lab.rig import axis_angle_matrix
 
 N_VIEWS = 320            # 2D: rendered views of the marker
 N_POSES = 120            # 3D: stereo pairs at 400-900 mm
@@ -153,14 +152,14 @@ def _speed(report, lab, locator: MarkerLocator) -> None:
     for T, left, right in scenes:
         # the robot model's prediction: a couple of mm and a degree off
         axis = rng.normal(size=3)
-        guess = T @ tf.make_transform(axis_angle_matrix(axis / np.linalg.norm(axis), np.deg2rad(1.0)),
+        guess = T @ tf.make_transform(tf.rot_axis(axis / np.linalg.norm(axis), np.deg2rad(1.0)),
                                       rng.normal(0.0, 1.5, 3))
         t = time.perf_counter()
         loc = tracker.track(left, right, predicted_pose=guess)
         predicted.append(time.perf_counter() - t)
         assert loc.ok and loc.mode == "tracking", loc.reason
         # the next frame: the marker moved by about a millimetre
-        T2 = T @ tf.make_transform(axis_angle_matrix(np.array([0.0, 0.0, 1.0]), np.deg2rad(0.3)), [0.8, -0.5, 0.6])
+        T2 = T @ tf.make_transform(tf.rot_axis(np.array([0.0, 0.0, 1.0]), np.deg2rad(0.3)), [0.8, -0.5, 0.6])
         l2, r2 = lab.render_marker_at(T2, rng)
         t = time.perf_counter()
         loc2 = tracker.track(l2, r2)

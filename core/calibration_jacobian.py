@@ -47,6 +47,7 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
+from core import transforms as tf
 from core.errors import RoboCalError, UsageError
 from core.kinematics import RobotModel
 
@@ -201,18 +202,6 @@ def calibration_jacobian(model: RobotModel, Q, point_targets: Sequence[str],
 
 
 # -- applying corrections ------------------------------------------------------------------
-def exp_so3(omega) -> np.ndarray:
-    """Rotation matrix of a rotation vector (Rodrigues)."""
-    omega = np.asarray(omega, dtype=float)
-    angle = float(np.linalg.norm(omega))
-    if angle < 1e-12:
-        K = np.array([[0, -omega[2], omega[1]], [omega[2], 0, -omega[0]], [-omega[1], omega[0], 0]])
-        return np.eye(3) + K
-    k = omega / angle
-    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * (K @ K)
-
-
 def log_so3(R: np.ndarray) -> np.ndarray:
     """Rotation vector of a rotation matrix."""
     from scipy.spatial.transform import Rotation
@@ -242,7 +231,7 @@ def apply_step(model: RobotModel, params: Sequence[Parameter], delta) -> RobotMo
             out.targets[prm.target] = t
     if np.any(omega) or np.any(shift):
         base = out.base.copy()
-        base[:3, :3] = exp_so3(omega) @ base[:3, :3]
+        base[:3, :3] = tf.rot_vec(omega) @ base[:3, :3]
         base[:3, 3] = base[:3, 3] + shift
         out.base = base
     return out

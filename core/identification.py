@@ -44,7 +44,7 @@ import numpy as np
 
 from core import transforms as tf
 from core.calibration_jacobian import (Parameter, all_parameters, apply_step, calibration_jacobian,
-                                       exp_so3, predict_points, resolve_names)
+                                       predict_points, resolve_names)
 from core.errors import RoboCalError, UsageError
 from core.identifiability import (FIXED_BY_USER, Identifiability, ObservabilityIndices, analyse,
                                   check_data, column_scales, observability_indices,
@@ -639,7 +639,7 @@ def _rpy_jacobian(R: np.ndarray) -> np.ndarray:
     for k in range(3):
         w = np.zeros(3)
         w[k] = h
-        d = tf.matrix_to_rpy(exp_so3(w) @ R) - tf.matrix_to_rpy(exp_so3(-w) @ R)
+        d = tf.matrix_to_rpy(tf.rot_vec(w) @ R) - tf.matrix_to_rpy(tf.rot_vec(-w) @ R)
         E[:, k] = ((d + np.pi) % (2 * np.pi) - np.pi) / (2 * h)
     return E
 

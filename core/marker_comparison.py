@@ -32,7 +32,6 @@ from core.marker_detection import DetectionOptions, detect_marker
 from core.marker_geometry import PixelMap
 from core.marker_training import train_marker
 from core.task import Monitor
-from core.virtual_lab.rig import axis_angle_matrix
 
 SIZE = 800
 LO, HI = 150, 650          # the outer square covers pixels [150, 650)
@@ -141,7 +140,7 @@ def random_marker_pose(lab, rng: np.random.Generator, *, depth=(400.0, 900.0), m
         R0 = np.column_stack([x, np.cross(facing, x), facing])
         phi = rng.uniform(0.0, 2 * np.pi)
         cos_t = rng.uniform(np.cos(np.deg2rad(max_tilt)), 1.0)
-        R = R0 @ axis_angle_matrix(np.array([np.cos(phi), np.sin(phi), 0.0]), np.arccos(cos_t)) \
+        R = R0 @ tf.rot_axis(np.array([np.cos(phi), np.sin(phi), 0.0]), np.arccos(cos_t)) \
             @ tf.rot_z(rng.uniform(-np.pi, np.pi))
         T = tf.make_transform(R, P)
         corners = tf.transform_points(T, lab.marker.plate_corners())

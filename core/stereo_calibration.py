@@ -61,7 +61,7 @@ from core.checkerboard import (MIN_PAIRS_TO_CALIBRATE, Coverage, DetectionResult
 from core.errors import RoboCalError, UsageError
 from core.stereo_rig import StereoRig
 from core.task import Monitor
-from core.transforms import best_rotation
+from core.transforms import best_rotation, rotation_angle
 
 DIST_NAMES = ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6")
 MIN_VIEWS_PER_HALF = 4
@@ -634,8 +634,7 @@ def _order_consensus(mono_l: MonoCalibration, mono_r: MonoCalibration, board: Bo
     cands = [[Rr[v] @ Rs @ Rl[v].T for (_, _, Rs, _) in syms] for v in range(V)]
 
     def angle(A, B):
-        c = (np.trace(A.T @ B) - 1.0) / 2.0
-        return math.degrees(math.acos(min(1.0, max(-1.0, c))))
+        return math.degrees(rotation_angle(A.T @ B))
 
     best_q, best_votes, best_tot = None, -1, np.inf
     for v in range(V):
@@ -852,7 +851,7 @@ def cross_validate(obj, L: np.ndarray, Rp: np.ndarray, image_size: tuple[int, in
     obs = np.concatenate([left.diff[left.observed], right.diff[right.observed]])
     obs = obs[np.isfinite(obs)]
     dR = fa.R @ fb.R.T
-    rot = math.degrees(math.acos(min(1.0, max(-1.0, (np.trace(dR) - 1) / 2))))
+    rot = math.degrees(rotation_angle(dR))
     return CrossValidation(
         rms_px=float(np.sqrt(np.mean(both ** 2))) if both.size else float("nan"),
         max_px=float(both.max()) if both.size else float("nan"),
@@ -894,7 +893,7 @@ def compare_cameras(Ka, Da, Kb, Db, image_size: tuple[int, int], observed_points
     diff = diff.reshape(uu.shape)
     finite = diff[np.isfinite(diff)]
     obs_vals = diff[inside.reshape(uu.shape) & np.isfinite(diff)]
-    angle = math.degrees(math.acos(min(1.0, max(-1.0, (np.trace(Rab) - 1) / 2))))
+    angle = math.degrees(rotation_angle(Rab))
     return CameraCrossValidation(
         us, vs, diff, inside.reshape(uu.shape),
         float(np.sqrt(np.mean(finite ** 2))) if finite.size else float("nan"),

@@ -22,6 +22,27 @@ def rot_z(angle: float) -> np.ndarray:
     return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
 
 
+def skew(v) -> np.ndarray:
+    """The cross-product matrix [v]x of a 3-vector."""
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+def rot_axis(axis, angle: float) -> np.ndarray:
+    """Rotation by `angle` (rad) about `axis` (Rodrigues; the axis need not be unit length)."""
+    k = np.asarray(axis, dtype=float)
+    K = skew(k / np.linalg.norm(k))
+    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * (K @ K)
+
+
+def rot_vec(omega) -> np.ndarray:
+    """Rotation matrix of a rotation vector ω (rad): about ω/|ω| by |ω| (exp of so(3))."""
+    omega = np.asarray(omega, dtype=float)
+    angle = float(np.linalg.norm(omega))
+    if angle < 1e-12:
+        return np.eye(3) + skew(omega)
+    return rot_axis(omega, angle)
+
+
 def rpy_to_matrix(rpy) -> np.ndarray:
     roll, pitch, yaw = rpy
     return rot_z(yaw) @ rot_y(pitch) @ rot_x(roll)

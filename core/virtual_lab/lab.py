@@ -23,7 +23,7 @@ from core.stereo_rig import StereoRig
 from core.virtual_lab.background import Room, make_room
 from core.marker_description import MarkerDescription
 from core.virtual_lab.renderer import ImageComposer, PlateTexture
-from core.virtual_lab.rig import axis_angle_matrix, default_rig, right_from_left
+from core.virtual_lab.rig import default_rig, right_from_left
 from core.virtual_lab.robot_errors import RobotErrors, perturb_robot
 from core.visibility import marker_visibility
 
@@ -137,7 +137,7 @@ class VirtualLab:
         axis = rng.normal(size=3)
         offset = rng.normal(size=3)
         base_error = tf.make_transform(
-            axis_angle_matrix(axis / np.linalg.norm(axis), np.deg2rad(rng.uniform(0.2, 0.5))),
+            tf.rot_axis(axis / np.linalg.norm(axis), np.deg2rad(rng.uniform(0.2, 0.5))),
             offset / np.linalg.norm(offset) * rng.uniform(2.0, 5.0))
         true.base = nominal.base @ base_error
         marker = marker if marker is not None else MarkerDescription.default()
@@ -245,7 +245,7 @@ class VirtualLab:
         mid = np.array([(b.cols - 1) * b.square / 2, (b.rows - 1) * b.square / 2, 0.0])
         for i in range(m):
             axis = np.array([np.cos(phi[i]), np.sin(phi[i]), 0.0])
-            R = axis_angle_matrix(axis, tilt[i]) @ tf.rot_z(roll[i])
+            R = tf.rot_axis(axis, tilt[i]) @ tf.rot_z(roll[i])
             t = centre[i] - R @ mid
             T = tf.make_transform(R, t)
             P = tf.transform_points(T, outline)

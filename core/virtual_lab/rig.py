@@ -58,18 +58,11 @@ def default_rig(seed: int | np.random.Generator | None = 0, *, width: int = WIDT
     offset *= rng.uniform(0.6, 1.2) / np.linalg.norm(offset)
     if not misalignment:
         angle, offset = 0.0, np.zeros(3)
-    R_lr = axis_angle_matrix(axis, angle)                  # right camera axes in the left frame
+    R_lr = tf.rot_axis(axis, angle)               # right camera axes in the left frame
     C = np.array([baseline, 0.0, 0.0]) + offset      # right optical centre in the left frame
     R = R_lr.T                                       # X_r = R (X_l − C)
     T = -R @ C
     return StereoRig(left, right, R, T)
-
-
-def axis_angle_matrix(axis: np.ndarray, angle: float) -> np.ndarray:
-    """Rotation by `angle` (rad) about the unit vector `axis` (Rodrigues)."""
-    k = np.asarray(axis, dtype=float)
-    Kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + np.sin(angle) * Kx + (1 - np.cos(angle)) * Kx @ Kx
 
 
 def rig_to_dict(rig: StereoRig) -> dict:

@@ -156,3 +156,15 @@ def test_sampling_range_keeps_each_joints_units():
     from core.identifiability import random_configurations
     Q = random_configurations(model, 500, seed=1)
     assert Q[:, 0].max() > 200.0 and Q[:, 0].min() >= 0.0            # the whole prismatic stroke
+
+
+def test_rotation_helpers_agree_with_opencv():
+    import cv2
+    rng = np.random.default_rng(5)
+    for omega in list(rng.normal(0, 1.0, (20, 3))) + [np.array([1e-14, 0, 0]), np.zeros(3)]:
+        np.testing.assert_allclose(tf.rot_vec(omega), cv2.Rodrigues(omega)[0], atol=1e-12)
+        angle = np.linalg.norm(omega)
+        if angle > 1e-6:
+            np.testing.assert_allclose(tf.rot_axis(3.0 * omega, angle), tf.rot_vec(omega), atol=1e-12)
+            if angle < np.pi:
+                assert abs(tf.rotation_angle(tf.rot_vec(omega)) - angle) < 1e-6

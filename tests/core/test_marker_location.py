@@ -11,7 +11,6 @@ from core.correspondence import StereoRectification
 from core.errors import RoboCalError
 from core.marker_location import LocatorOptions, MarkerLocator, MarkerTracker, square_pose
 from core.stereo_rig import StereoRig
-from core.virtual_lab.rig import axis_angle_matrix
 
 from tests.core import marker_scenes as scenes
 
@@ -152,7 +151,7 @@ def test_wrong_marker_size_is_caught(pairs):
 
 def test_stale_calibration_is_caught(pairs):
     rig = scenes.lab().rig
-    tilted = StereoRig(rig.left, rig.right, rig.R @ axis_angle_matrix(np.array([1.0, 0, 0]), np.deg2rad(0.08)), rig.T)
+    tilted = StereoRig(rig.left, rig.right, rig.R @ tf.rot_axis(np.array([1.0, 0, 0]), np.deg2rad(0.08)), rig.T)
     loc = MarkerLocator(scenes.trained(), StereoRectification.from_rig(tilted)).locate(*pairs[0][1:])
     assert not loc.ok and loc.stage == "check" and "epipolar line" in loc.reason
 
@@ -166,7 +165,7 @@ def test_tracking_from_a_predicted_pose_and_from_the_last_one(locator, pairs):
     tracker = MarkerTracker(locator)
     T, left, right = pairs[1]
     # the robot model's prediction is a few mm and a degree off
-    guess = T @ tf.make_transform(axis_angle_matrix(np.array([0.0, 1, 0]), np.deg2rad(1.0)), [1.0, -1.5, 2.0])
+    guess = T @ tf.make_transform(tf.rot_axis(np.array([0.0, 1, 0]), np.deg2rad(1.0)), [1.0, -1.5, 2.0])
     loc = tracker.track(left, right, predicted_pose=guess)
     assert loc.ok and loc.mode == "tracking"
     assert loc.left.area.mode == "predicted" and loc.right.area.mode == "predicted"
