@@ -84,29 +84,16 @@ def column_scales(phi: np.ndarray) -> np.ndarray:
     return np.where(norms > ZERO_COLUMN * max(norms.max(), 1e-300), norms, np.inf)
 
 
-def householder_r(A: np.ndarray, b: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
-    """R of A = Q·R (Householder, min(m, p) × p) and, with `b`, the first rows of Qᵀ·b.
-
-    Written with numpy's own loops (einsum) instead of LAPACK on purpose: on a busy 2-core
-    machine OpenBLAS's threads make a LAPACK QR or SVD of a 900 × 33 matrix take 20–100 ms
-    instead of 0.5 ms, while this takes a steady few ms."""
-    R = np.array(A, dtype=float, copy=True)
-    m, p = R.shape
-    c = None if b is None else np.array(b, dtype=float, copy=True)
-    for k in range(min(m - 1, p)):
-        x = R[k:, k]
-        normx = math.sqrt(float(np.einsum("i,i->", x, x)))
-        if normx == 0.0:
-            continue
-        v = x.copy()
-        v[0] += normx if x[0] >= 0 else -normx
-        vv = float(np.einsum("i,i->", v, v))
-        w = np.einsum("i,ij->j", v, R[k:, k:]) * (2.0 / vv)
-        R[k:, k:] -= np.einsum("i,j->ij", v, w)
-        if c is not None:
-            c[k:] -= v * (2.0 * float(np.einsum("i,i->", v, c[k:])) / vv)
+def qr_r(A: np.ndarray, b: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+    """R of A = Q·R (min(m, p) × p) and, with `b`, the first min(m, p) rows of Qᵀ·b — without
+    forming Q: the R of the augmented [A | b] holds both (LAPACK through numpy)."""
+    A = np.asarray(A, dtype=float)
+    m, p = A.shape
     n = min(m, p)
-    return np.triu(R[:n]), (None if c is None else c[:n])
+    if b is None:
+        return np.linalg.qr(A, mode="r")[:n], None
+    R = np.linalg.qr(np.column_stack([A, np.asarray(b, dtype=float)]), mode="r")
+    return R[:n, :p], R[:n, p]
 
 
 def small_factor(A: np.ndarray) -> np.ndarray:
@@ -116,7 +103,7 @@ def small_factor(A: np.ndarray) -> np.ndarray:
     A = np.asarray(A, dtype=float)
     if A.shape[0] <= A.shape[1] or A.shape[1] == 0:
         return A
-    return householder_r(A)[0]
+    return qr_r(A)[0]
 
 
 def characteristic_scales(model: RobotModel, params: Sequence[Parameter]) -> np.ndarray:

@@ -48,7 +48,7 @@ from core.calibration_jacobian import (Parameter, all_parameters, apply_step, ca
 from core.errors import RoboCalError, UsageError
 from core.identifiability import (FIXED_BY_USER, Identifiability, ObservabilityIndices, analyse,
                                   check_data, column_scales, observability_indices,
-                                  householder_r, practical_identifiability, small_factor)
+                                  practical_identifiability, qr_r, small_factor)
 from core.kinematics import RobotModel
 from core.measurements import Measurements, check_against_robot, read_measurements
 from core.robot_file import read_robot, write_robot
@@ -451,7 +451,7 @@ def levenberg_marquardt(model: RobotModel, meas: Measurements, free: Sequence[Pa
 def _damped_solve(A: np.ndarray, b: np.ndarray, lam: float) -> np.ndarray:
     """argmin |A·x − b|² + λ|x|² through A = Q·R and the SVD of the small R (minimum norm when
     λ = 0 and A is rank deficient)."""
-    R, c = householder_r(A, b)
+    R, c = qr_r(A, b)
     U, s, Vt = np.linalg.svd(R)
     if lam > 0:
         f = s / (s ** 2 + lam)
