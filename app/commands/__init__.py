@@ -1,8 +1,12 @@
 """Subcommands of `robocal`; each module has HELP, add_arguments(parser), run(args)."""
 from __future__ import annotations
 
+import os
 import sys
 from dataclasses import dataclass, field
+from pathlib import Path
+
+from core.errors import RoboCalError, UsageError
 
 
 @dataclass
@@ -39,3 +43,21 @@ class ProgressLine:
         if self.shown:
             self.stream.write("\n")
             self.stream.flush()
+
+
+def check_output(path: str | None, what: str) -> None:
+    """Refuse an output that cannot be written before the work starts (nothing is created)."""
+    if not path:
+        return
+    p = Path(path)
+    if p.is_dir():
+        raise UsageError(f"{what} '{path}' is a folder; give a file name")
+    existing = p.parent if str(p.parent) else Path(".")
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if existing.is_file():
+        raise RoboCalError(f"cannot write here: {existing} is a file, not a folder", source=path,
+                           hint=f"Choose another {what} path.")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise RoboCalError(f"cannot write here: {existing} is not writable", source=path,
+                           hint=f"Choose another {what} path.")

@@ -1,7 +1,7 @@
 """`robocal export`: export a robot model as URDF or a DH table."""
 from __future__ import annotations
 
-from app.commands import CommandResult
+from app.commands import CommandResult, check_output
 
 HELP = "Export a robot model as URDF or a DH table (CSV)"
 
@@ -16,6 +16,7 @@ def run(args) -> CommandResult:
     from core.exports import export_model
     from core.robot_file import read_robot
 
+    check_output(args.out, "--out")
     robot = read_robot(args.robot)
     path = export_model(robot, args.format, args.out)
     return CommandResult(text=f"Wrote {path} ({args.format}, robot '{robot.name}').",

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 
-from app.commands import CommandResult
+from app.commands import CommandResult, check_output
 
 HELP = "Kinematic identification: DH parameters, base pose and target offsets from measurements"
 
@@ -38,6 +38,7 @@ def run(args) -> CommandResult:
         raise UsageError(f"--kfold must be at least 2, got {args.kfold}")
     if args.huber is not None and not args.huber > 0:
         raise UsageError(f"--huber must be positive, got {args.huber}")
+    check_output(args.out, "--out")
     robot = read_robot(args.robot)
     meas = read_measurements(args.measurements, robot)
     fixed = [n.strip() for n in args.fix.split(",") if n.strip()]

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-from app.commands import CommandResult
+from app.commands import CommandResult, check_output
 
 HELP = "Pose sequence chosen by observability (condition number or O1/O3/O4/O5 of the calibration Jacobian)"
 
@@ -82,6 +82,7 @@ def run(args) -> CommandResult:
             vis.max_depth = args.max_depth
         if not 0 <= vis.min_depth < vis.max_depth:
             raise UsageError(f"the depth range {vis.min_depth:g}–{vis.max_depth:g} mm is empty")
+    check_output(args.out, "--out")
     result = select_poses(robot, args.count, candidates=args.candidates, index=args.index, seed=args.seed,
                           margin=args.margin, random_trials=args.random_trials, **options)
     write_selection(result, args.out)

@@ -7,13 +7,12 @@ the exit code is 1 and no file is written (a previous stereo.yaml stays as it wa
 """
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
-from app.commands import CommandResult, ProgressLine
+from app.commands import CommandResult, ProgressLine, check_output
 from core.board import Board
 from core.checkerboard import detect_folders
-from core.errors import RoboCalError, UsageError
+from core.errors import UsageError
 from core.stereo_calibration import CalibrationOptions, StereoCalibrationResult, calibrate_stereo
 from core.stereo_file import write_ros_camera_info, write_stereo_json, write_stereo_yaml
 
@@ -50,24 +49,6 @@ def _source(values: list[str]):
     return values[0] if len(values) == 1 else values
 
 
-def _check_output(path: str | None, what: str) -> None:
-    """Refuse an output that cannot be written before the work starts (nothing is created)."""
-    if not path:
-        return
-    p = Path(path)
-    if p.is_dir():
-        raise UsageError(f"{what} '{path}' is a folder; give a file name")
-    existing = p.parent if str(p.parent) else Path(".")
-    while not existing.exists() and existing != existing.parent:
-        existing = existing.parent
-    if existing.is_file():
-        raise RoboCalError(f"cannot write here: {existing} is a file, not a folder", source=path,
-                           hint=f"Choose another {what} path.")
-    if not os.access(existing, os.W_OK | os.X_OK):
-        raise RoboCalError(f"cannot write here: {existing} is not writable", source=path,
-                           hint=f"Choose another {what} path.")
-
-
 def _parse_exclude(text: str, detections) -> list[int]:
     out = []
     for item in (t.strip() for t in text.split(",")):
@@ -91,10 +72,10 @@ def run(args) -> CommandResult:
     options = CalibrationOptions(radial=args.radial, tangential=not args.no_tangential,
                                  fix_aspect=args.fix_aspect, fix_principal=args.fix_principal,
                                  refine_intrinsics=not args.fix_intrinsics, outlier_k=args.outlier_k).validate()
-    _check_output(args.out, "--out")
-    _check_output(args.export_json, "--export-json")
+    check_output(args.out, "--out")
+    check_output(args.export_json, "--export-json")
     if args.ros:
-        _check_output(str(Path(args.ros) / "left.yaml"), "--ros")
+        check_output(str(Path(args.ros) / "left.yaml"), "--ros")
     progress = ProgressLine("stereo-calibrate")
     try:
         detections = detect_folders(_source(args.left), _source(args.right), board, progress=progress.part(0, 0.6))

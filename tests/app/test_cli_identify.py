@@ -130,3 +130,21 @@ def test_usage_errors(tmp_path, capsys, data):
     assert code == 2 and "not allowed with argument" in capsys.readouterr().err
     code = main(["evaluate", "--robot", ROBOT, "--measurements", str(tmp_path / "missing.csv")])
     assert code == 1 and "file not found" in capsys.readouterr().err
+
+
+def test_an_unwritable_out_is_refused_with_one_line(tmp_path, capsys, data):
+    (tmp_path / "a_file").write_text("x")
+    cases = [
+        (["identify", "--robot", ROBOT, "--measurements", str(data / "m.csv"),
+          "--out", str(tmp_path / "a_file" / "c.json")], 1, "a_file is a file, not a folder"),
+        (["identify", "--robot", ROBOT, "--measurements", str(data / "m.csv"), "--out", str(tmp_path)],
+         2, "is a folder; give a file name"),
+        (["select-poses", "--robot", ROBOT, "--count", "12", "--out", str(tmp_path)], 2, "is a folder"),
+        (["export", "--robot", ROBOT, "--format", "urdf", "--out", str(tmp_path / "a_file" / "r.urdf")],
+         1, "is a file, not a folder"),
+    ]
+    for argv, code, words in cases:
+        assert main(argv) == code, argv
+        err = capsys.readouterr().err
+        assert words in err and len(err.strip().splitlines()) == 1, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]      # nothing written
