@@ -61,6 +61,7 @@ class WizardPage(QWidget):
         self.help_name = self.help_name or self.step.slug
         self.state = state
         self.tasks = tasks
+        self._autopilot_done: DoneCallback | None = None   # set by a page's autopilot()
         self.setObjectName(f"page_{self.step.slug}")
 
     # -- to override ---------------------------------------------------------------------
@@ -98,6 +99,12 @@ class WizardPage(QWidget):
         return self.tasks.start(fn, *args, on_result=on_result, on_error=on_error,
                                 on_cancelled=on_cancelled, on_progress=on_progress,
                                 label=label or self.title, **kwargs)
+
+    def _finish_autopilot(self, ok: bool, message: str = "") -> None:
+        """Report the end of an autopilot run once (a page stores `done` in `_autopilot_done`)."""
+        done, self._autopilot_done = self._autopilot_done, None
+        if done is not None:
+            done(ok, message)
 
     def _set_status(self, text: str, ok: bool | None = None) -> None:
         """Show `text` in the page's status line (`self.status`, a QLabel named pageStatus):

@@ -205,7 +205,6 @@ class IdentificationPage(WizardPage):
         self._handle = None
         self._token = 0
         self._lab = None                 # the state's lab (from labChanged) or one built for this page
-        self._autopilot_done = None
         self._fix_actions: dict[str, QAction] = {}
 
         # -- measurements --------------------------------------------------------------
@@ -422,11 +421,6 @@ class IdentificationPage(WizardPage):
             self._set_status("No measurements in the project: run the Measurement step first.", ok=False)
         if not started:
             self._finish_autopilot(False, self.status.text() or "identification could not start")
-
-    def _finish_autopilot(self, ok: bool, message: str = "") -> None:
-        done, self._autopilot_done = self._autopilot_done, None
-        if done is not None:
-            done(ok, message)
 
     # -- measurements --------------------------------------------------------------------
     def _refresh_source(self) -> None:

@@ -388,7 +388,6 @@ class MarkerPage(WizardPage):
         self._token = 0
         self._live_count = 0
         self._verify_count = 0
-        self._autopilot_done = None
         self._build()
         state.projectChanged.connect(self._context_changed)
         state.robotChanged.connect(self._context_changed)
@@ -789,11 +788,6 @@ class MarkerPage(WizardPage):
                                          f"located, median 3D error {_mm(v.median_error)} mm")
         else:
             self._finish_autopilot(False, "the marker was not located in any verification pose")
-
-    def _finish_autopilot(self, ok: bool, message: str = "") -> None:
-        done, self._autopilot_done = self._autopilot_done, None
-        if done is not None:
-            done(ok, message)
 
     # -- tasks --------------------------------------------------------------------------------
     def _start(self, fn, *args, on_result, label: str, then=None, status: str = "", **kwargs) -> bool:

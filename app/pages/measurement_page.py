@@ -188,7 +188,6 @@ class MeasurementPage(WizardPage):
         self._pause = threading.Event()
         self._stopped_by_robot = False
         self._moves_at_stop: int | None = None
-        self._autopilot_done = None
         self._autopilot_retried = False
         self._predicted = self._arms = None
         self._wedges = None
@@ -487,11 +486,6 @@ class MeasurementPage(WizardPage):
             return
         if not self.start():
             self._finish_autopilot(False, self.status.text() or "the measurement could not start")
-
-    def _finish_autopilot(self, ok: bool, message: str = "") -> None:
-        done, self._autopilot_done = self._autopilot_done, None
-        if done is not None:
-            done(ok, message)
 
     def _done_message(self) -> str:
         c = self.counts()

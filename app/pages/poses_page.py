@@ -127,7 +127,6 @@ class PosesPage(WizardPage):
         self._lab = None
         self._handle = None
         self._token = 0
-        self._autopilot_done = None
 
         # -- controls --------------------------------------------------------------------
         self.count_spin = QSpinBox()
@@ -308,11 +307,6 @@ class PosesPage(WizardPage):
         self._autopilot_done = done
         if not self.start_selection():
             self._finish_autopilot(False, self.status.text() or "pose selection could not start")
-
-    def _finish_autopilot(self, ok: bool, message: str = "") -> None:
-        done, self._autopilot_done = self._autopilot_done, None
-        if done is not None:
-            done(ok, message)
 
     # -- the work ----------------------------------------------------------------------------
     def start_selection(self) -> bool:

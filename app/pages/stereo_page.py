@@ -319,7 +319,6 @@ class StereoPage(WizardPage):
         self._queue_total = 0
         self._queue_done = 0
         self._queue_then: Callable[[], None] | None = None
-        self._autopilot_done = None
         self._token = 0
         self._preview_cache: tuple | None = None   # (result, rectification maps)
         self._after_adding_note = ""
@@ -726,11 +725,6 @@ class StereoPage(WizardPage):
             r = self.result
             self._finish_autopilot(True, f"{r.pairs_used} pairs, stereo RMS {r.rms_stereo:.3f} px, "
                                          f"baseline {r.baseline_mm:.1f} mm")
-
-    def _finish_autopilot(self, ok: bool, message: str = "") -> None:
-        done, self._autopilot_done = self._autopilot_done, None
-        if done is not None:
-            done(ok, message)
 
     # -- tasks: a queue of worker jobs run one after the other ----------------------------------
     def _run_queue(self, jobs: list[tuple[Callable, str]], then: Callable[[], None] | None = None) -> None:
