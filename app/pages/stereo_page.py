@@ -662,6 +662,8 @@ class StereoPage(WizardPage):
             else:
                 self.saved_path = path
                 ok = True
+                self._board = sf.board                   # the board those pairs show
+                self._set_board_widgets(self._board)
                 message = (f"This project already has {path.name} (stereo RMS {sf.rms_stereo:.3f} px, baseline "
                            f"{sf.baseline_mm:.1f} mm, {sf.image_size[0]}x{sf.image_size[1]}): the step is done. "
                            "Add pairs and calibrate to replace it.")
@@ -671,6 +673,11 @@ class StereoPage(WizardPage):
         self._show_result()
         self._set_status(message, ok=ok)
         self.notify_complete()
+        saved = project.folder / "checkerboard" if project is not None else None
+        if saved is not None and any((saved / "left").glob("*.png")) and any((saved / "right").glob("*.png")):
+            # pairs rendered or captured into this project earlier: back on the page
+            self.add_folders(saved / "left", saved / "right",
+                             then=lambda: self._set_status(message + " The project's saved pairs are back.", ok=ok))
 
     # -- WizardPage ---------------------------------------------------------------------------
     def on_enter(self) -> None:

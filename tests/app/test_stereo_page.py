@@ -305,7 +305,11 @@ def test_autopilot_renders_calibrates_and_saves(page, qtbot, monkeypatch):
     other.open_project(page.state.project.folder)
     again = StereoPage(other, page.tasks)
     qtbot.addWidget(again)
-    assert again.is_complete() and "already has stereo.yaml" in again.status.text()
+    assert again.is_complete()                        # done at once, from stereo.yaml
+    qtbot.waitUntil(lambda: not again.busy, timeout=WAIT_MS)
+    assert "already has stereo.yaml" in again.status.text() and "saved pairs are back" in again.status.text()
+    assert len(again.items) == 12                     # the pairs rendered into the project
+    assert again.is_complete()
     other.close()
 
 
