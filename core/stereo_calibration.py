@@ -59,6 +59,7 @@ from core.camera import CameraModel
 from core.checkerboard import (MIN_PAIRS_TO_CALIBRATE, Coverage, DetectionResult, PairDetection,
                                board_symmetries, coverage, summarize_rejections)
 from core.errors import RoboCalError, UsageError
+from core.images import load_gray
 from core.stereo_rig import StereoRig
 from core.task import Monitor
 from core.transforms import best_rotation, rotation_angle
@@ -222,17 +223,30 @@ class Rectification:
     D1: np.ndarray
     K2: np.ndarray
     D2: np.ndarray
+    _maps: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def maps(self, m1type: int = cv2.CV_16SC2):
-        """Rectification maps ((map1x, map1y), (map2x, map2y)) for cv2.remap."""
-        left = cv2.initUndistortRectifyMap(self.K1, self.D1, self.R1, self.P1, self.image_size, m1type)
-        right = cv2.initUndistortRectifyMap(self.K2, self.D2, self.R2, self.P2, self.image_size, m1type)
-        return left, right
+        """Rectification maps ((map1x, map1y), (map2x, map2y)) for cv2.remap, computed once."""
+        if m1type not in self._maps:
+            left = cv2.initUndistortRectifyMap(self.K1, self.D1, self.R1, self.P1, self.image_size, m1type)
+            right = cv2.initUndistortRectifyMap(self.K2, self.D2, self.R2, self.P2, self.image_size, m1type)
+            self._maps[m1type] = (left, right)
+        return self._maps[m1type]
 
     def rectify(self, left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The rectified pair (a preview: rows of the two images are epipolar lines)."""
         (l1, l2), (r1, r2) = self.maps()
         return (cv2.remap(left, l1, l2, cv2.INTER_LINEAR), cv2.remap(right, r1, r2, cv2.INTER_LINEAR))
+
+    def rectify_files(self, left_path, right_path) -> tuple[np.ndarray, np.ndarray]:
+        """Read a pair of image files and rectify it (RoboCalError naming an unreadable file)."""
+        images = []
+        for path in (left_path, right_path):
+            image, why = load_gray(path)
+            if image is None:
+                raise RoboCalError(f"cannot show this pair: {why}", source=path)
+            images.append(image)
+        return self.rectify(*images)
 
 
 @dataclass

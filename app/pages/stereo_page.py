@@ -320,7 +320,7 @@ class StereoPage(WizardPage):
         self._queue_done = 0
         self._queue_then: Callable[[], None] | None = None
         self._token = 0
-        self._preview_cache: tuple | None = None   # (result, rectification maps)
+        self._preview_token = 0                     # the latest preview asked for
         self._after_adding_note = ""
         self._board = self._default_board()
 
@@ -1109,7 +1109,6 @@ class StereoPage(WizardPage):
     def _calibrated(self, result: StereoCalibrationResult) -> None:
         self.result = result
         self.result_stale = False
-        self._preview_cache = None
         self._show_result()
         self._refresh_pairs()
         cv = result.cross_validation
@@ -1239,18 +1238,26 @@ class StereoPage(WizardPage):
         pair = r.detections.pairs[int(index)] if r.detections is not None else None
         if pair is None:
             return
-        left, why_l = load_gray(pair.left_path)
-        right, why_r = load_gray(pair.right_path)
-        if left is None or right is None:
-            self.preview.set_image(None)
-            self.preview_caption.setText(f"Cannot show this pair: {why_l or why_r}")
-            return
         rect = r.rectification
-        if self._preview_cache is None or self._preview_cache[0] is not r:
-            self._preview_cache = (r, rect.maps())
-        (l1, l2), (r1, r2) = self._preview_cache[1]
-        left_r = cv2.remap(left, l1, l2, cv2.INTER_LINEAR)
-        right_r = cv2.remap(right, r1, r2, cv2.INTER_LINEAR)
+        self._preview_token += 1
+        token = self._preview_token
+
+        def shown(images):
+            if token == self._preview_token and self.result is r:
+                self._draw_preview(r, v, *images)
+
+        def failed(message):
+            if token == self._preview_token:
+                self.preview.set_image(None)
+                self.preview_caption.setText(message)
+
+        self.preview_caption.setText("Rectifying this pair…")
+        self.run_task(rect.rectify_files, pair.left_path, pair.right_path, on_result=shown, on_error=failed,
+                      on_cancelled=lambda: None, label="Rectifying the preview")
+
+    def _draw_preview(self, r, v: int, left_r: np.ndarray, right_r: np.ndarray) -> None:
+        """The rectified pair side by side with the epipolar lines and the rectified corners."""
+        rect = r.rectification
         h, w = left_r.shape[:2]
         gap = np.full((h, PREVIEW_GAP), 255, np.uint8)
         self.preview.set_image(np.concatenate([left_r, gap, right_r], axis=1))

@@ -112,7 +112,9 @@ def test_virtual_lab_pairs_calibrate_drop_outlier_and_export(page, qtbot, tmp_pa
     summary = page.summary_view.toPlainText()
     assert "Cross-validation" in summary and "Epipolar" in summary and "the model" in summary
     h, w = r.image_size[1], r.image_size[0]
+    qtbot.waitUntil(lambda: len(page.preview.image_shape()) > 0, timeout=WAIT_MS)   # rectified on a worker
     assert page.preview.image_shape()[:2] == (h, 2 * w + stereo_page.PREVIEW_GAP)
+    assert "Epipolar error of this pair" in page.preview_caption.text()
     assert page.scatter.counts() == (accepted * 54, accepted * 54)
     assert "✓" in page.strip.caption(page.items[0].key) and "px" in page.strip.caption(page.items[0].key)
 

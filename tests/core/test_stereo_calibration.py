@@ -70,6 +70,9 @@ def test_rectification_epipolar_error_and_maps(synthetic):
     a, b = rect.rectify(np.zeros((SIZE[1], SIZE[0]), np.uint8), np.zeros((SIZE[1], SIZE[0]), np.uint8))
     assert a.shape == (SIZE[1], SIZE[0])
     assert rect.P2[0, 3] < 0                    # right camera to the right of the left one
+    assert rect.maps() is rect.maps()           # computed once per map type
+    with pytest.raises(RoboCalError, match="cannot show this pair: file not found"):
+        rect.rectify_files("missing_left.png", "missing_right.png")
 
 
 def test_cross_validation_small_for_consistent_data(synthetic):
