@@ -28,6 +28,12 @@ from core.robot_file import read_robot
 VIRTUAL_LAB_MODULE = "core.virtual_lab.lab"
 
 
+def build_lab(robot: RobotModel, seed: int, noise: float):
+    """The virtual lab WizardState.lab would build for this robot (same seed, same lab).
+    Takes ~2 s: pages call it on a worker thread and hand the result to `adopt_lab`."""
+    return importlib.import_module(VIRTUAL_LAB_MODULE).VirtualLab.create(robot=robot, seed=seed, noise=noise)
+
+
 class WizardState(QObject):
     """Shared state of one wizard window.
 
@@ -168,8 +174,7 @@ class WizardState(QObject):
             if not self.lab_available():
                 raise RoboCalError("the virtual lab is not available in this build",
                                    hint="Update RoboCal (core/virtual_lab/lab.py is missing).")
-            module = importlib.import_module(VIRTUAL_LAB_MODULE)
-            self._set_lab(module.VirtualLab.create(robot=self.robot, seed=self.seed, noise=self.noise))
+            self._set_lab(build_lab(self.robot, self.seed, self.noise))
             self._update_connection()
         return self._lab
 

@@ -25,6 +25,7 @@ from PySide6.QtWidgets import (QCheckBox, QComboBox, QDoubleSpinBox, QFileDialog
                                QWidget)
 
 from app.pages.base import WizardPage
+from app.state import build_lab
 from app.pages.steps import Step
 from core.calibration_jacobian import all_parameters, resolve_names
 from core.errors import RoboCalError
@@ -61,12 +62,6 @@ class IdentificationRun:
     lab: object | None = None
 
 
-def make_lab(robot: RobotModel, seed: int, noise: float):
-    """The virtual lab WizardState.lab would build for this robot (same seed, same lab)."""
-    from core.virtual_lab.lab import VirtualLab
-    return VirtualLab.create(robot=robot, seed=seed, noise=noise)
-
-
 def run_identification(robot: RobotModel, path: str | Path, *, fixed=(), huber: float | None = None,
                        holdout: float | None = None, kfold: int | None = None, seed: int = 0,
                        lab=None, lab_args: tuple | None = None, truth_poses: int = TRUTH_POSES,
@@ -85,7 +80,7 @@ def run_identification(robot: RobotModel, path: str | Path, *, fixed=(), huber: 
     if with_truth:
         monitor.step(0.86, "virtual lab: comparing with the true robot")
         if lab is None:
-            lab = make_lab(robot, *lab_args)
+            lab = build_lab(robot, *lab_args)
         monitor.step(0.95, "virtual lab: comparing with the true robot")
         Q = lab.random_visible_poses(truth_poses, np.random.default_rng([int(seed), 6]))
         accuracy = accuracy_against_truth(lab.true_robot, result.initial, result.model, Q, [lab.target])
@@ -102,7 +97,7 @@ def generate_ideal_measurements(path: str | Path, *, lab=None, robot: RobotModel
     monitor = Monitor(progress, cancelled)
     if lab is None:
         monitor.step(0.0, "building the virtual lab")
-        lab = make_lab(robot, *lab_args)
+        lab = build_lab(robot, *lab_args)
     monitor.step(0.7, "choosing visible poses")
     meas = ideal_lab_measurements(lab, n_poses, sigma_mm=sigma_mm, seed=np.random.default_rng([int(seed), 5]))
     monitor.step(0.9, "writing measurements.csv")

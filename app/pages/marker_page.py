@@ -41,6 +41,7 @@ from PySide6.QtWidgets import (QAbstractItemView, QCheckBox, QDoubleSpinBox, QFi
                                QWidget)
 
 from app.pages.base import WizardPage
+from app.state import build_lab
 from app.pages.measurement_inputs import (MARKER_OUTPUT, TRAINING_FILE, VERIFICATION_FORMAT, StereoSource,
                                           marker_file, preview_source, stereo_source, verification_file)
 from app.pages.steps import Step
@@ -64,11 +65,6 @@ TAB_TRAINING, TAB_LIVE, TAB_SSD, TAB_VERIFY, TAB_COMPARE = range(5)
 
 
 # -- the work (plain Python, run on worker threads) ---------------------------------------------
-def make_lab(robot, seed: int, noise: float):
-    from core.virtual_lab.lab import VirtualLab
-    return VirtualLab.create(robot=robot, seed=seed, noise=noise)
-
-
 @dataclass
 class TrainingImage:
     image: np.ndarray                 # (H, W) uint8
@@ -91,7 +87,7 @@ def capture_training_image(lab=None, lab_args=None, *, progress=None, cancelled=
     monitor = Monitor(progress, cancelled)
     if lab is None:
         monitor.step(0.0, "building the virtual lab")
-        lab = make_lab(*lab_args)
+        lab = build_lab(*lab_args)
     monitor.step(0.8, "taking the training image")
     image = lab.render_training_image()
     outline, problem = _auto_outline(image)
@@ -279,7 +275,7 @@ def run_comparison(views: int, seed: int, lab=None, lab_args=None, *, progress=N
     monitor = Monitor(progress, cancelled)
     if lab is None:
         monitor.step(0.0, "building the virtual lab")
-        lab = make_lab(*lab_args)
+        lab = build_lab(*lab_args)
     patterns = candidate_patterns()
     images = {}
     for p in patterns:
@@ -877,7 +873,7 @@ class MarkerPage(WizardPage):
             self._refresh_stereo()
             self._set_status("Preview: locating with the virtual lab's true cameras (not a calibration).", None)
 
-        return self._start(make_lab, self.state.robot, self.state.seed, float(self.state.noise), on_result=built,
+        return self._start(build_lab, self.state.robot, self.state.seed, float(self.state.noise), on_result=built,
                            label="Building the virtual lab", then=then, status="Building the virtual lab…")
 
     # -- training -----------------------------------------------------------------------------
@@ -1046,7 +1042,7 @@ class MarkerPage(WizardPage):
         lab = self._current_lab()
         if lab is None:
             # build the lab first, then come back
-            return self._start(make_lab, self.state.robot, self.state.seed, float(self.state.noise),
+            return self._start(build_lab, self.state.robot, self.state.seed, float(self.state.noise),
                                on_result=self._took_lab, label="Building the virtual lab",
                                then=lambda: self.next_pose(then), status="Building the virtual lab…")
         self._live_count += 1
@@ -1133,7 +1129,7 @@ class MarkerPage(WizardPage):
             return False
         lab = self._current_lab()
         if lab is None:
-            return self._start(make_lab, self.state.robot, self.state.seed, float(self.state.noise),
+            return self._start(build_lab, self.state.robot, self.state.seed, float(self.state.noise),
                                on_result=self._took_lab, label="Building the virtual lab",
                                then=lambda: self.verify(then), status="Building the virtual lab…")
         n = self.verify_spin.value()

@@ -38,6 +38,7 @@ from PySide6.QtWidgets import (QAbstractItemView, QFileDialog, QGridLayout, QHea
 
 from app import messages
 from app.pages.base import WizardPage
+from app.state import build_lab
 from app.pages.measurement_inputs import project_marker, stereo_source
 from app.pages.steps import Step
 from core.errors import RoboCalError
@@ -63,11 +64,6 @@ CAPTION = (f"<span style='color:{AFTER}'>●</span> measured marker positions &n
 
 
 # -- the work (plain Python, run on a worker thread) --------------------------------------------
-def make_lab(robot, seed: int, noise: float):
-    from core.virtual_lab.lab import VirtualLab
-    return VirtualLab.create(robot=robot, seed=seed, noise=noise)
-
-
 def measure_virtual(poses: PoseList, out: Path, trained, rect, driver, lab, seed: int, *, paused=None,
                     report=None, progress=None, cancelled=None):
     """The measurement run in the virtual lab: the driver moves, the lab renders the pair at
@@ -556,7 +552,7 @@ class MeasurementPage(WizardPage):
                 self._set_status(f"✗ {message}", False)
                 self._finish_autopilot(False, message)
 
-            self._handle = self.run_task(make_lab, state.robot, state.seed, float(state.noise), on_result=built,
+            self._handle = self.run_task(build_lab, state.robot, state.seed, float(state.noise), on_result=built,
                                          on_error=failed, on_cancelled=lambda: failed("cancelled"),
                                          label="Building the virtual lab")
             self._update_buttons()

@@ -23,6 +23,7 @@ from PySide6.QtWidgets import (QAbstractItemView, QComboBox, QDoubleSpinBox, QGr
                                QTableWidget, QTableWidgetItem, QVBoxLayout, QWidget)
 
 from app.pages.base import WizardPage
+from app.state import build_lab
 from app.pages.steps import Step
 from core.errors import RoboCalError
 from core.kinematics import RobotModel
@@ -69,8 +70,7 @@ def run_pose_selection(robot: RobotModel, count: int, *, index: str = "cond", ca
     monitor = Monitor(progress, cancelled)
     if lab is None and lab_args is not None:
         monitor.step(0.0, "building the virtual lab")
-        from core.virtual_lab.lab import VirtualLab
-        lab = VirtualLab.create(robot=robot, seed=lab_args[0], noise=lab_args[1])
+        lab = build_lab(robot, lab_args[0], lab_args[1])
     options = lab_options(lab) if lab is not None else {"robot": robot}
     model = options.pop("robot")
     result = select_poses(model, count, candidates=candidates, index=index, seed=seed, margin=margin,

@@ -33,6 +33,7 @@ from PySide6.QtWidgets import (QCheckBox, QComboBox, QDoubleSpinBox, QFileDialog
                                QTabWidget, QTextBrowser, QVBoxLayout, QWidget)
 
 from app.pages.base import WizardPage
+from app.state import build_lab
 from app.pages.steps import Step
 from core.board import Board
 from core.checkerboard import (MIN_BAR, MIN_GOOD_PAIRS, MIN_PAIRS_TO_CALIBRATE, PairDetection, coverage,
@@ -123,8 +124,7 @@ def prepare_virtual(lab, robot, seed: int, noise: float, count: int, rng_key: Se
     monitor = Monitor(progress, cancelled)
     if lab is None:
         monitor.step(0.0, "building the virtual lab")
-        from core.virtual_lab.lab import VirtualLab
-        lab = VirtualLab.create(robot=robot, seed=seed, noise=noise)
+        lab = build_lab(robot, seed, noise)
     monitor.step(0.7, "choosing board poses")
     rng = np.random.default_rng(list(rng_key))
     poses = lab.random_board_poses(count, rng, candidates_per_pose=30 if count > 1 else 4)

@@ -21,7 +21,13 @@ def test_projection_agrees_with_opencv(k1, k2, p1, p2, k3, seed):
     rvec, tvec = rng.normal(0, 0.2, 3), rng.normal(0, 20, 3)
     R, _ = cv2.Rodrigues(rvec)
     expected, _ = cv2.projectPoints(points, rvec, tvec, K, dist)
-    np.testing.assert_allclose(camera.project_from(points, R, tvec), expected.reshape(-1, 2), atol=1e-9, rtol=0)
+    expected = expected.reshape(-1, 2)
+    # the 1e-9 px agreement holds where pixels mean something: around the 1280x1024 image (far
+    # outside it the distortion polynomial reaches 1e6 px and only relative rounding is left)
+    near = np.all(np.abs(expected - [640, 512]) < 5000, axis=1)
+    np.testing.assert_allclose(camera.project_from(points, R, tvec)[near], expected[near], atol=1e-9, rtol=0)
+    np.testing.assert_allclose(camera.project_from(points, R, tvec), expected, atol=1e-9, rtol=1e-13)
+    assert near.sum() >= 100
 
 
 def test_undistortion_inverts_projection():
