@@ -640,6 +640,13 @@ class MarkerPage(WizardPage):
         return {"lab": lab} if lab is not None else {"lab_args": (self.state.robot, self.state.seed,
                                                                   float(self.state.noise))}
 
+    def _build_lab_then(self, then, on_result=None) -> bool:
+        """Build the virtual lab on the worker (`on_result`, by default `_took_lab`, keeps it and
+        the state adopts it), then carry on with `then`."""
+        return self._start(build_lab, self.state.robot, self.state.seed, float(self.state.noise),
+                           on_result=on_result or self._took_lab, label="Building the virtual lab", then=then,
+                           status="Building the virtual lab…")
+
     def _took_lab(self, lab) -> None:
         if lab is not None:
             self._lab = lab
@@ -873,8 +880,7 @@ class MarkerPage(WizardPage):
             self._refresh_stereo()
             self._set_status("Preview: locating with the virtual lab's true cameras (not a calibration).", None)
 
-        return self._start(build_lab, self.state.robot, self.state.seed, float(self.state.noise), on_result=built,
-                           label="Building the virtual lab", then=then, status="Building the virtual lab…")
+        return self._build_lab_then(then, on_result=built)
 
     # -- training -----------------------------------------------------------------------------
     def load_dialog(self) -> bool:
@@ -1041,10 +1047,7 @@ class MarkerPage(WizardPage):
             return False
         lab = self._current_lab()
         if lab is None:
-            # build the lab first, then come back
-            return self._start(build_lab, self.state.robot, self.state.seed, float(self.state.noise),
-                               on_result=self._took_lab, label="Building the virtual lab",
-                               then=lambda: self.next_pose(then), status="Building the virtual lab…")
+            return self._build_lab_then(lambda: self.next_pose(then))
         self._live_count += 1
         return self._start(live_pair, lab, locator, self._live_count, int(self.state.seed),
                            self.state.robot_connection, on_result=self._live_done, label="Live pair", then=then,
@@ -1129,9 +1132,7 @@ class MarkerPage(WizardPage):
             return False
         lab = self._current_lab()
         if lab is None:
-            return self._start(build_lab, self.state.robot, self.state.seed, float(self.state.noise),
-                               on_result=self._took_lab, label="Building the virtual lab",
-                               then=lambda: self.verify(then), status="Building the virtual lab…")
+            return self._build_lab_then(lambda: self.verify(then))
         n = self.verify_spin.value()
         self._verify_count += 1
         self.tabs.setCurrentIndex(TAB_VERIFY)
@@ -1193,9 +1194,7 @@ class MarkerPage(WizardPage):
             self._set_status(f"✓ Compared {len(result.patterns)} patterns over {result.views} views: "
                              f"{best.name} detected best ({100 * best.detection_rate:.0f} %).", True)
 
-        lab = self._current_lab()
-        kwargs = {"lab": lab} if lab is not None else {"lab_args": (self.state.robot, self.state.seed,
-                                                                    float(self.state.noise))}
+        kwargs = self._lab_source()
         return self._start(run_comparison, self.compare_spin.value(), int(self.state.seed), on_result=got,
                            label="Comparing markers", status="Comparing the candidate markers…", **kwargs)
 

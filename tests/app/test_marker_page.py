@@ -10,7 +10,6 @@ import cv2
 import numpy as np
 import pytest
 from PySide6.QtCore import Qt
-from PySide6.QtWidgets import QMessageBox
 
 from app.pages.marker_page import TAB_LIVE, TAB_SSD, MarkerPage
 from app.pages.measurement_inputs import MARKER_FILE, TRAINING_FILE, VERIFICATION_FILE
@@ -26,15 +25,6 @@ SCREENSHOT = Path("/tmp/robocal-marker-page.png")
 @pytest.fixture(scope="module")
 def lab():
     return make_lab()
-
-
-@pytest.fixture
-def boxes(monkeypatch):
-    shown = []
-    for kind in ("critical", "warning", "information"):
-        monkeypatch.setattr(QMessageBox, kind,
-                            lambda parent, title, text, *a, _k=kind, **kw: shown.append((_k, title, text)))
-    return shown
 
 
 def make_page(qtbot, lab, stereo=True):

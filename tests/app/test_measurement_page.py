@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from PySide6.QtCore import Qt
-from PySide6.QtWidgets import QApplication, QMessageBox
+from PySide6.QtWidgets import QApplication
 
 from app.pages.measurement_page import MEASURED, PENDING, REJECTED, MeasurementPage
 from app.pages.registry import page_class
@@ -37,15 +37,6 @@ def trained(lab):
 def q_file(lab):
     Q = lab.random_visible_poses(N_POSES, np.random.default_rng(5))
     return lab.nominal_robot.q_to_file(Q)
-
-
-@pytest.fixture
-def boxes(monkeypatch):
-    shown = []
-    for kind in ("critical", "warning", "information"):
-        monkeypatch.setattr(QMessageBox, kind,
-                            lambda parent, title, text, *a, _k=kind, **kw: shown.append((_k, title, text)))
-    return shown
 
 
 def ready_state(lab, trained, q_file):

@@ -7,7 +7,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 from PySide6.QtCore import Qt
-from PySide6.QtWidgets import QMessageBox
 
 from app.pages.poses_page import PosesPage
 from app.pages.registry import page_class
@@ -18,15 +17,6 @@ from core.pose_candidates import arm_polyline
 from core.pose_file import read_poses, write_poses
 
 SCREENSHOT = Path("/tmp/robocal-poses-page.png")
-
-
-@pytest.fixture
-def boxes(monkeypatch):
-    shown = []
-    for kind in ("critical", "warning", "information"):
-        monkeypatch.setattr(QMessageBox, kind,
-                            lambda parent, title, text, *a, _k=kind, **kw: shown.append((_k, title, text)))
-    return shown
 
 
 @pytest.fixture

@@ -5,23 +5,12 @@ from __future__ import annotations
 import json
 
 import pytest
-from PySide6.QtWidgets import QMessageBox
 
 from app.pages.setup_page import SetupPage
 from app.state import WizardState
 from app.worker import TaskRunner
 from core.kinematics import preset_names
 from core.robot_file import read_robot, write_robot
-
-
-@pytest.fixture
-def boxes(monkeypatch):
-    """Message boxes recorded instead of shown (they would block the test)."""
-    shown = []
-    for kind in ("critical", "warning", "information"):
-        monkeypatch.setattr(QMessageBox, kind,
-                            lambda parent, title, text, *a, _k=kind, **kw: shown.append((_k, title, text)))
-    return shown
 
 
 @pytest.fixture
