@@ -20,7 +20,7 @@ from __future__ import annotations
 from typing import Any, Callable, Optional
 
 from PySide6.QtCore import Signal
-from PySide6.QtWidgets import QWidget
+from PySide6.QtWidgets import QLabel, QWidget
 
 from app.messages import show_error
 from app.pages.steps import Step
@@ -62,6 +62,9 @@ class WizardPage(QWidget):
         self.state = state
         self.tasks = tasks
         self._autopilot_done: DoneCallback | None = None   # set by a page's autopilot()
+        self.status = QLabel()                  # the page's status line; a page puts it in its layout
+        self.status.setObjectName("pageStatus")
+        self.status.setWordWrap(True)
         self.setObjectName(f"page_{self.step.slug}")
 
     # -- to override ---------------------------------------------------------------------
@@ -107,8 +110,8 @@ class WizardPage(QWidget):
             done(ok, message)
 
     def _set_status(self, text: str, ok: bool | None = None) -> None:
-        """Show `text` in the page's status line (`self.status`, a QLabel named pageStatus):
-        green when ok, amber otherwise (the main window's style sheet)."""
+        """Show `text` in the page's status line `self.status`: green when ok, amber otherwise
+        (the main window's style sheet)."""
         self.status.setText(text)
         self.status.setProperty("ok", "true" if ok else "false")
         self.status.style().unpolish(self.status)

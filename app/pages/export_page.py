@@ -127,10 +127,7 @@ class ExportPage(WizardPage):
             self.rows[item.key] = {"title": title, "target": target, "status": status, "button": button}
         grid.setColumnStretch(0, 1)
 
-        self.status = QLabel()
         self.status.setTextFormat(Qt.TextFormat.PlainText)
-        self.status.setObjectName("pageStatus")
-        self.status.setWordWrap(True)
         self.status.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
 
         layout = QVBoxLayout(self)

@@ -605,9 +605,6 @@ class MarkerPage(WizardPage):
         self.tabs.addTab(verify, "Verification")
         self.tabs.addTab(compare, "Compare markers")
 
-        self.status = QLabel()
-        self.status.setObjectName("pageStatus")
-        self.status.setWordWrap(True)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.setSpacing(6)

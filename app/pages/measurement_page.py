@@ -293,9 +293,6 @@ class MeasurementPage(WizardPage):
         self.summary.setObjectName("summaryLabel")
         self.summary.setWordWrap(True)
         self.summary.setTextFormat(Qt.TextFormat.RichText)
-        self.status = QLabel()
-        self.status.setObjectName("pageStatus")
-        self.status.setWordWrap(True)
 
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)

@@ -224,9 +224,6 @@ class PosesPage(WizardPage):
         self.splitter.setStretchFactor(2, 3)
         self.splitter.setSizes([230, 230, 150])
 
-        self.status = QLabel()
-        self.status.setObjectName("pageStatus")
-        self.status.setWordWrap(True)
 
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)

@@ -138,9 +138,6 @@ class SetupPage(WizardPage):
         hw.addWidget(connection_box, 1)
         hw.addWidget(camera_box, 1)
 
-        self.status = QLabel()
-        self.status.setObjectName("pageStatus")
-        self.status.setWordWrap(True)
 
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
