@@ -8,8 +8,6 @@ result objects (e.g. the stereo calibration result) for the pages that follow.
 """
 from __future__ import annotations
 
-import importlib
-import importlib.util
 import shutil
 import tempfile
 from pathlib import Path
@@ -18,20 +16,13 @@ from typing import Any
 from PySide6.QtCore import QObject, Signal
 
 from core import project as projects
+from app.lab import build_lab
 from core.errors import RoboCalError
-from core.kinematics import RobotModel, robot_path
-from core.robot.base import RobotDriver
+from core.robot.model import RobotModel, robot_path
+from core.robot.driver import RobotDriver
 from core.robot.simulated import SimulatedRobot
-from core.robot_file import read_robot
+from core.robot.file import read_robot
 
-#: where the virtual lab lives (built by another part of issue 2; imported lazily)
-VIRTUAL_LAB_MODULE = "core.virtual_lab.lab"
-
-
-def build_lab(robot: RobotModel, seed: int, noise: float):
-    """The virtual lab WizardState.lab would build for this robot (same seed, same lab).
-    Takes ~2 s: pages call it on a worker thread and hand the result to `adopt_lab`."""
-    return importlib.import_module(VIRTUAL_LAB_MODULE).VirtualLab.create(robot=robot, seed=seed, noise=noise)
 
 
 class WizardState(QObject):
@@ -158,22 +149,11 @@ class WizardState(QObject):
         return True
 
     # -- virtual lab ---------------------------------------------------------------------
-    @staticmethod
-    def lab_available() -> bool:
-        try:
-            return importlib.util.find_spec(VIRTUAL_LAB_MODULE) is not None
-        except ModuleNotFoundError:
-            return False
-
     @property
     def lab(self):
         """The virtual lab for the current robot, created on first use
-        (``VirtualLab.create(robot=..., seed=..., noise=...)``). Raises RoboCalError if
-        the virtual lab is not available in this build."""
+        (``VirtualLab.create(robot=..., seed=..., noise=...)``)."""
         if self._lab is None:
-            if not self.lab_available():
-                raise RoboCalError("the virtual lab is not available in this build",
-                                   hint="Update RoboCal (core/virtual_lab/lab.py is missing).")
             self._set_lab(build_lab(self.robot, self.seed, self.noise))
             self._update_connection()
         return self._lab

@@ -31,14 +31,14 @@ from pathlib import Path
 
 import numpy as np
 
-from core.calibration_jacobian import (calibration_jacobian, hayati_joints, parameter_difference,
+from core.identification.jacobian import (calibration_jacobian, hayati_joints, parameter_difference,
                                        predict_points)
-from core.identifiability import random_configurations
-from core.identification import identify, identify_files
-from core.kinematics import robot_path
-from core.measurements import write_measurements
-from core.robot_file import read_robot, write_robot
-from core.synthetic import perturbed_model, simulate_measurements
+from core.identification.identifiability import random_configurations
+from core.identification.solver import identify, identify_files
+from core.robot.model import robot_path
+from core.measurement.file import write_measurements
+from core.robot.file import read_robot, write_robot
+from core.virtual_lab.synthetic import perturbed_model, simulate_measurements
 
 SIGMA = 0.05
 N_POSES = 50

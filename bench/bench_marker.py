@@ -6,13 +6,13 @@ import time
 import numpy as np
 
 from core import transforms as tf
-from core.correspondence import StereoRectification
-from core.marker_comparison import random_marker_pose, view_tilt
-from core.marker_detection import detect_marker
-from core.marker_geometry import PixelMap
-from core.marker_location import MarkerLocator, MarkerTracker
-from core.marker_training import train_marker
-from core.triangulation import triangulate_general, triangulate_rectified
+from core.marker.correspondence import StereoRectification
+from core.virtual_lab.marker_comparison import random_marker_pose, view_tilt
+from core.marker.detection import detect_marker
+from core.marker.geometry import PixelMap
+from core.marker.location import MarkerLocator, MarkerTracker
+from core.marker.training import train_marker
+from core.marker.triangulation import triangulate_general, triangulate_rectified
 from core.virtual_lab.lab import VirtualLab
 
 N_VIEWS = 320            # 2D: rendered views of the marker

@@ -7,16 +7,16 @@ Definitions
 * Full joint ranges: candidates uniform inside the joint limits (no margin; revolute ranges
   wider than ±180° sampled within ±180°), no camera constraint.
 * Virtual lab: the lab (seed 0) of each robot — candidates where both cameras see the marker
-  (core.visibility, depth 400–900 mm) and the arm stays above the table; the selection uses
+  (core.poses.visibility, depth 400–900 mm) and the arm stays above the table; the selection uses
   the lab's placed nominal robot, as a user would.
 * Ratio: κ of the selection / median κ of the 100 random selections (smaller is better).
 * Identification: the poses are measured on a "true" robot — synthetic truth
-  (core.synthetic.perturbed_model: 1 mm / 0.2° per DH value) for full ranges, the lab's true
+  (core.virtual_lab.synthetic.perturbed_model: 1 mm / 0.2° per DH value) for full ranges, the lab's true
   robot in the lab — with isotropic Gaussian noise σ = 0.05 mm per axis, and identified from the
-  nominal model (core.identification.identify). Parameter error: the estimate minus the truth
+  nominal model (core.identification.solver.identify). Parameter error: the estimate minus the truth
   expressed in the same parameterisation (a noise-free fit to 400 full-range poses of the true
   robot with the same parameters kept at nominal), in "mm at the tool" (lengths in mm, angles
-  in rad × the robot's reach, core.identifiability.characteristic_scales), over the joint and
+  in rad × the robot's reach, core.identification.identifiability.characteristic_scales), over the joint and
   target parameters the selection optimised (identifiable at the nominal geometry; the base is
   re-registered anyway); RMS over those parameters and RUNS runs (each run: new noise, and for
   random poses a new random selection of 30 from the same candidates). The identification
@@ -37,13 +37,14 @@ import math
 
 import numpy as np
 
-from core.calibration_jacobian import parameter_difference, predict_points
-from core.identifiability import analyse, characteristic_scales
-from core.identification import identify
-from core.kinematics import robot_path
-from core.pose_selection import lab_options, select_poses
-from core.robot_file import read_robot
-from core.synthetic import perturbed_model, simulate_measurements
+from core.identification.jacobian import parameter_difference, predict_points
+from core.identification.identifiability import analyse, characteristic_scales
+from core.identification.solver import identify
+from core.robot.model import robot_path
+from core.poses.selection import select_poses
+from core.virtual_lab.lab import lab_options
+from core.robot.file import read_robot
+from core.virtual_lab.synthetic import perturbed_model, simulate_measurements
 from core.virtual_lab.lab import VirtualLab
 
 ROBOTS = ("educational_6r", "puma560", "ur5")

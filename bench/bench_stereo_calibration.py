@@ -27,10 +27,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from core.board import Board
-from core.checkerboard import detect_folders, detect_pair, detect_pairs
-from core.stereo_calibration import CalibrationOptions, calibrate_stereo
-from core.stereo_file import read_stereo_yaml, write_stereo_yaml
+from core.stereo.board import Board
+from core.stereo.checkerboard import detect_folders, detect_pair, detect_pairs
+from core.stereo.calibration import CalibrationOptions, calibrate_stereo
+from core.stereo.file import read_stereo_yaml, write_stereo_yaml
 
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
 REAL_DATA = PROJECT_ROOT.parent / "shared" / "data" / "stereo-checkerboard-640x512"

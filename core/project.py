@@ -21,7 +21,7 @@ from pathlib import Path, PurePath
 
 from core.errors import RoboCalError
 from core.files import atomic_write_json, ensure_writable_dir, read_json
-from core.kinematics import RobotModel
+from core.robot.model import RobotModel
 from core.validate import check_format, require, text
 
 FORMAT_FAMILY = "robocal.project"
@@ -134,7 +134,7 @@ def save_project(project: Project) -> Path:
 
 def save_robot(project: Project, model: RobotModel, source: str | None = None) -> Path:
     """Write the robot model into the project (robot.json) and record it in project.json."""
-    from core.robot_file import write_robot
+    from core.robot.file import write_robot
 
     project.robot = project.robot or OUTPUT_FILES["robot"]
     path = write_robot(model, project.path("robot"))
@@ -145,7 +145,7 @@ def save_robot(project: Project, model: RobotModel, source: str | None = None) -
 
 def load_robot(project: Project) -> RobotModel | None:
     """The project's robot model, or None if none was chosen yet."""
-    from core.robot_file import read_robot
+    from core.robot.file import read_robot
 
     if not project.robot:
         return None

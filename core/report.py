@@ -17,8 +17,8 @@ from pathlib import Path
 
 from core.errors import RoboCalError
 from core.files import read_json
-from core.ideal_measurements import synthetic_description
-from core.kinematics import RobotModel
+from core.measurement.synthetic import synthetic_description
+from core.robot.model import RobotModel
 from core.project import OUTPUT_FILES, VIRTUAL_LAB, Project
 
 STYLE = """
@@ -78,7 +78,7 @@ def _stereo_section(project: Project) -> str:
     if not path.is_file():
         return "<h2>Stereo calibration</h2><p class='grey'>Not done (no stereo.yaml in the project).</p>"
     try:
-        from core.stereo_file import read_stereo_yaml
+        from core.stereo.file import read_stereo_yaml
         sf = read_stereo_yaml(path)
     except RoboCalError as exc:
         return f"<h2>Stereo calibration</h2><p class='warn'>stereo.yaml cannot be read: {_e(exc.message)}</p>"
@@ -103,7 +103,7 @@ def _poses_section(project: Project) -> str:
     if not path.is_file():
         return "<h2>Pose sequence</h2><p class='grey'>Not done (no poses.csv in the project).</p>"
     try:
-        from core.pose_file import read_poses
+        from core.poses.file import read_poses
         n = len(read_poses(path))
     except ImportError:            # a build without the pose file module: count the data rows
         try:
@@ -119,7 +119,7 @@ def _measurement_section(project: Project, robot: RobotModel | None) -> str:
     path = project.path("measurements")
     if not path.is_file():
         return "<h2>Measurements</h2><p class='grey'>Not done (no measurements.csv in the project).</p>"
-    from core.measurements import read_measurements
+    from core.measurement.file import read_measurements
     try:
         meas = read_measurements(path, robot)
     except RoboCalError as exc:

@@ -76,6 +76,7 @@ def test_import_linter_contracts_are_kept():
     assert "broken" in out and " 0 broken" in out
     assert "Layers: app -> widgets -> core KEPT" in out
     assert "core never imports Qt or pyqtgraph KEPT" in out
+    assert "Only the virtual lab's own package, and app.lab, import the virtual lab KEPT" in out
 
 
 def test_importing_all_of_core_does_not_load_qt():
@@ -104,3 +105,22 @@ print("QT", qt)
     assert int(lines["MODULES"]) >= 10
     assert lines["QT"] == "[]", f"importing core loaded Qt: {lines['QT']}"
     assert lines["FAILED"] == "[]", f"core modules that fail to import: {lines['FAILED']}"
+
+
+def test_only_the_lab_service_imports_the_virtual_lab():
+    """Every module outside core/virtual_lab (and app/lab.py, the app's lab service) is checked,
+    including the ones added after the import-linter contract's list was written."""
+    def imports_lab(path: Path) -> list[int]:
+        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+        lines = []
+        for node in ast.walk(tree):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import) else
+                     [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
+            if any(n == "core.virtual_lab" or n.startswith("core.virtual_lab.") for n in names):
+                lines.append(node.lineno)
+        return lines
+
+    allowed = {ROOT / "app" / "lab.py"}
+    found = [f"{p.relative_to(ROOT)}:{line}" for package in ("core", "widgets", "app") for p in sources(package)
+             if p not in allowed and (ROOT / "core" / "virtual_lab") not in p.parents for line in imports_lab(p)]
+    assert found == []

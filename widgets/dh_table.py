@@ -6,7 +6,7 @@ from PySide6.QtCore import QSize, Qt
 from PySide6.QtWidgets import (QAbstractItemView, QHeaderView, QSizePolicy, QTableWidget,
                                QTableWidgetItem, QWidget)
 
-from core.kinematics import RobotModel
+from core.robot.model import RobotModel
 
 COLUMNS = ["Joint", "Type", "θ offset (°)", "d (mm)", "a (mm)", "α (°)", "β (°)", "min", "max"]
 

@@ -6,7 +6,7 @@ Each view shows the cameras as triangles with their field-of-view wedges (up to 
 mm), candidate marker positions as faint dots, the selected marker positions as dots, and the
 arm of the highlighted pose as a polyline with its joints, the highlighted marker in red.
 Data come as 3D points (mm, left camera frame); `camera_wedges` computes the wedges from a
-stereo rig (core.stereo_rig.StereoRig).
+stereo rig (core.stereo.rig.StereoRig).
 """
 from __future__ import annotations
 

@@ -15,9 +15,9 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> CommandResult:
-    from core.identification import evaluate
-    from core.measurements import read_measurements
-    from core.robot_file import read_robot
+    from core.identification.solver import evaluate
+    from core.measurement.file import read_measurements
+    from core.robot.file import read_robot
 
     robot = read_robot(args.robot)
     meas = read_measurements(args.measurements, robot)

@@ -13,8 +13,8 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> CommandResult:
-    from core.exports import export_model
-    from core.robot_file import read_robot
+    from core.identification.exports import export_model
+    from core.robot.file import read_robot
 
     check_output(args.out, "--out")
     robot = read_robot(args.robot)

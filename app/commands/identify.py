@@ -28,9 +28,9 @@ def add_arguments(parser) -> None:
 
 def run(args) -> CommandResult:
     from core.errors import UsageError
-    from core.identification import identify, write_calibrated_model
-    from core.measurements import read_measurements
-    from core.robot_file import read_robot
+    from core.identification.solver import identify, write_calibrated_model
+    from core.measurement.file import read_measurements
+    from core.robot.file import read_robot
 
     if args.holdout is not None and not 0.0 < args.holdout < 1.0:
         raise UsageError(f"--holdout must be between 0 and 1, got {args.holdout}")

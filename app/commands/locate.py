@@ -30,11 +30,11 @@ def add_arguments(parser) -> None:
 
 def setup_locator(args):
     """(MarkerLocator, size known) from --stereo, --marker and --marker-size."""
-    from core.correspondence import StereoRectification
+    from core.marker.correspondence import StereoRectification
     from core.errors import UsageError
     from core.marker import load_marker
-    from core.marker_location import LocatorOptions, MarkerLocator
-    from core.stereo_file import read_stereo_yaml
+    from core.marker.location import LocatorOptions, MarkerLocator
+    from core.stereo.file import read_stereo_yaml
 
     if args.marker_size is not None and not args.marker_size > 0:
         raise UsageError("--marker-size must be positive (mm)")

@@ -34,12 +34,12 @@ def add_arguments(parser) -> None:
 
 def run(args) -> CommandResult:
     from app.commands.locate import setup_locator
-    from core.checkerboard import pair_images
+    from core.stereo.checkerboard import pair_images
     from core.images import load_gray
     from core.errors import RoboCalError, UsageError
-    from core.measurement_run import rejects_path_for, run_measurements
-    from core.pose_file import read_poses
-    from core.robot_file import read_robot
+    from core.measurement.run import rejects_path_for, run_measurements
+    from core.poses.file import read_poses
+    from core.robot.file import read_robot
 
     out = Path(args.out)
     if out.is_dir():

@@ -43,9 +43,10 @@ def add_arguments(parser) -> None:
 
 def run(args) -> CommandResult:
     from core.errors import UsageError
-    from core.pose_candidates import VisibilityOptions
-    from core.pose_selection import lab_options, select_poses, write_selection
-    from core.robot_file import read_robot
+    from core.poses.candidates import VisibilityOptions
+    from app.lab import lab_options
+    from core.poses.selection import select_poses, write_selection
+    from core.robot.file import read_robot
 
     if args.count < 1:
         raise UsageError(f"--count must be at least 1, got {args.count}")
@@ -59,7 +60,7 @@ def run(args) -> CommandResult:
         raise UsageError("--robot is required (or --virtual-lab for the demo arm)")
     options: dict = {}
     if args.virtual_lab:
-        from core.virtual_lab.lab import VirtualLab
+        from app.lab import VirtualLab
 
         lab = VirtualLab.create(read_robot(args.robot) if args.robot else None, seed=args.lab_seed)
         options = lab_options(lab)
@@ -67,8 +68,8 @@ def run(args) -> CommandResult:
     else:
         robot = read_robot(args.robot)
         if args.stereo:
-            from core.marker_description import MarkerDescription
-            from core.stereo_file import read_stereo_yaml
+            from core.marker.description import MarkerDescription
+            from core.stereo.file import read_stereo_yaml
 
             options["rig"] = read_stereo_yaml(args.stereo).rig
             options["plate_size"] = (args.plate, args.plate) if args.plate else tuple(MarkerDescription.default().plate_size)
@@ -94,7 +95,7 @@ def _fmt(v) -> str:
 
 
 def _text(r) -> str:
-    from core.pose_selection import INDEX_KEYS, INDEXES
+    from core.poses.selection import INDEX_KEYS, INDEXES
 
     c = r.candidates
     rejected = ", ".join(f"{k} {v}" for k, v in c.rejected.items() if v) or "none"

@@ -21,8 +21,8 @@ def add_arguments(parser) -> None:
 
 def run(args) -> CommandResult:
     from core.errors import UsageError
-    from core.robot_file import read_robot
-    from core.virtual_lab.dataset import simulate_dataset
+    from core.robot.file import read_robot
+    from app.lab import simulate_dataset
 
     if args.pairs < 0 or args.poses < 0:
         raise UsageError("--pairs and --poses must be zero or positive")

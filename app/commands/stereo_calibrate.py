@@ -10,11 +10,11 @@ from __future__ import annotations
 from pathlib import Path
 
 from app.commands import CommandResult, ProgressLine, check_output
-from core.board import Board
-from core.checkerboard import detect_folders
+from core.stereo.board import Board
+from core.stereo.checkerboard import detect_folders
 from core.errors import UsageError
-from core.stereo_calibration import CalibrationOptions, StereoCalibrationResult, calibrate_stereo
-from core.stereo_file import write_ros_camera_info, write_stereo_json, write_stereo_yaml
+from core.stereo.calibration import CalibrationOptions, StereoCalibrationResult, calibrate_stereo
+from core.stereo.file import write_ros_camera_info, write_stereo_json, write_stereo_yaml
 
 HELP = "Stereo calibration from checkerboard image pairs (matched by sorted file name)"
 

@@ -19,12 +19,12 @@ from PySide6.QtWidgets import (QFileDialog, QGridLayout, QGroupBox, QHBoxLayout,
 from app.pages.base import WizardPage
 from app.pages.steps import Step
 from core.errors import RoboCalError
-from core.exports import export_model
+from core.identification.exports import export_model
 from core.files import atomic_write_bytes, atomic_write_text, ensure_writable_dir
-from core.identification import write_calibrated_model
-from core.kinematics import RobotModel
+from core.identification.solver import write_calibrated_model
+from core.robot.model import RobotModel
 from core.report import calibration_report
-from core.robot_file import read_robot
+from core.robot.file import read_robot
 
 EXPORT_FOLDER = "export"
 IDENTIFICATION_OUTPUT = "identification"
@@ -42,9 +42,9 @@ class ExportItem:
 
 
 def stereo_module():
-    """core.stereo_file if this build has it (the Stereo calibration step's file module)."""
+    """core.stereo.file if this build has it (the Stereo calibration step's file module)."""
     try:
-        from core import stereo_file
+        from core.stereo import file as stereo_file
     except ImportError:
         return None
     return stereo_file
@@ -199,7 +199,7 @@ class ExportPage(WizardPage):
         if not self.state.project.has("stereo"):
             return "available after the Stereo calibration step"
         if stereo_module() is None:
-            return "this build cannot read stereo.yaml (core.stereo_file is missing)"
+            return "this build cannot read stereo.yaml (core.stereo.file is missing)"
         return None
 
     def _missing_report(self) -> str | None:

@@ -1,6 +1,6 @@
 """Step 6, Identification: the robot's real geometry from the measured marker positions.
 
-The page reads the project's measurements.csv, runs core.identification.identify on a worker
+The page reads the project's measurements.csv, runs core.identification.solver.identify on a worker
 thread (progress, Cancel), and draws what it returns: the parameter table (nominal →
 identified ± σ, the parameters that were not estimated greyed with their explanation), the
 errors per pose before and after and their histogram, the cost per iteration, the
@@ -25,17 +25,17 @@ from PySide6.QtWidgets import (QCheckBox, QComboBox, QDoubleSpinBox, QFileDialog
                                QWidget)
 
 from app.pages.base import WizardPage
-from app.state import build_lab
+from app.lab import build_lab
 from app.pages.steps import Step
-from core.calibration_jacobian import all_parameters, resolve_names
+from core.identification.jacobian import all_parameters, resolve_names
 from core.errors import RoboCalError
-from core.exports import export_model
-from core.ideal_measurements import (DEFAULT_POSES, DEFAULT_SIGMA_MM, ideal_lab_measurements,
-                                     synthetic_description, write_ideal_measurements)
-from core.identification import IdentificationResult, identify, write_calibrated_model
-from core.kinematics import RobotModel
-from core.measurements import Measurements, read_measurements
-from core.model_comparison import TruthAccuracy, accuracy_against_truth
+from core.identification.exports import export_model
+from app.lab import DEFAULT_POSES, DEFAULT_SIGMA_MM, ideal_lab_measurements, write_ideal_measurements
+from core.measurement.synthetic import synthetic_description
+from core.identification.solver import IdentificationResult, identify, write_calibrated_model
+from core.robot.model import RobotModel
+from core.measurement.file import Measurements, read_measurements
+from core.identification.model_comparison import TruthAccuracy, accuracy_against_truth
 from core.task import Monitor
 from widgets.convergence_plot import ConvergencePlot
 from widgets.correlation_view import CorrelationView

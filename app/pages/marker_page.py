@@ -2,7 +2,7 @@
 
 The chapter's chain, each stage drawn from what core returns:
 
-1. **Training** (core.marker_training.train_marker, worker thread): a training image loaded
+1. **Training** (core.marker.training.train_marker, worker thread): a training image loaded
    from a file or taken with the virtual lab's camera; the outer black square is found
    automatically (drawn dashed) or inside a crop rectangle the user drags; SIFT keypoints,
    the fitted outline and its reference point (the intersection of the diagonals) are drawn.
@@ -16,7 +16,7 @@ The chapter's chain, each stage drawn from what core returns:
    window-size sweep (Fig. 17).
 4. **Verification** over N random robot poses (worker, progress, Cancel): detection rate,
    median and RMS 3D error against the truth, rejection reasons counted.
-5. **Compare markers** (core.marker_comparison, Fig. 11).
+5. **Compare markers** (core.virtual_lab.marker_comparison, Fig. 11).
 
 The stereo rectification comes from the project's stereo.yaml (else the Stereo step's
 result); in the virtual lab without one, the page offers a clearly labelled preview with the
@@ -41,16 +41,16 @@ from PySide6.QtWidgets import (QAbstractItemView, QCheckBox, QDoubleSpinBox, QFi
                                QWidget)
 
 from app.pages.base import WizardPage
-from app.state import build_lab
+from app.lab import build_lab
 from app.pages.measurement_inputs import (MARKER_OUTPUT, TRAINING_FILE, VERIFICATION_FORMAT, StereoSource,
                                           marker_file, preview_source, stereo_source, verification_file)
 from app.pages.steps import Step
-from core.correspondence import WindowSweep
+from core.marker.correspondence import WindowSweep
 from core.errors import RoboCalError
 from core.files import atomic_write_bytes, atomic_write_json, read_json
-from core.marker_comparison import ComparisonResult, compare_markers
-from core.marker_location import LocatorOptions, MarkerLocation, MarkerLocator
-from core.marker_training import DEFAULT_OUTER_SIZE, TrainedMarker, find_outline, train_marker
+from app.lab import ComparisonResult, compare_markers
+from core.marker.location import LocatorOptions, MarkerLocation, MarkerLocator
+from core.marker.training import DEFAULT_OUTER_SIZE, TrainedMarker, find_outline, train_marker
 from core.task import Monitor
 from widgets.marker_views import CAPTION, MarkerImageView, TrainingImageView
 from widgets.precision_plot import PrecisionPlot
@@ -270,7 +270,7 @@ class Comparison:
 
 
 def run_comparison(views: int, seed: int, lab=None, lab_args=None, *, progress=None, cancelled=None) -> Comparison:
-    from core.marker_comparison import candidate_patterns
+    from app.lab import candidate_patterns
 
     monitor = Monitor(progress, cancelled)
     if lab is None:
@@ -1234,7 +1234,7 @@ def _crop_around(outline: np.ndarray, w: int, h: int) -> tuple[int, int, int, in
 
 
 def _draw_detection(view: MarkerImageView, det, missing: str = "") -> None:
-    """The layers of a core.marker_detection.MarkerDetection on a MarkerImageView."""
+    """The layers of a core.marker.detection.MarkerDetection on a MarkerImageView."""
     if det is None:
         view.clear_detection()
         view.set_message(missing)

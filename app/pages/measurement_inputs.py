@@ -3,7 +3,7 @@
 the Stereo step's result not yet saved).
 
 Files in the project folder written by the Marker step:
-  marker.npz                  the trained marker (core.marker_training, robocal.trained_marker/1)
+  marker.npz                  the trained marker (core.marker.training, robocal.trained_marker/1)
   marker_training.png         the image it was trained from (the crop, when cropped)
   marker_verification.json    the last verification of that marker (robocal.marker_verification/1)
 """
@@ -12,10 +12,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from core.correspondence import StereoRectification
+from core.marker.correspondence import StereoRectification
 from core.errors import RoboCalError
-from core.marker_training import TrainedMarker
-from core.stereo_file import StereoFile, read_stereo_yaml
+from core.marker.training import TrainedMarker
+from core.stereo.file import StereoFile, read_stereo_yaml
 
 MARKER_OUTPUT = "marker"
 STEREO_OUTPUT = "stereo"

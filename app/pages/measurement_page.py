@@ -1,9 +1,9 @@
 """Step 5, Measurement: drive the robot through the pose list, capture, locate, write as it goes.
 
-The page runs core.measurement_run.run_measurements on a worker thread: for each pose the
+The page runs core.measurement.run.run_measurements on a worker thread: for each pose the
 robot (``state.robot_connection``; in the virtual lab a SimulatedRobot, which refuses joint
 values outside the limits) moves, both cameras capture (virtual lab: the pair rendered with a
-per-pose seeded generator), the marker is located (core.marker_location.MarkerLocator with the
+per-pose seeded generator), the marker is located (core.marker.location.MarkerLocator with the
 trained marker and the project's stereo.yaml) and the point is appended to the project's
 measurements.csv at once (flushed and fsynced per pose); a pose that gives no point goes to
 measurements.rejects.csv with its reason.
@@ -38,13 +38,13 @@ from PySide6.QtWidgets import (QAbstractItemView, QFileDialog, QGridLayout, QHea
 
 from app import messages
 from app.pages.base import WizardPage
-from app.state import build_lab
+from app.lab import build_lab
 from app.pages.measurement_inputs import project_marker, stereo_source
 from app.pages.steps import Step
 from core.errors import RoboCalError
-from core.measurement_run import JOINT_TOLERANCE, PoseOutcome, read_rejects, rejects_path_for, run_measurements
-from core.measurements import read_measurements
-from core.pose_file import PoseList, read_poses
+from core.measurement.run import JOINT_TOLERANCE, PoseOutcome, read_rejects, rejects_path_for, run_measurements
+from core.measurement.file import read_measurements
+from core.poses.file import PoseList, read_poses
 from widgets.image_view import ImageView
 from widgets.marker_views import marker_pair_thumbnail
 from widgets.plot_theme import AFTER, colour
@@ -70,7 +70,7 @@ def measure_virtual(poses: PoseList, out: Path, trained, rect, driver, lab, seed
     the robot's joint values (generator seeded per pose), the locator finds the marker.
     `report(outcome, thumbnail)` after each pose (worker thread). A robot stopped by the
     user ends the run before the next pose, like a cancel."""
-    from core.marker_location import MarkerLocator
+    from core.marker.location import MarkerLocator
 
     locator = MarkerLocator(trained, rect)
     last: dict = {}
@@ -118,8 +118,8 @@ def _esc(text) -> str:
 
 def minimum_poses_for(robot, targets=("marker",)) -> int:
     """The fewest poses identification can use for `robot` (more equations than parameters)."""
-    from core.identifiability import analyse
-    from core.pose_selection import minimum_poses
+    from core.identification.identifiability import analyse
+    from core.poses.selection import minimum_poses
 
     names = [t for t in targets if t in robot.targets] or list(robot.targets)[:1]
     if not names:
@@ -847,7 +847,7 @@ class MeasurementPage(WizardPage):
         if self._predicted is None and self.poses is not None:
             lab = self._current_lab()
             if lab is not None and self.poses.Q is not None:
-                from core.pose_candidates import arm_polyline
+                from core.poses.candidates import arm_polyline
                 try:
                     self._predicted = lab.nominal_robot.target_positions(self.poses.Q, lab.target)
                     arms, _ = arm_polyline(lab.nominal_robot, self.poses.Q, lab.target)
@@ -882,7 +882,7 @@ class MeasurementPage(WizardPage):
         lab = self._current_lab()
         arm = None
         if lab is not None and self.poses is not None and self.poses.Q is not None:
-            from core.pose_candidates import arm_polyline
+            from core.poses.candidates import arm_polyline
             try:
                 pts, _ = arm_polyline(lab.nominal_robot, self.poses.Q[i:i + 1], lab.target)
                 arm = pts[0]

@@ -1,6 +1,6 @@
 """Step 4, Pose sequence: robot configurations that make the geometric parameters observable.
 
-The page runs core.pose_selection.select_poses on a worker thread (progress, Cancel) and
+The page runs core.poses.selection.select_poses on a worker thread (progress, Cancel) and
 draws what it returns: the chosen observability index versus the number of poses beside the
 median of random selections, the comparison with random selection in numbers, the selected
 poses as a table (joint values, marker depth) and on two orthographic views of the workspace
@@ -23,13 +23,13 @@ from PySide6.QtWidgets import (QAbstractItemView, QComboBox, QDoubleSpinBox, QGr
                                QTableWidget, QTableWidgetItem, QVBoxLayout, QWidget)
 
 from app.pages.base import WizardPage
-from app.state import build_lab
+from app.lab import build_lab, lab_options
 from app.pages.steps import Step
 from core.errors import RoboCalError
-from core.kinematics import RobotModel
-from core.pose_candidates import arm_polyline
-from core.pose_file import PoseList, read_poses
-from core.pose_selection import (INDEXES, PoseSelectionResult, lab_options, lower_is_better,
+from core.robot.model import RobotModel
+from core.poses.candidates import arm_polyline
+from core.poses.file import PoseList, read_poses
+from core.poses.selection import (INDEXES, PoseSelectionResult, lower_is_better,
                                  select_poses, write_selection)
 from core.task import Monitor
 from widgets.index_curve_plot import IndexCurvePlot

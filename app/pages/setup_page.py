@@ -14,7 +14,7 @@ from app.pages.steps import Step
 from core import project as projects
 from core.errors import RoboCalError
 from core.files import read_json
-from core.kinematics import RobotModel, preset_names, robot_path
+from core.robot.model import RobotModel, preset_names, robot_path
 from widgets.dh_table import DHTable
 
 DEMO_PRESET = "educational_6r"

@@ -5,7 +5,7 @@ lab (N pairs at well-spread board poses, rendered and saved as PNGs into the pro
 checkerboard/left|right), or from the cameras (live cameras arrive with the hardware issue;
 in the virtual lab, one pair from the lab's cameras at a random board pose). Detection runs
 on the worker thread in small batches, so thumbnails and the ROS-style coverage bars fill
-while pairs are added. Calibration (core.stereo_calibration.calibrate_stereo) runs on the
+while pairs are added. Calibration (core.stereo.calibration.calibrate_stereo) runs on the
 worker thread too; the page then draws what it returns: the per-pair error bar chart with a
 draggable threshold (drop the pairs above it and recalibrate), the parameter table with
 standard deviations, the summary figures with an interpretation each, a rectified preview
@@ -33,16 +33,16 @@ from PySide6.QtWidgets import (QCheckBox, QComboBox, QDoubleSpinBox, QFileDialog
                                QTabWidget, QTextBrowser, QVBoxLayout, QWidget)
 
 from app.pages.base import WizardPage
-from app.state import build_lab
+from app.lab import build_lab
 from app.pages.steps import Step
-from core.board import Board
-from core.checkerboard import (MIN_BAR, MIN_GOOD_PAIRS, MIN_PAIRS_TO_CALIBRATE, PairDetection, coverage,
+from core.stereo.board import Board
+from core.stereo.checkerboard import (MIN_BAR, MIN_GOOD_PAIRS, MIN_PAIRS_TO_CALIBRATE, PairDetection, coverage,
                                detect_pair, pair_images, screen_pairs)
 from core.errors import RoboCalError
 from core.files import atomic_write_bytes
 from core.images import load_gray
-from core.stereo_calibration import CalibrationOptions, StereoCalibrationResult, calibrate_stereo
-from core.stereo_file import read_stereo_yaml, write_ros_camera_info, write_stereo_json, write_stereo_yaml
+from core.stereo.calibration import CalibrationOptions, StereoCalibrationResult, calibrate_stereo
+from core.stereo.file import read_stereo_yaml, write_ros_camera_info, write_stereo_json, write_stereo_yaml
 from core.task import Monitor
 from widgets.coverage_bars import CoverageBars
 from widgets.error_bar_chart import ErrorBarChart
@@ -620,7 +620,7 @@ class StereoPage(WizardPage):
             if self._lab is not None:
                 return self._lab.board
             try:
-                from core.virtual_lab.lab import DEFAULT_BOARD
+                from app.lab import DEFAULT_BOARD
                 return DEFAULT_BOARD
             except ImportError:
                 pass

@@ -9,8 +9,8 @@ import threading
 
 import numpy as np
 
-from core.kinematics import RobotModel
-from core.robot.base import RobotDriver
+from core.robot.model import RobotModel
+from core.robot.driver import RobotDriver
 
 
 class SimulatedRobot(RobotDriver):

@@ -13,7 +13,7 @@ import cv2
 import numpy as np
 
 from core import transforms as tf
-from core.stereo_rig import StereoRig
+from core.stereo.rig import StereoRig
 from core.virtual_lab.renderer import ImageComposer, ray_map
 
 _LETTERS = "ABCDEFGHKLMNPRSTUVWXYZ0123456789-/#"

@@ -23,8 +23,8 @@ import numpy as np
 
 from core.errors import RoboCalError, UsageError
 from core.files import atomic_write_bytes, atomic_write_json, atomic_write_text
-from core.kinematics import RobotModel
-from core.robot_file import robot_to_dict
+from core.robot.model import RobotModel
+from core.robot.file import robot_to_dict
 from core.task import Monitor
 from core.transforms import matrix_to_rpy
 from core.virtual_lab.lab import VirtualLab

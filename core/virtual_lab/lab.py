@@ -14,18 +14,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from core import transforms as tf
-from core.board import Board
+from core.stereo.board import Board
 from core.camera import CameraModel
 from core.errors import RoboCalError
-from core.kinematics import RobotModel, robot_path
-from core.robot_file import read_robot
-from core.stereo_rig import StereoRig
+from core.robot.model import RobotModel, robot_path
+from core.robot.file import read_robot
+from core.stereo.rig import StereoRig
 from core.virtual_lab.background import Room, make_room
-from core.marker_description import MarkerDescription
+from core.marker.description import MarkerDescription
 from core.virtual_lab.renderer import ImageComposer, PlateTexture
 from core.virtual_lab.rig import default_rig, right_from_left
 from core.virtual_lab.robot_errors import RobotErrors, perturb_robot
-from core.visibility import marker_visibility
+from core.poses.candidates import VisibilityOptions
+from core.poses.visibility import marker_visibility
 
 DEFAULT_ROBOT = "educational_6r"
 DEFAULT_BOARD = Board(9, 6, 25.0)      # fits both views fully from ~500 mm to 1100 mm
@@ -163,13 +164,13 @@ class VirtualLab:
         return T @ tf.make_transform(None, self.true_robot.targets[self.target])
 
     def visibility(self, Q, **options):
-        """core.visibility.marker_visibility for the true robot and the lab's marker plate."""
+        """core.poses.visibility.marker_visibility for the true robot and the lab's marker plate."""
         return marker_visibility(Q, self.true_robot, self.rig, self.plate_size, target=self.target, **options)
 
     def random_visible_poses(self, n: int, rng=None, *, max_tries: int = 400, **visibility_options) -> np.ndarray:
         """n joint configurations (n, dof) in rad/mm, inside the joint limits (1° margin),
         rounded to 0.001° (as a controller reports them), where the marker is visible to
-        both cameras (core.visibility with depth 400–900 mm unless given) and every joint
+        both cameras (core.poses.visibility with depth 400–900 mm unless given) and every joint
         frame stays above the table."""
         rng = _rng(rng)
         visibility_options.setdefault("min_depth", POSE_DEPTH[0])
@@ -387,3 +388,12 @@ class VirtualLab:
         return c.finish(rng, noise, vignetting_strength=0.08, gradient=float(rng.uniform(0.0, 0.08)),
                         gradient_angle=float(rng.uniform(0.0, 2 * np.pi)))
 
+
+def lab_options(lab: "VirtualLab") -> dict:
+    """Keyword arguments of `core.poses.selection.select_poses` for this lab: its placed nominal
+    robot (base in the left camera frame), its stereo rig and marker plate, the table as the
+    floor, and the marker depth range of its pose images (400–900 mm)."""
+    robot = lab.nominal_robot
+    return {"robot": robot, "rig": lab.rig, "plate_size": lab.plate_size, "target": lab.target,
+            "floor": table_level(robot),
+            "visibility": VisibilityOptions(min_depth=POSE_DEPTH[0], max_depth=POSE_DEPTH[1])}

@@ -24,7 +24,7 @@ from functools import lru_cache
 import cv2
 import numpy as np
 
-from core.board import Board
+from core.stereo.board import Board
 from core.camera import CameraModel
 
 SUPERSAMPLE = 3

@@ -12,7 +12,7 @@ import numpy as np
 
 from core import transforms as tf
 from core.camera import CameraModel
-from core.stereo_rig import StereoRig
+from core.stereo.rig import StereoRig
 
 WIDTH, HEIGHT = 1280, 1024
 FOCAL = 1500.0          # px

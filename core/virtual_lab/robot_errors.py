@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from core.kinematics import RobotModel
+from core.robot.model import RobotModel
 
 LENGTH_RANGE = (0.5, 2.0)      # mm
 ANGLE_RANGE_DEG = (0.1, 0.5)   # deg

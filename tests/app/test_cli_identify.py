@@ -6,10 +6,10 @@ import json
 import pytest
 
 from app.cli import main
-from core.kinematics import robot_path
-from core.measurements import write_measurements
-from core.robot_file import read_robot
-from core.synthetic import perturbed_model, simulate_measurements
+from core.robot.model import robot_path
+from core.measurement.file import write_measurements
+from core.robot.file import read_robot
+from core.virtual_lab.synthetic import perturbed_model, simulate_measurements
 
 ROBOT = str(robot_path("educational_6r"))
 

@@ -13,11 +13,11 @@ from app.cli import main
 
 @pytest.fixture(scope="session")
 def dataset(tmp_path_factory):
-    from core.board import Board
+    from core.stereo.board import Board
     from core.camera import CameraModel
-    from core.correspondence import StereoRectification
-    from core.stereo_file import StereoFile, write_stereo_yaml
-    from core.stereo_rig import StereoRig
+    from core.marker.correspondence import StereoRectification
+    from core.stereo.file import StereoFile, write_stereo_yaml
+    from core.stereo.rig import StereoRig
     from core.virtual_lab.dataset import simulate_dataset
 
     root = tmp_path_factory.mktemp("marker_cli")
@@ -68,7 +68,7 @@ def test_locate_json(dataset, capsys):
 
 
 def test_locate_with_a_trained_marker_file_and_size(dataset, tmp_path, capsys):
-    from core.marker_training import train_marker
+    from core.marker.training import train_marker
     from core.images import load_gray
 
     ds, truth = dataset
@@ -93,7 +93,7 @@ def test_locate_bad_inputs_one_line_each(dataset, tmp_path, capsys):
     assert len(err) == 1 and "marker not located: left image: no marker found" in err[0]
     # a marker image without texture
     plain = tmp_path / "plain.png"
-    from core.marker_comparison import plain_pattern
+    from core.virtual_lab.marker_comparison import plain_pattern
     cv2.imwrite(str(plain), plain_pattern())
     args = _locate_args(ds, 0)
     args[args.index("--marker") + 1] = str(plain)
@@ -112,7 +112,7 @@ def test_locate_bad_inputs_one_line_each(dataset, tmp_path, capsys):
 
 
 def test_measure_writes_the_measurements_and_resumes(dataset, tmp_path, capsys):
-    from core.measurements import read_measurements
+    from core.measurement.file import read_measurements
 
     ds, truth = dataset
     images = tmp_path / "images"

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from app.cli import main
-from core.kinematics import robot_path
-from core.pose_file import read_poses
-from core.robot_file import read_robot, write_robot
-from core.stereo_file import StereoFile, write_stereo_yaml
+from core.robot.model import robot_path
+from core.poses.file import read_poses
+from core.robot.file import read_robot, write_robot
+from core.stereo.file import StereoFile, write_stereo_yaml
 from core.virtual_lab.lab import DEFAULT_BOARD, VirtualLab
 
 ROBOT = str(robot_path("educational_6r"))

@@ -22,7 +22,7 @@ def test_simulate_json(tmp_path, capsys):
 
 
 def test_simulate_text_and_robot_option(tmp_path, capsys):
-    from core.kinematics import robot_path
+    from core.robot.model import robot_path
     out = tmp_path / "ur5"
     code = main(["simulate", "--out", str(out), "--pairs", "0", "--poses", "1", "--robot", str(robot_path("ur5"))])
     captured = capsys.readouterr()

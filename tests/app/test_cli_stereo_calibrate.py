@@ -10,7 +10,7 @@ import cv2
 import pytest
 
 from app.cli import main
-from core.stereo_file import read_stereo_yaml
+from core.stereo.file import read_stereo_yaml
 from tests.core.stereo_synth import REAL_DATA, REAL_REFERENCE_FOCAL, real_pairs
 
 pytestmark = pytest.mark.skipif(not REAL_DATA.is_dir(), reason=f"real checkerboard pairs not found at {REAL_DATA}")

@@ -1,6 +1,6 @@
 """The Export page: one button per export with its target path, Export all into project/export,
 stereo files only once stereo.yaml exists, the report, clear messages, the autopilot.
-Also core.report and core.ideal_measurements, which only this page and the Identification
+Also core.report and core.virtual_lab.ideal_measurements, which only this page and the Identification
 page use."""
 from __future__ import annotations
 
@@ -15,18 +15,19 @@ from PySide6.QtWidgets import QFileDialog
 from app.pages.export_page import ExportPage
 from app.state import WizardState
 from app.worker import TaskRunner
-from core.board import Board
-from core.identification import identify, write_calibrated_model
-from core.ideal_measurements import is_synthetic, synthetic_description, write_ideal_measurements
-from core.identifiability import random_configurations
-from core.kinematics import robot_path
-from core.measurements import read_measurements, write_measurements
-from core.model_comparison import accuracy_against_truth
+from core.stereo.board import Board
+from core.identification.solver import identify, write_calibrated_model
+from core.measurement.synthetic import is_synthetic, synthetic_description
+from core.virtual_lab.ideal_measurements import write_ideal_measurements
+from core.identification.identifiability import random_configurations
+from core.robot.model import robot_path
+from core.measurement.file import read_measurements, write_measurements
+from core.identification.model_comparison import accuracy_against_truth
 from core.project import open_project
 from core.report import calibration_report
-from core.robot_file import read_robot
-from core.stereo_file import StereoFile, read_stereo_yaml, write_stereo_yaml
-from core.synthetic import perturbed_model, simulate_measurements
+from core.robot.file import read_robot
+from core.stereo.file import StereoFile, read_stereo_yaml, write_stereo_yaml
+from core.virtual_lab.synthetic import perturbed_model, simulate_measurements
 
 MODEL_FILES = ["calibrated.json", "calibrated.urdf", "calibrated_dh.csv"]
 

@@ -12,11 +12,11 @@ from app.pages.identification_page import IDEAL_BUTTON_TEXT, IdentificationPage
 from app.state import WizardState
 from app.worker import TaskRunner
 from core import project as projects
-from core.ideal_measurements import is_synthetic
-from core.identifiability import FIXED_BY_USER
-from core.measurements import read_measurements, write_measurements
-from core.robot_file import read_robot
-from core.synthetic import perturbed_model, simulate_measurements
+from core.measurement.synthetic import is_synthetic
+from core.identification.identifiability import FIXED_BY_USER
+from core.measurement.file import read_measurements, write_measurements
+from core.robot.file import read_robot
+from core.virtual_lab.synthetic import perturbed_model, simulate_measurements
 
 
 def make_page(qtbot, tmp_path, mode=projects.VIRTUAL_LAB):

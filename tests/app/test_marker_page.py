@@ -16,7 +16,7 @@ from app.pages.measurement_inputs import MARKER_FILE, TRAINING_FILE, VERIFICATIO
 from app.pages.registry import page_class
 from app.pages.steps import Step
 from app.worker import TaskRunner
-from core.marker_training import TrainedMarker
+from core.marker.training import TrainedMarker
 from tests.app.virtual_inputs import lab_state, make_lab
 
 SCREENSHOT = Path("/tmp/robocal-marker-page.png")

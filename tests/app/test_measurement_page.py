@@ -14,10 +14,10 @@ from app.pages.measurement_page import MEASURED, PENDING, REJECTED, MeasurementP
 from app.pages.registry import page_class
 from app.pages.steps import Step
 from app.worker import TaskRunner
-from core.marker_training import train_marker
-from core.measurement_run import read_rejects, rejects_path_for
-from core.measurements import read_measurements
-from core.pose_file import write_poses
+from core.marker.training import train_marker
+from core.measurement.run import read_rejects, rejects_path_for
+from core.measurement.file import read_measurements
+from core.poses.file import write_poses
 from tests.app.virtual_inputs import lab_state, make_lab
 
 N_POSES = 10

@@ -13,8 +13,8 @@ from app.pages.registry import page_class
 from app.pages.steps import Step
 from app.state import WizardState
 from app.worker import TaskRunner
-from core.pose_candidates import arm_polyline
-from core.pose_file import read_poses, write_poses
+from core.poses.candidates import arm_polyline
+from core.poses.file import read_poses, write_poses
 
 SCREENSHOT = Path("/tmp/robocal-poses-page.png")
 

@@ -9,8 +9,8 @@ import pytest
 from app.pages.setup_page import SetupPage
 from app.state import WizardState
 from app.worker import TaskRunner
-from core.kinematics import preset_names
-from core.robot_file import read_robot, write_robot
+from core.robot.model import preset_names
+from core.robot.file import read_robot, write_robot
 
 
 @pytest.fixture
@@ -56,7 +56,7 @@ def test_every_preset_loads(page, name):
 
 
 def read_robot_preset(name):
-    from core.kinematics import robot_path
+    from core.robot.model import robot_path
     return read_robot(robot_path(name))
 
 

@@ -1,8 +1,6 @@
 """WizardState: project and robot bookkeeping, robot connection, lazily created virtual lab."""
 from __future__ import annotations
 
-import sys
-import types
 
 import numpy as np
 import pytest
@@ -37,11 +35,8 @@ class FakeLab:
 
 @pytest.fixture
 def fake_lab(monkeypatch):
-    module = types.ModuleType("fake_virtual_lab")
-    module.VirtualLab = FakeLab
-    monkeypatch.setitem(sys.modules, "fake_virtual_lab", module)
-    monkeypatch.setattr("app.state.VIRTUAL_LAB_MODULE", "fake_virtual_lab")
-    monkeypatch.setattr(WizardState, "lab_available", staticmethod(lambda: True))
+    monkeypatch.setattr("app.state.build_lab",
+                        lambda robot, seed, noise: FakeLab.create(robot=robot, seed=seed, noise=noise))
     FakeLab.created.clear()
     return FakeLab
 
@@ -98,17 +93,7 @@ def test_a_stop_survives_a_new_robot_connection(state, fake_lab, qtbot):
     assert state.robot_connection.stopped         # the new driver refuses to move until Resume
 
 
-def test_lab_missing_is_a_clear_error(state, monkeypatch):
-    monkeypatch.setattr(WizardState, "lab_available", staticmethod(lambda: False))
-    with pytest.raises(RoboCalError, match="virtual lab is not available"):
-        state.lab
-
-
 def test_real_virtual_lab_when_present(state):
-    try:
-        import core.virtual_lab.lab  # noqa: F401
-    except Exception as exc:  # noqa: BLE001 - built by another part of issue 2
-        pytest.skip(f"core.virtual_lab.lab is not importable yet ({type(exc).__name__})")
     state.choose_preset("educational_6r")
     lab = state.lab
     assert lab.true_robot.dof == 6

@@ -16,9 +16,9 @@ from app.pages import stereo_page
 from app.pages.stereo_page import StereoPage
 from app.state import WizardState
 from app.worker import TaskRunner
-from core.board import Board
+from core.stereo.board import Board
 from core.project import HARDWARE
-from core.stereo_file import read_stereo_yaml
+from core.stereo.file import read_stereo_yaml
 from core.virtual_lab.lab import VirtualLab
 from tests.core.stereo_synth import REAL_DATA, real_pairs
 

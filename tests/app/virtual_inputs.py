@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import cv2
 
-from core.stereo_file import StereoFile, write_stereo_yaml
+from core.stereo.file import StereoFile, write_stereo_yaml
 
 
 def make_lab():

@@ -6,7 +6,7 @@ from functools import lru_cache
 import numpy as np
 
 from core import transforms as tf
-from core.marker_training import TrainedMarker, train_marker
+from core.marker.training import TrainedMarker, train_marker
 from core.virtual_lab.lab import VirtualLab
 
 

@@ -8,9 +8,9 @@ from pathlib import Path
 
 import numpy as np
 
-from core.board import Board
+from core.stereo.board import Board
 from core.camera import CameraModel
-from core.stereo_rig import StereoRig
+from core.stereo.rig import StereoRig
 from core.transforms import rot_x, rot_y, rot_z
 
 PROJECT_ROOT = Path(__file__).resolve().parents[2]

@@ -4,7 +4,7 @@ import numpy as np
 from hypothesis import given, settings, strategies as st
 
 from core.camera import CameraModel
-from core.stereo_rig import StereoRig
+from core.stereo.rig import StereoRig
 from core.transforms import rot_y
 
 K = np.array([[1502.3, 0.0, 641.7], [0.0, 1499.1, 509.2], [0.0, 0.0, 1.0]])

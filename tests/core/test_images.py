@@ -5,7 +5,7 @@ import pytest
 
 from core.errors import RoboCalError
 from core.images import decode_gray, require_gray8, to_gray8
-from core.marker_training import train_marker
+from core.marker.training import train_marker
 from core.virtual_lab.lab import VirtualLab
 
 

@@ -8,8 +8,8 @@ import pytest
 
 from core import project as proj
 from core.errors import RoboCalError
-from core.kinematics import robot_path
-from core.robot_file import read_robot
+from core.robot.model import robot_path
+from core.robot.file import read_robot
 
 
 @pytest.fixture

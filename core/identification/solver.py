@@ -1,0 +1,793 @@
+"""Kinematic identification: DH parameters, base pose and target offsets from measured points.
+
+The chapter's differential model (eq. 4–10): the position error of a measured point is, to
+first order, Δx = J_g·Δg (eq. 5); stacking all points gives Δx = Φ·Δg (eq. 6–7) and the least
+squares correction Δg = (ΦᵀΦ)⁻¹Φᵀ·Δx (eq. 9–10), repeated until it converges (Gauss–Newton).
+Here:
+
+* parameters and the analytic Jacobian: core.identification.jacobian; identifiability and
+  observability indices: core.identification.identifiability;
+* start: the base pose is found by a rigid registration (Kabsch/Umeyama, SVD) of the nominal
+  model's predictions onto the measurements, so nobody types a guess of where the robot
+  stands in the camera frame;
+* estimation: Levenberg–Marquardt on the column-scaled problem (our own short loop rather than
+  scipy.optimize.least_squares: it reports every iteration's cost for the GUI, checks Cancel
+  between iterations, and updates the base rotation through the exponential map at each step
+  so the analytic Jacobian stays exact — scipy can do none of the three). With damping λ = 0
+  a step is exactly eq. (9–10);
+* two phases: the first fit estimates the parameters identifiable at the nominal geometry;
+  identifiability is then analysed again at that estimate (a real robot has none of the
+  nominal's special values, e.g. a marker exactly on the last axis), parameters the data
+  barely determine are kept at nominal (core.identification.identifiability.practical_identifiability), and
+  the fit is refined with the final set — the per-iteration records carry the stage;
+* optional robust loss: Huber weights by iteratively reweighted least squares; points whose
+  error is beyond `outlier_k` robust standard deviations are flagged as outliers;
+* uncertainty: σ̂² = RSS/(m − p), covariance σ̂²(ΦᵀWΦ)⁻¹ of the estimated parameters, standard
+  deviations, correlation matrix, condition number and observability indices of the final Φ;
+* validation: held-out poses (a seeded random fraction) or k-fold cross validation, errors
+  before and after calibration.
+
+Error statistics ("RMS") are over 3D error norms: rms = sqrt(mean |x_measured − x_model|²).
+With isotropic noise σ per axis a perfect model has an expected RMS of σ·√3 on new points.
+"Before" means the nominal geometry with the base pose registered to the measurements (the
+file's base pose means nothing in the camera frame).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Iterable, Sequence
+
+import numpy as np
+
+from core import transforms as tf
+from core.identification.jacobian import (Parameter, all_parameters, apply_step, calibration_jacobian,
+                                       predict_points, resolve_names)
+from core.errors import RoboCalError, UsageError
+from core.identification.identifiability import (FIXED_BY_USER, Identifiability, ObservabilityIndices, analyse,
+                                  check_data, column_scales, observability_indices,
+                                  practical_identifiability, qr_r, small_factor)
+from core.robot.model import RobotModel
+from core.measurement.file import Measurements, check_against_robot, read_measurements
+from core.robot.file import read_robot, write_robot
+from core.task import Monitor
+
+CHI3_MEDIAN = 1.5382              # median of the χ distribution with 3 degrees of freedom
+IDENTIFIED = "identified"
+MAX_LENGTH_CORRECTION_MM = 50.0   # beyond max(this, 25 % of the reach) the fit has diverged
+MAX_ANGLE_CORRECTION_DEG = 20.0
+
+
+# -- result pieces -------------------------------------------------------------------------
+@dataclass
+class IterationRecord:
+    """One accepted Levenberg–Marquardt iteration (iteration 0 = the start)."""
+
+    iteration: int
+    cost: float            # weighted residual sum of squares Σ w·e² (mm² without sigmas)
+    rms_mm: float          # RMS of the 3D point errors
+    damping: float         # λ used for the step that led here (0 for the start)
+    step: float            # norm of the scaled step (mm of predicted change)
+    stage: str = "fit"     # "fit", or "huber N" for robust reweighting rounds
+    start: bool = False    # the state at the start of a stage (not an iteration)
+
+
+@dataclass
+class ErrorStats:
+    """Position errors of a model against measured points (mm)."""
+
+    n: int
+    mean_mm: float
+    rms_mm: float
+    max_mm: float
+    median_mm: float
+    errors: np.ndarray          # (N,) 3D error norms
+    vectors: np.ndarray         # (N, 3) measured − predicted
+    pose: np.ndarray            # (N,) pose id of each point
+    target: list[str]
+
+    def per_pose(self) -> list[dict]:
+        """RMS error of each pose over its targets, in pose order of first appearance."""
+        out = []
+        for p in dict.fromkeys(self.pose.tolist()):
+            sel = self.pose == p
+            out.append({"pose": int(p), "n": int(sel.sum()),
+                        "error_mm": float(np.sqrt(np.mean(self.errors[sel] ** 2)))})
+        return out
+
+    def per_point(self) -> list[dict]:
+        return [{"pose": int(self.pose[i]), "target": self.target[i], "error_mm": float(self.errors[i]),
+                 "dx": float(self.vectors[i, 0]), "dy": float(self.vectors[i, 1]),
+                 "dz": float(self.vectors[i, 2])} for i in range(self.n)]
+
+    def summary(self) -> dict:
+        return {"n": self.n, "mean_mm": self.mean_mm, "rms_mm": self.rms_mm, "max_mm": self.max_mm,
+                "median_mm": self.median_mm}
+
+
+def error_stats_from(vectors: np.ndarray, pose, target: Sequence[str]) -> ErrorStats:
+    vectors = np.asarray(vectors, dtype=float).reshape(-1, 3)
+    err = np.linalg.norm(vectors, axis=1)
+    if len(err) == 0:
+        return ErrorStats(0, math.nan, math.nan, math.nan, math.nan, err, vectors,
+                          np.asarray(pose, dtype=int), list(target))
+    return ErrorStats(n=len(err), mean_mm=float(err.mean()), rms_mm=float(np.sqrt(np.mean(err ** 2))),
+                      max_mm=float(err.max()), median_mm=float(np.median(err)), errors=err,
+                      vectors=vectors, pose=np.asarray(pose, dtype=int), target=list(target))
+
+
+def error_stats(model: RobotModel, meas: Measurements) -> ErrorStats:
+    """Errors of `model` (as it is, base included) on the measured points."""
+    meas = _with_q(meas, model)
+    vec = meas.xyz - predict_points(model, meas.Q, meas.target)
+    return error_stats_from(vec, meas.pose, meas.target)
+
+
+def merge_stats(parts: Sequence[ErrorStats]) -> ErrorStats:
+    return error_stats_from(np.concatenate([p.vectors for p in parts]),
+                            np.concatenate([p.pose for p in parts]),
+                            [t for p in parts for t in p.target])
+
+
+@dataclass
+class Validation:
+    """Errors on measurements the fit did not see (mm)."""
+
+    method: str                       # "holdout" | "kfold"
+    before: ErrorStats                # nominal geometry, base registered on the training poses
+    after: ErrorStats                 # calibrated on the training poses
+    test_poses: list[int]
+    fraction: float | None = None
+    folds: int | None = None
+    seed: int = 0
+    fold_rms_mm: list[float] = field(default_factory=list)
+
+    def summary(self) -> dict:
+        out = {"method": self.method, "seed": self.seed, "n_test_poses": len(self.test_poses),
+               "before": self.before.summary(), "after": self.after.summary()}
+        if self.fraction is not None:
+            out["fraction"] = self.fraction
+        if self.folds is not None:
+            out["folds"] = self.folds
+            out["fold_rms_mm"] = list(self.fold_rms_mm)
+        return out
+
+
+@dataclass
+class ParameterRow:
+    """One row of the parameter table, in file units (mm / deg).
+
+    For the base, `x, y, z` are the base origin in the measurement frame and `rx, ry, rz` are
+    shown as roll, pitch, yaw of the base orientation (Rz·Ry·Rx, as in the robot file), their
+    std propagated from the estimated small rotations about the measurement frame axes.
+    `std` is None for parameters that were not estimated."""
+
+    name: str
+    group: str
+    kind: str
+    unit: str
+    nominal: float
+    initial: float
+    identified: float
+    std: float | None
+    identifiable: bool
+    status: str
+    explanation: str = ""
+    partners: tuple[str, ...] = ()
+
+    @property
+    def correction(self) -> float:
+        d = self.identified - self.nominal
+        if self.unit == "deg":
+            d = (d + 180.0) % 360.0 - 180.0
+        return d
+
+    def as_dict(self) -> dict:
+        return {"name": self.name, "unit": self.unit, "nominal": self.nominal, "identified": self.identified,
+                "std": self.std, "identifiable": self.identifiable, "status": self.status,
+                "explanation": self.explanation}
+
+
+@dataclass
+class IdentificationResult:
+    """Everything the identification step produces — what the GUI draws and the CLI prints."""
+
+    model: RobotModel                  # calibrated model (its `calibration` section filled)
+    nominal: RobotModel                # the input model
+    initial: RobotModel                # nominal geometry with the registered base pose
+    identifiability: Identifiability
+    parameters: list[ParameterRow]     # every parameter of g, in g's order
+    estimated: list[str]               # names of the estimated parameters (order of covariance)
+    estimate_std: np.ndarray           # their std in internal units (mm / rad)
+    covariance: np.ndarray             # (p, p) internal units; base rotations as small angles
+    correlation: np.ndarray            # (p, p)
+    iterations: list[IterationRecord]  # cost per iteration (all stages)
+    converged: bool
+    sigma_hat: float                   # a-posteriori std of unit weight (mm per axis w/o sigmas)
+    dof: int                           # m − p
+    observability: ObservabilityIndices   # of the final column-scaled Φ
+    before: ErrorStats                 # fitted points: nominal geometry + registered base
+    after: ErrorStats                  # fitted points: calibrated model
+    weights: np.ndarray                # (N,) final robust weight of each fitted point (1 without Huber)
+    outliers: list[int]                # indices (into the fitted points) flagged as outliers
+    validation: Validation | None
+    measurements_source: str
+    n_poses: int
+    n_points: int
+    huber: float | None = None
+    date: str = ""
+    warnings: list[str] = field(default_factory=list)
+    weighted: bool = False             # the measurements gave sx, sy, sz: sigma_hat is unitless
+
+    @property
+    def sigma_hat_text(self) -> str:
+        """σ̂ with its meaning: mm per axis, or the factor on the measurements' own sigmas."""
+        if self.weighted:
+            return f"{self.sigma_hat:.4g} × the measurements' own σ (1 means they were right)"
+        return f"{self.sigma_hat:.4g} mm per axis"
+
+    @property
+    def n_iterations(self) -> int:
+        return sum(1 for r in self.iterations if not r.start)
+
+    @property
+    def costs(self) -> list[float]:
+        return [r.cost for r in self.iterations]
+
+    @property
+    def rank(self) -> int:
+        return self.observability.rank
+
+    @property
+    def condition_number(self) -> float:
+        return self.observability.condition_number
+
+    @property
+    def unidentifiable(self) -> list[ParameterRow]:
+        return [r for r in self.parameters if not r.identifiable and r.status != FIXED_BY_USER]
+
+    def row(self, name: str) -> ParameterRow:
+        return next(r for r in self.parameters if r.name == name)
+
+    def calibration_section(self) -> dict:
+        """The `calibration` section of the calibrated robot file."""
+        stats = {
+            "n_poses": self.n_poses, "n_points": self.n_points,
+            "rms_before_mm": self.before.rms_mm, "rms_after_mm": self.after.rms_mm,
+            "mean_after_mm": self.after.mean_mm, "max_after_mm": self.after.max_mm,
+            "sigma_hat": self.sigma_hat, "sigma_hat_unit": "1" if self.weighted else "mm", "dof": self.dof,
+            "iterations": self.n_iterations, "converged": self.converged,
+            "rank": self.rank, "n_parameters": len(self.estimated),
+            "condition_number": _finite(self.condition_number),
+            "observability": {k: _finite(v) for k, v in self.observability.as_dict().items()},
+            "outliers": len(self.outliers), "huber": self.huber,
+        }
+        if self.validation is not None:
+            stats["validation"] = self.validation.summary()
+        return {
+            "format": "robocal.calibration/1",
+            "date": self.date,
+            "measurements": Path(self.measurements_source).name if self.measurements_source else "",
+            "statistics": stats,
+            "parameters": [r.as_dict() for r in self.parameters],
+            "unidentifiable": [{"name": r.name, "reason": r.explanation} for r in self.unidentifiable],
+            "fixed": [r.name for r in self.parameters if r.status == FIXED_BY_USER],
+            "warnings": list(self.warnings),
+        }
+
+    def summary(self) -> dict:
+        """The CLI's --json object."""
+        out = {
+            "rms_before_mm": self.before.rms_mm, "rms_after_mm": self.after.rms_mm,
+            "mean_after_mm": self.after.mean_mm, "max_after_mm": self.after.max_mm,
+            "n_poses": self.n_poses, "n_points": self.n_points,
+            "iterations": self.n_iterations, "converged": self.converged,
+            "cost_per_iteration": self.costs,
+            "rank": self.rank, "n_parameters": len(self.estimated),
+            "condition_number": _finite(self.condition_number),
+            "observability": {k: _finite(v) for k, v in self.observability.as_dict().items()},
+            "sigma_hat": self.sigma_hat,
+            "unidentifiable": [{"name": r.name, "status": r.status, "reason": r.explanation}
+                               for r in self.unidentifiable],
+            "fixed": [r.name for r in self.parameters if r.status == FIXED_BY_USER],
+            "parameters": {r.name: {"value": r.identified, "std": r.std, "unit": r.unit,
+                                    "nominal": r.nominal, "identifiable": r.identifiable,
+                                    "status": r.status} for r in self.parameters},
+            "outliers": [{"pose": int(self.after.pose[i]), "target": self.after.target[i],
+                          "error_mm": float(self.after.errors[i])} for i in self.outliers],
+            "warnings": list(self.warnings),
+        }
+        if self.validation is not None:
+            v = self.validation
+            out["holdout"] = v.summary()
+            out["holdout_rms_before_mm"] = v.before.rms_mm
+            out["holdout_rms_after_mm"] = v.after.rms_mm
+        return out
+
+
+def _finite(v):
+    return v if not isinstance(v, float) or math.isfinite(v) else None
+
+
+# -- helpers -------------------------------------------------------------------------------
+def _with_q(meas: Measurements, model: RobotModel) -> Measurements:
+    if meas.Q is None or meas.Q.shape[1] != model.dof:
+        return meas.with_robot(model)
+    return meas
+
+
+def _weights0(meas: Measurements) -> np.ndarray:
+    """Per-coordinate weights 1/σ² (N, 3); ones without sigmas."""
+    return np.ones((meas.n_points, 3)) if meas.sigma is None else 1.0 / meas.sigma ** 2
+
+
+def register_base(model: RobotModel, meas: Measurements) -> RobotModel:
+    """A copy of `model` whose base pose best maps its predictions onto the measurements."""
+    meas = _with_q(meas, model)
+    P = predict_points(model, meas.Q, meas.target)
+    centred = P - P.mean(axis=0)
+    s = np.linalg.svd(centred, compute_uv=False) if len(P) >= 2 else np.zeros(3)
+    if len(P) < 3 or s[1] <= 1e-6 * max(s[0], 1e-12):
+        raise RoboCalError(
+            f"the {len(P)} measured points lie on a line, so the robot's position in the camera "
+            f"frame cannot be found", source=meas.source or None,
+            hint="Measure more poses, moving several joints (at least 3 points not on a line).")
+    T = tf.kabsch(P, meas.xyz)
+    out = model.copy()
+    out.base = T @ model.base
+    return out
+
+
+def _reach(model: RobotModel) -> float:
+    return sum(abs(j.a) + abs(j.d) for j in model.joints) + max(
+        (float(np.linalg.norm(t)) for t in model.targets.values()), default=0.0)
+
+
+def split_poses(pose_ids: Sequence[int], fraction: float, seed: int = 0) -> tuple[list[int], list[int]]:
+    """(training, test) pose ids: a seeded random `fraction` of the poses is held out."""
+    ids = list(pose_ids)
+    if not 0.0 < fraction < 1.0:
+        raise UsageError(f"the held-out fraction must be between 0 and 1, got {fraction}")
+    n_test = int(round(fraction * len(ids)))
+    n_test = min(max(n_test, 1), len(ids) - 1)
+    rng = np.random.default_rng(seed)
+    test = set(rng.choice(len(ids), size=n_test, replace=False).tolist())
+    return [p for k, p in enumerate(ids) if k not in test], [p for k, p in enumerate(ids) if k in test]
+
+
+def kfold_poses(pose_ids: Sequence[int], folds: int, seed: int = 0) -> list[list[int]]:
+    """The pose ids split into `folds` seeded random groups of (nearly) equal size."""
+    ids = list(pose_ids)
+    if folds < 2 or folds > len(ids):
+        raise UsageError(f"k-fold needs 2 ≤ k ≤ number of poses ({len(ids)}), got {folds}")
+    order = np.random.default_rng(seed).permutation(len(ids))
+    return [[ids[k] for k in sorted(part)] for part in np.array_split(order, folds)]
+
+
+# -- Levenberg–Marquardt -------------------------------------------------------------------
+@dataclass
+class _LMOutcome:
+    model: RobotModel
+    converged: bool
+    iterations: int
+
+
+def levenberg_marquardt(model: RobotModel, meas: Measurements, free: Sequence[Parameter],
+                        weights: np.ndarray, *, monitor: Monitor | None = None,
+                        records: list[IterationRecord] | None = None, stage: str = "fit",
+                        damping: float = 1e-3, max_iterations: int = 100, ftol: float = 1e-10,
+                        xtol: float = 1e-10) -> _LMOutcome:
+    """Minimise Σ w·|x_measured − x_model|² over the corrections of `free`, starting at `model`.
+
+    Each step solves (AᵀA + λI)·x = Aᵀb with A = √W·Φ·D⁻¹ (columns scaled by their norms D,
+    kept as the running maximum as in MINPACK), b = √W·Δx, and the correction is Δg = D⁻¹·x;
+    λ = 0 is the Gauss–Newton step of eq. (9–10). λ adapts as in Nielsen's rule. Stops when
+    the relative cost decrease is below `ftol` or the scaled step below `xtol`·|b|.
+    `weights` are per coordinate (N, 3)."""
+    monitor = monitor or Monitor()
+    records = records if records is not None else []
+    sw = np.sqrt(np.asarray(weights, dtype=float).reshape(-1))
+    meas_xyz = meas.xyz.reshape(-1)
+
+    def residual(m):
+        return sw * (meas_xyz - predict_points(m, meas.Q, meas.target).reshape(-1))
+
+    b = residual(model)
+    cost = float(b @ b)
+    rms = lambda m: float(np.sqrt(np.mean(np.sum((meas.xyz - predict_points(m, meas.Q, meas.target)) ** 2, axis=1))))
+    records.append(IterationRecord(0 if not records else records[-1].iteration, cost, rms(model), 0.0, 0.0,
+                                   stage, start=True))
+    if not free:
+        return _LMOutcome(model, True, 0)
+    J = sw[:, None] * calibration_jacobian(model, meas.Q, meas.target, free)
+    D = column_scales(J)
+    lam, nu = float(damping), 2.0
+    converged, done = False, 0
+    floor = 1e-18 * len(b)          # (1e-9 mm)² per coordinate: exact to round-off
+    for _ in range(max_iterations * 4):
+        if done >= max_iterations:
+            break
+        monitor.step(min(done / max(max_iterations, 1), 1.0), f"iteration {done + 1}: RMS {records[-1].rms_mm:.4f} mm")
+        A = np.where(np.isfinite(D), J / D, 0.0)
+        x = _damped_solve(A, b, lam)
+        step = np.where(np.isfinite(D), x / D, 0.0)
+        predicted = float(b @ b - np.sum((b - A @ x) ** 2))
+        trial = apply_step(model, free, step)
+        b_t = residual(trial)
+        cost_t = float(b_t @ b_t)
+        if not math.isfinite(cost_t):
+            raise RoboCalError("the estimation diverged (the model's predictions became invalid)",
+                               hint="Check that the robot model and the measurements belong together.")
+        if cost_t < cost:
+            rho = (cost - cost_t) / predicted if predicted > 0 else 0.0
+            small_change = (cost - cost_t) <= ftol * cost
+            small_step = float(np.linalg.norm(x)) <= xtol * (math.sqrt(cost) + xtol)
+            model, b, cost = trial, b_t, cost_t
+            done += 1
+            records.append(IterationRecord(records[-1].iteration + 1, cost, rms(model), lam,
+                                           float(np.linalg.norm(x)), stage))
+            lam = lam * max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3) if lam > 0 else 0.0
+            nu = 2.0
+            if small_change or small_step or cost <= floor:
+                converged = True
+                break
+            J = sw[:, None] * calibration_jacobian(model, meas.Q, meas.target, free)
+            Dn = column_scales(J)
+            D = np.where(np.isfinite(D), np.fmax(D, Dn), Dn)
+        else:
+            # no decrease: at the minimum the linear model predicts no gain either
+            if predicted <= ftol * cost or cost <= floor:
+                converged = True
+                break
+            lam = max(lam, 1e-6) * nu
+            nu *= 2.0
+            if lam > 1e12:
+                break
+    return _LMOutcome(model, converged, done)
+
+
+def _damped_solve(A: np.ndarray, b: np.ndarray, lam: float) -> np.ndarray:
+    """argmin |A·x − b|² + λ|x|² through A = Q·R and the SVD of the small R (minimum norm when
+    λ = 0 and A is rank deficient)."""
+    R, c = qr_r(A, b)
+    U, s, Vt = np.linalg.svd(R)
+    if lam > 0:
+        f = s / (s ** 2 + lam)
+    else:
+        f = np.where(s > 1e-12 * max(s[0], 1e-300), 1.0 / np.where(s > 0, s, 1.0), 0.0)
+    return Vt.T @ (f * (U.T @ c))
+
+
+def _robust_scale(b_points: np.ndarray) -> float:
+    """Robust std per axis from whitened point errors (N, 3): median |e| / median(χ₃)."""
+    norms = np.linalg.norm(b_points, axis=1)
+    s = float(np.median(norms)) / CHI3_MEDIAN
+    return s if s > 0 else float(np.sqrt(np.mean(norms ** 2) / 3.0)) or 1e-12
+
+
+# -- one fit -------------------------------------------------------------------------------
+@dataclass
+class _Fit:
+    model: RobotModel
+    initial: RobotModel
+    ident: Identifiability
+    records: list[IterationRecord]
+    converged: bool
+    weights: np.ndarray            # (N,) robust point weights
+    outliers: list[int]
+    sigma_hat: float
+    dof: int
+    covariance: np.ndarray
+    observability: ObservabilityIndices
+
+
+def _base_fixed(ident_params: Sequence[Parameter], fixed_names: set[str]) -> bool:
+    return any(p.group == "base" and p.name in fixed_names for p in ident_params)
+
+
+def fit_model(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (),
+              huber: float | None = None, outlier_k: float = 4.0, max_iterations: int = 100,
+              damping: float = 1e-3, monitor: Monitor | None = None) -> _Fit:
+    """Register the base, decide the identifiable parameters, estimate them (LM + optional
+    Huber), and compute their covariance. The building block of `identify` (and of k-fold)."""
+    monitor = monitor or Monitor()
+    if huber is not None and not huber > 0:
+        raise UsageError(f"the Huber threshold must be positive, got {huber}")
+    meas = _with_q(meas, robot)
+    check_against_robot(meas, robot)
+    targets = [t for t in robot.targets if t in set(meas.target)]
+    params = all_parameters(robot, targets)
+    fixed_names = set(resolve_names(fixed, params, robot))
+    monitor.step(0.0, "registering the robot base in the measurement frame")
+    initial = robot.copy() if _base_fixed(params, fixed_names) else register_base(robot, meas)
+    monitor.step(0.03, "checking which parameters the measurements determine")
+    ident = analyse(initial, targets, fixed=fixed_names, params=params)
+    check_data(initial, meas.Q, meas.target, ident, source=meas.source or None)
+
+    w0 = _weights0(meas)
+    records: list[IterationRecord] = []
+    # Phase 1: the parameters identifiable at the nominal geometry (a safe, reduced set).
+    out = levenberg_marquardt(initial, meas, ident.free, w0, monitor=monitor.sub(0.08, 0.45),
+                              records=records, damping=damping, max_iterations=max_iterations)
+    model, converged = out.model, out.converged
+    # Phase 2: re-analyse at the estimate, whose geometry has none of the nominal's special
+    # values (marker exactly on an axis, a = 0 exactly …), and drop what the data barely determine.
+    for _round in range(3):
+        if not converged:
+            break
+        b1 = meas.xyz - predict_points(model, meas.Q, meas.target)
+        dof1 = 3 * meas.n_points - len(ident.free)
+        sigma1 = math.sqrt(float(np.sum(w0 * b1 ** 2)) / max(dof1, 1))
+        if huber is not None:   # outliers would inflate σ and make good parameters look weak
+            sigma1 = min(sigma1, _robust_scale(np.sqrt(w0) * b1))
+        ident2 = analyse(model, targets, fixed=fixed_names, params=params)
+        ident2 = practical_identifiability(ident2, model, meas.Q, meas.target, w0, max(sigma1, 1e-9))
+        if ident2.free_names == ident.free_names:
+            ident = ident2    # same set; explanations from the analysis at the estimate
+            break
+        reset = [p for p in ident.free if p.name not in set(ident2.free_names)]
+        start = _reset_to(model, initial, reset)
+        out = levenberg_marquardt(start, meas, ident2.free, w0, monitor=monitor.sub(0.45, 0.55),
+                                  records=records, stage="refine", damping=damping,
+                                  max_iterations=max_iterations)
+        model, converged, ident = out.model, out.converged, ident2
+    point_w = np.ones(meas.n_points)
+    if huber is not None and converged:
+        for rnd in range(1, 21):
+            b = np.sqrt(w0) * (meas.xyz - predict_points(model, meas.Q, meas.target))
+            u = np.linalg.norm(b, axis=1) / _robust_scale(b)
+            new_w = np.minimum(1.0, huber / np.maximum(u, 1e-300))
+            change = float(np.max(np.abs(new_w - point_w)))
+            point_w = new_w
+            if change < 1e-3 and rnd > 1:
+                break
+            sub = monitor.sub(0.55 + 0.018 * (rnd - 1), 0.55 + 0.018 * rnd)
+            out = levenberg_marquardt(model, meas, ident.free, w0 * point_w[:, None], monitor=sub,
+                                      records=records, stage=f"huber {rnd}", damping=damping,
+                                      max_iterations=max_iterations)
+            model, converged = out.model, out.converged
+    if not converged:
+        raise RoboCalError(
+            f"the estimation did not converge in {max_iterations} iterations (RMS "
+            f"{records[0].rms_mm:.3f} mm at the start, {records[-1].rms_mm:.3f} mm at the end)",
+            source=meas.source or None,
+            hint="Check that the robot model (DH convention, units) matches the robot and remove "
+                 "grossly wrong measurements (or use --huber).")
+    _check_blow_up(robot, model, ident.free, meas.source)
+
+    monitor.step(0.92, "uncertainty")
+    w = w0 * point_w[:, None]
+    b = (np.sqrt(w) * (meas.xyz - predict_points(model, meas.Q, meas.target))).reshape(-1)
+    J = np.sqrt(w).reshape(-1)[:, None] * calibration_jacobian(model, meas.Q, meas.target, ident.free)
+    m, p = J.shape
+    dof = m - p
+    bw = np.sqrt(w0) * (meas.xyz - predict_points(model, meas.Q, meas.target))
+    u = np.linalg.norm(bw, axis=1) / _robust_scale(bw)
+    outliers = [int(i) for i in np.flatnonzero(u > outlier_k)]
+    if huber is None:
+        sigma_hat = math.sqrt(float(b @ b) / dof) if dof > 0 else math.nan
+    else:   # robust fit: the scatter of the points that are not outliers
+        inl = np.ones(meas.n_points, bool)
+        inl[outliers] = False
+        dof_in = 3 * int(inl.sum()) - p
+        sigma_hat = math.sqrt(float(np.sum(bw[inl] ** 2)) / dof_in) if dof_in > 0 else math.nan
+    D = column_scales(J)
+    _, s, Vt = np.linalg.svd(small_factor(np.where(np.isfinite(D), J / D, 0.0)), full_matrices=False)
+    with np.errstate(divide="ignore"):
+        inv_s2 = np.where(s > 0, 1.0 / s ** 2, np.inf)
+    Dinv = np.where(np.isfinite(D), 1.0 / D, 0.0)
+    cov = (sigma_hat ** 2) * (Dinv[:, None] * (Vt.T * inv_s2) @ Vt * Dinv[None, :])
+    obs = observability_indices(J, n_points=meas.n_points, scales=D)
+    monitor.step(1.0, "done")
+    return _Fit(model=model, initial=initial, ident=ident, records=records, converged=converged,
+                weights=point_w, outliers=outliers, sigma_hat=sigma_hat, dof=dof, covariance=cov,
+                observability=obs)
+
+
+def _reset_to(model: RobotModel, reference: RobotModel, params: Sequence[Parameter]) -> RobotModel:
+    """A copy of `model` with the joint and target parameters `params` set back to `reference`."""
+    out = model.copy()
+    for p in params:
+        if p.group == "joint":
+            setattr(out.joints[p.joint], p.kind, getattr(reference.joints[p.joint], p.kind))
+        elif p.group == "target":
+            t = out.targets[p.target].copy()
+            t["xyz".index(p.kind)] = reference.targets[p.target]["xyz".index(p.kind)]
+            out.targets[p.target] = t
+    return out
+
+
+def _check_blow_up(nominal: RobotModel, model: RobotModel, free: Sequence[Parameter], source) -> None:
+    limit_len = max(MAX_LENGTH_CORRECTION_MM, 0.25 * _reach(nominal))
+    for p in free:
+        if p.group != "joint":
+            continue
+        delta = getattr(model.joints[p.joint], p.kind) - getattr(nominal.joints[p.joint], p.kind)
+        if p.angular:
+            delta = (delta + math.pi) % (2 * math.pi) - math.pi
+            bad = abs(math.degrees(delta)) > MAX_ANGLE_CORRECTION_DEG
+            shown = f"{math.degrees(delta):+.1f} deg"
+        else:
+            bad = abs(delta) > limit_len
+            shown = f"{delta:+.1f} mm"
+        if bad:
+            raise RoboCalError(
+                f"the estimation diverged: {p.name} moved {shown} from its nominal value, far more "
+                f"than a calibration corrects", source=source or None,
+                hint="Check that the robot model (DH convention, joint zero positions, units) matches "
+                     "the robot that was measured.")
+
+
+# -- the parameter table -------------------------------------------------------------------
+def _display_value(model: RobotModel, prm: Parameter) -> float:
+    if prm.group == "joint":
+        return getattr(model.joints[prm.joint], prm.kind) * prm.to_display
+    if prm.group == "target":
+        return float(model.targets[prm.target]["xyz".index(prm.kind)])
+    xyz, rpy = tf.matrix_to_pose(model.base)
+    if len(prm.kind) == 1:
+        return float(xyz["xyz".index(prm.kind)]) + 0.0
+    return float(np.rad2deg(rpy["xyz".index(prm.kind[1])])) + 0.0   # + 0.0: no "-0.0" on screen
+
+
+def _rpy_jacobian(R: np.ndarray) -> np.ndarray:
+    """∂(roll, pitch, yaw)/∂ω for R ← Exp(ω)·R at ω = 0 (central differences)."""
+    h = 1e-7
+    E = np.zeros((3, 3))
+    for k in range(3):
+        w = np.zeros(3)
+        w[k] = h
+        d = tf.matrix_to_rpy(tf.rot_vec(w) @ R) - tf.matrix_to_rpy(tf.rot_vec(-w) @ R)
+        E[:, k] = ((d + np.pi) % (2 * np.pi) - np.pi) / (2 * h)
+    return E
+
+
+def _parameter_rows(fit: _Fit, nominal: RobotModel) -> tuple[list[ParameterRow], np.ndarray]:
+    ident, model = fit.ident, fit.model
+    free_index = {p.name: k for k, p in enumerate(ident.free)}
+    std_int = np.sqrt(np.clip(np.diag(fit.covariance), 0.0, None))
+    rot_free = [k for k, p in enumerate(ident.free) if p.group == "base" and len(p.kind) == 2]
+    rpy_std = {}
+    if rot_free:
+        E = _rpy_jacobian(model.base[:3, :3])
+        cols = ["xyz".index(ident.free[k].kind[1]) for k in rot_free]
+        C = fit.covariance[np.ix_(rot_free, rot_free)]
+        Es = E[:, cols]
+        var = np.diag(Es @ C @ Es.T)
+        rpy_std = {axis: float(np.rad2deg(np.sqrt(max(v, 0.0)))) for axis, v in zip("xyz", var)}
+    rows = []
+    for prm in ident.params:
+        k = free_index.get(prm.name)
+        excl = ident.exclusion(prm.name)
+        if k is not None:
+            if prm.group == "base" and len(prm.kind) == 2:
+                std = rpy_std.get(prm.kind[1])
+            else:
+                std = float(std_int[k] * prm.to_display)
+        else:
+            std = None
+        rows.append(ParameterRow(
+            name=prm.name, group=prm.group, kind=prm.kind, unit=prm.unit,
+            nominal=_display_value(nominal, prm), initial=_display_value(fit.initial, prm),
+            identified=_display_value(model, prm), std=std, identifiable=k is not None,
+            status=IDENTIFIED if k is not None else excl.status,
+            explanation="" if excl is None else excl.explanation,
+            partners=() if excl is None else excl.partners))
+    return rows, std_int
+
+
+# -- the whole step ------------------------------------------------------------------------
+def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (),
+             huber: float | None = None, holdout: float | None = None, kfold: int | None = None,
+             seed: int = 0, outlier_k: float = 4.0, max_iterations: int = 100, damping: float = 1e-3,
+             progress=None, cancelled=None) -> IdentificationResult:
+    """Identify the robot's geometry from measured points.
+
+    `fixed`: parameter names kept at their nominal value (`J2.a`, `base.rz`, `marker.x`).
+    `huber`: Huber threshold in robust standard deviations of a point's error (e.g. 3), or None.
+    `holdout`: fraction of the poses held out for validation; the returned model is fitted on
+    the others (what is validated is what is written). `kfold`: k-fold cross validation; the
+    returned model is fitted on all poses and every pose is predicted once by a model that did
+    not see it. Raises RoboCalError for bad data, Cancelled on cancel."""
+    if holdout is not None and kfold is not None:
+        raise UsageError("use either a held-out fraction or k-fold cross validation, not both")
+    monitor = Monitor(progress, cancelled)
+    meas = _with_q(meas, robot)
+    check_against_robot(meas, robot)
+    fixed = list(fixed)
+    kw = dict(fixed=fixed, huber=huber, outlier_k=outlier_k, max_iterations=max_iterations, damping=damping)
+    validation = None
+    train = meas
+    main_span = (0.0, 1.0)
+    if holdout is not None:
+        train_ids, test_ids = split_poses(meas.pose_ids, holdout, seed)
+        train, test = meas.select_poses(train_ids), meas.select_poses(test_ids)
+    elif kfold is not None:
+        folds = kfold_poses(meas.pose_ids, kfold, seed)
+        main_span = (0.0, 1.0 / (kfold + 1))
+    fit = fit_model(robot, train, monitor=monitor.sub(*main_span), **kw)
+    if holdout is not None:
+        before = error_stats(register_base(robot, train), test)
+        validation = Validation("holdout", before=before, after=error_stats(fit.model, test),
+                                test_poses=[int(p) for p in test_ids], fraction=float(holdout), seed=seed)
+    elif kfold is not None:
+        befores, afters, rms = [], [], []
+        for k, test_ids in enumerate(folds):
+            sub = monitor.sub((k + 1) / (kfold + 1), (k + 2) / (kfold + 1))
+            sub.step(0.0, f"cross validation: fold {k + 1} of {kfold}")
+            tr = meas.select_poses([p for p in meas.pose_ids if p not in set(test_ids)])
+            te = meas.select_poses(test_ids)
+            try:
+                f = fit_model(robot, tr, monitor=sub, **kw)
+            except RoboCalError as exc:
+                raise RoboCalError(f"cross validation fold {k + 1} of {kfold}: {exc.problem}",
+                                   source=exc.source, hint=exc.hint or
+                                   "Use fewer folds or measure more poses.") from exc
+            befores.append(error_stats(register_base(robot, tr), te))
+            afters.append(error_stats(f.model, te))
+            rms.append(afters[-1].rms_mm)
+        validation = Validation("kfold", before=merge_stats(befores), after=merge_stats(afters),
+                                test_poses=[int(p) for p in meas.pose_ids], folds=int(kfold), seed=seed,
+                                fold_rms_mm=rms)
+
+    rows, std_int = _parameter_rows(fit, robot)
+    cov = fit.covariance
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov / np.outer(std_int, std_int)
+    corr = np.where(np.isfinite(corr), corr, 0.0)
+    np.fill_diagonal(corr, 1.0)
+    before = error_stats(fit.initial, train)
+    after = error_stats(fit.model, train)
+    warnings = []
+    unmeasured = [t for t in robot.targets if t not in set(meas.target)]
+    if unmeasured:
+        warnings.append(f"target(s) {', '.join(unmeasured)} were not measured: their offsets keep the "
+                        f"nominal values, and errors of the last joint that the measured targets absorb "
+                        f"are not corrected for them")
+    if fit.outliers:
+        warnings.append(f"{len(fit.outliers)} point(s) have errors beyond {outlier_k:g} robust standard "
+                        f"deviations (outliers)")
+    if fit.dof < len(fit.ident.free):
+        warnings.append(f"few measurements for {len(fit.ident.free)} parameters ({fit.dof} degrees of "
+                        f"freedom left): the uncertainties are themselves uncertain; measure more poses")
+    model = fit.model.copy()
+    result = IdentificationResult(
+        model=model, nominal=robot, initial=fit.initial, identifiability=fit.ident, parameters=rows,
+        estimated=fit.ident.free_names, estimate_std=std_int, covariance=cov, correlation=corr,
+        iterations=fit.records, converged=fit.converged, sigma_hat=fit.sigma_hat, dof=fit.dof,
+        observability=fit.observability, before=before, after=after, weights=fit.weights,
+        outliers=fit.outliers, validation=validation, measurements_source=meas.source,
+        n_poses=train.n_poses, n_points=train.n_points, huber=huber,
+        date=datetime.now(timezone.utc).replace(microsecond=0).isoformat(), warnings=warnings,
+        weighted=train.sigma is not None)
+    model.calibration = result.calibration_section()
+    return result
+
+
+def write_calibrated_model(result: IdentificationResult, path: str | Path) -> Path:
+    """Write the calibrated robot file (robot format + `calibration` section) atomically."""
+    model = result.model.copy()
+    model.calibration = result.calibration_section()
+    return write_robot(model, path)
+
+
+def identify_files(robot_path: str | Path, measurements_path: str | Path, out_path: str | Path | None = None,
+                   **options) -> IdentificationResult:
+    """File to result: read the robot and the measurements, identify, and (with `out_path`)
+    write the calibrated model — only after everything succeeded."""
+    robot = read_robot(robot_path)
+    meas = read_measurements(measurements_path, robot)
+    result = identify(robot, meas, **options)
+    if out_path is not None:
+        write_calibrated_model(result, out_path)
+    return result
+
+
+def evaluate(robot: RobotModel, meas: Measurements, *, register: bool = False) -> ErrorStats:
+    """Errors of a model against measurements; with `register`, the base pose is first fitted
+    by rigid registration (for a nominal model whose base is not known in the camera frame)."""
+    meas = _with_q(meas, robot)
+    check_against_robot(meas, robot)
+    return error_stats(register_base(robot, meas) if register else robot, meas)

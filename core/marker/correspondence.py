@@ -1,0 +1,525 @@
+"""Stereo correspondence by area correlation: the SSD criteria function of eq. (26)–(27).
+
+After rectification the image of a point lies on the same row in both images. For a window
+of h × w pixels centred on the left reference point (u_l, v), the criteria function
+
+    C(d) = 1/(h·w) · Σ_i Σ_j [ I_l(u_l + i, v + j) − I_r(u_l − d + i, v + j) ]²      (26)
+
+(normalised per pixel, so that windows of different sizes compare) is evaluated for every
+integer disparity d along the row; the disparity is its minimum (27), refined to sub-pixel by
+a parabola through the minimum and its two neighbours. The whole curve is returned (the GUI
+plots it, chapter Fig. 16), with a reliability figure: the best minimum divided by the
+second-best minimum at least half a window away (near 0: unique; near 1: ambiguous, e.g. a
+repeated pattern). `window_sweep` gives the minimum criteria per window size (Fig. 17).
+
+Only the strips needed are rectified: each rectified pixel's raw position is computed from
+the rectification (R, P), the distortion and K (as cv2.initUndistortRectifyMap does) and
+sampled with cv2.remap; the left window is centred exactly (sub-pixel) on the reference point.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from core.camera import CameraModel
+from core.errors import RoboCalError
+from core.marker.geometry import PixelMap
+from core.stereo.rig import StereoRig
+
+DEFAULT_MAX_RELIABILITY = 0.6
+DEFAULT_MAX_MISMATCH = 0.5
+
+
+@dataclass(eq=False)
+class StereoRectification:
+    """A stereo rig with its rectification (cv2.stereoRectify: R1, R2, P1, P2, Q)."""
+
+    rig: StereoRig
+    R1: np.ndarray
+    R2: np.ndarray
+    P1: np.ndarray
+    P2: np.ndarray
+    Q: np.ndarray | None = None
+
+    def __post_init__(self):
+        for name in ("R1", "R2"):
+            setattr(self, name, np.asarray(getattr(self, name), dtype=float).reshape(3, 3))
+        for name in ("P1", "P2"):
+            setattr(self, name, np.asarray(getattr(self, name), dtype=float).reshape(3, 4))
+        if abs(self.P2[1, 3]) > abs(self.P2[0, 3]):
+            raise RoboCalError("the cameras are one above the other (vertical stereo); the correspondence "
+                               "search works along rows and needs them side by side",
+                               hint="Mount the cameras side by side, or calibrate with the left camera on the left.")
+        if self.P2[0, 3] >= 0:
+            raise RoboCalError("the 'right' camera is on the left of the 'left' camera (T_x > 0)",
+                               hint="Swap the left and right images (and calibrate again).")
+        self.left_map = PixelMap(self.rig.left, self.R1, self.P1)
+        self.right_map = PixelMap(self.rig.right, self.R2, self.P2)
+
+    @classmethod
+    def from_rig(cls, rig: StereoRig, alpha: float = 0.0) -> "StereoRectification":
+        """cv2.stereoRectify(flags=CALIB_ZERO_DISPARITY, alpha) of the rig."""
+        R1, R2, P1, P2, Q, _, _ = cv2.stereoRectify(rig.left.K, rig.left.dist, rig.right.K, rig.right.dist,
+                                                    rig.left.size, rig.R, rig.T.reshape(3, 1),
+                                                    flags=cv2.CALIB_ZERO_DISPARITY, alpha=alpha)
+        return cls(rig, R1, R2, P1, P2, Q)
+
+    @classmethod
+    def from_stereo_file(cls, stereo) -> "StereoRectification":
+        """From a core.stereo.file.StereoFile (its rig and rectification)."""
+        for key in ("D1", "D2"):
+            d = np.asarray(getattr(stereo, key), dtype=float).ravel()
+            if d.size > 5 and np.any(d[5:] != 0):
+                raise RoboCalError("the calibration uses the rational distortion model (k4..k6), which the "
+                                   "marker location does not support yet", field=key,
+                                   hint="Calibrate with 2 or 3 radial coefficients (robocal stereo-calibrate "
+                                        "--radial 3).")
+        return cls(stereo.rig, stereo.R1, stereo.R2, stereo.P1, stereo.P2, stereo.Q)
+
+    @property
+    def image_size(self) -> tuple[int, int]:
+        return self.rig.left.size
+
+    @property
+    def focal(self) -> float:
+        return float(self.P1[0, 0])
+
+    @property
+    def baseline(self) -> float:
+        return -float(self.P2[0, 3]) / float(self.P2[0, 0])
+
+    @property
+    def disparity_offset(self) -> float:
+        """cx_left − cx_right of the rectified cameras (0 with CALIB_ZERO_DISPARITY)."""
+        return float(self.P1[0, 2] - self.P2[0, 2])
+
+    def disparity_of_depth(self, z: float) -> float:
+        return self.focal * self.baseline / z + self.disparity_offset
+
+    def pixel_map(self, side: str) -> PixelMap:
+        return self.left_map if side == "left" else self.right_map
+
+    def raw_positions(self, side: str, xs: np.ndarray, ys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Raw pixel positions (map_x, map_y) float32 (len(ys), len(xs)) of the rectified grid."""
+        X, Y = np.meshgrid(np.asarray(xs, float), np.asarray(ys, float))
+        return self.raw_of(side, X, Y)
+
+    def raw_of(self, side: str, X: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Raw pixel positions (float32 arrays shaped like X) of rectified positions (X, Y)."""
+        cam: CameraModel = self.rig.left if side == "left" else self.rig.right
+        R = self.R1 if side == "left" else self.R2
+        P = (self.P1 if side == "left" else self.P2)[:3, :3]
+        h = np.stack([X, Y, np.ones_like(X)], axis=-1) @ np.linalg.inv(P).T
+        ray = h @ R            # back to the camera frame (R^T for row vectors)
+        xy = ray[..., :2] / ray[..., 2:3]
+        uv = cam.normalized_to_pixels(xy)
+        return uv[..., 0].astype(np.float32), uv[..., 1].astype(np.float32)
+
+    def rectify_strip(self, image: np.ndarray, side: str, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+        """The rectified image sampled at the grid xs × ys (float32, bilinear; NaN outside)."""
+        mx, my = self.raw_positions(side, xs, ys)
+        return _remap_region(image, mx, my)
+
+    def sample(self, image: np.ndarray, side: str, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
+        """The rectified image at arbitrary rectified positions (X, Y) (float32, bilinear, NaN outside)."""
+        mx, my = self.raw_of(side, np.asarray(X, float), np.asarray(Y, float))
+        return _remap_region(image, mx, my)
+
+    def rectify(self, left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Both whole images rectified (uint8), for display."""
+        w, h = self.image_size
+        out = []
+        for side, img in (("left", left), ("right", right)):
+            cam = self.rig.left if side == "left" else self.rig.right
+            R, P = (self.R1, self.P1) if side == "left" else (self.R2, self.P2)
+            mx, my = cv2.initUndistortRectifyMap(cam.K, cam.dist, R, P, (w, h), cv2.CV_32FC1)
+            out.append(cv2.remap(img, mx, my, cv2.INTER_LINEAR))
+        return out[0], out[1]
+
+
+def _remap_region(image: np.ndarray, mx: np.ndarray, my: np.ndarray) -> np.ndarray:
+    """cv2.remap (bilinear, float32, NaN outside the image) converting only the region used."""
+    img = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+    H, W = img.shape
+    fin = np.isfinite(mx) & np.isfinite(my)
+    if not fin.any():
+        return np.full(mx.shape, np.nan, np.float32)
+    x0 = int(np.clip(np.floor(mx[fin].min()) - 2, 0, W - 1))
+    x1 = int(np.clip(np.ceil(mx[fin].max()) + 3, x0 + 1, W))
+    y0 = int(np.clip(np.floor(my[fin].min()) - 2, 0, H - 1))
+    y1 = int(np.clip(np.ceil(my[fin].max()) + 3, y0 + 1, H))
+    sub = img[y0:y1, x0:x1].astype(np.float32)
+    out = cv2.remap(sub, (mx - x0).astype(np.float32), (my - y0).astype(np.float32), cv2.INTER_LINEAR,
+                    borderMode=cv2.BORDER_CONSTANT, borderValue=np.nan)
+    # pixels whose 2x2 neighbourhood leaves the image are unknown
+    outside = ~fin | (mx < -0.5) | (my < -0.5) | (mx > W - 0.5) | (my > H - 0.5)
+    out[outside] = np.nan
+    return out
+
+
+@dataclass
+class Correspondence:
+    """The SSD search along the epipolar line (what the GUI plots: the criteria curve).
+
+    Rectified coordinates: the left window is centred on `left_point` (u_l, v); the right
+    window at disparity d is centred on (u_l − d, v). `plain_criteria` is the criteria function
+    of eq. (26) over the whole search range (Fig. 16); `criteria` the curve searched (the same,
+    or the pre-warped one described below).
+
+    With the marker plane's normal (`plane_normal`, from its outline in the left image) the
+    minimum is refined with the window warped by the plane: the disparity of a plane varies
+    across the window (its 1/Z is affine in the image), so a tilted marker's two views differ
+    by more than a shift; the refined criteria compares pixel (u_l + i, v + j) with
+    (u_l + i − d·g(i, j), v + j), g the plane's relative disparity (1 at the centre), and
+    only d is searched. `disparity`, `minimum`, `second_minimum` and `reliability` then
+    refer to this refined criteria (`warped` True); the plain figures stay in `plain_*`. The
+    search itself runs with the left window pre-warped for a guessed disparity (from the
+    marker's apparent size), so that its curve (`criteria`) has its minimum at the marker
+    even at 400 mm and 60° of tilt, where the plain curve may not."""
+
+    ok: bool
+    reason: str
+    left_point: np.ndarray                 # (2,) rectified px
+    window: tuple[int, int]                # (h, w) px, odd
+    disparities: np.ndarray                # (K,) tested disparities (u_l − integer right centres)
+    criteria: np.ndarray                   # (K,) C(d) searched (pre-warped when `warped`), grey levels² per pixel
+    disparity: float = float("nan")        # sub-pixel disparity of the minimum, px
+    minimum: float = float("nan")          # C at the minimum (grey levels² per pixel)
+    second_disparity: float = float("nan")
+    second_minimum: float = float("nan")
+    reliability: float = float("nan")      # minimum / second minimum, + NOISE_FLOOR each (0 unique … 1 ambiguous)
+    mismatch: float = float("nan")         # minimum / variance of the left window
+    sigma_disparity: float = float("nan")  # px, from the curvature and the residual at the minimum
+    parabola: tuple[float, float, float] | None = None   # plain C ≈ a·x² + b·x + c, x = d − integer minimum
+    warped: bool = False
+    plain_criteria: np.ndarray | None = None   # (K,) the plain eq. (26) curve
+    plain_disparity: float = float("nan")
+    plain_minimum: float = float("nan")
+    plain_second_minimum: float = float("nan")
+    plain_reliability: float = float("nan")
+    refined_disparities: np.ndarray = field(default_factory=lambda: np.zeros(0))   # warped criteria samples
+    refined_criteria: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def right_point(self) -> np.ndarray:
+        return np.array([self.left_point[0] - self.disparity, self.left_point[1]])
+
+
+@dataclass
+class WindowSweep:
+    """Minimum criteria per window size (chapter Fig. 17)."""
+
+    sizes: np.ndarray            # (S,) odd window sides, px
+    minima: np.ndarray           # (S,) minimum of C, grey levels² per pixel
+    disparities: np.ndarray      # (S,) sub-pixel disparity at the minimum
+    reliabilities: np.ndarray    # (S,)
+
+
+REFINE_PIXELS = 6000    # samples of the window used by the plane-warped refinement (at most, about)
+NOISE_FLOOR = 0.5       # grey levels² per pixel: about the quantisation noise of two 8-bit images
+
+
+def _ratio(best: float, second: float) -> float:
+    """Reliability: best / second minimum, both with the noise floor added (so that two exact
+    matches, 0 and 0, count as ambiguous rather than 0 / 0)."""
+    return float((best + NOISE_FLOOR) / (second + NOISE_FLOOR))
+
+
+def odd(n: float, lo: int = 3, hi: int = 401) -> int:
+    k = int(round(n))
+    k = k if k % 2 == 1 else k + 1
+    return int(min(max(k, lo), hi if hi % 2 == 1 else hi - 1))
+
+
+def _local_minima(c: np.ndarray) -> np.ndarray:
+    if len(c) < 3:
+        return np.zeros(0, int)
+    inner = (c[1:-1] <= c[:-2]) & (c[1:-1] <= c[2:])
+    return np.nonzero(inner)[0] + 1
+
+
+def ssd_curve(left_patch: np.ndarray, right_strip: np.ndarray) -> np.ndarray:
+    """C for every horizontal position of the left patch (h × w) in the right strip (h × W),
+    normalised per pixel. NaN pixels (outside the image) count as a large difference."""
+    h, w = left_patch.shape
+    lp = np.nan_to_num(left_patch, nan=0.0).astype(np.float32)
+    rs = np.nan_to_num(right_strip, nan=-1000.0).astype(np.float32)
+    c = cv2.matchTemplate(rs, lp, cv2.TM_SQDIFF)[0].astype(np.float64)
+    return np.maximum(c, 0.0) / float(h * w)
+
+
+def _parabola_vertex(cm: float, c0: float, cp: float) -> tuple[float, float]:
+    """Offset (in steps, within ±0.5... ±1) of the vertex of the parabola through (−1, cm),
+    (0, c0), (1, cp), and its curvature coefficient a (C ≈ a·x² + ...)."""
+    if not (np.isfinite(cm) and np.isfinite(c0) and np.isfinite(cp)):
+        return 0.0, 0.0
+    denom = cm - 2.0 * c0 + cp
+    if denom <= 0:
+        return 0.0, 0.0
+    return float(np.clip(0.5 * (cm - cp) / denom, -1.0, 1.0)), 0.5 * denom
+
+
+def plane_disparity_ratio(normal: np.ndarray, K: np.ndarray, X: np.ndarray, Y: np.ndarray, u0: float,
+                          v0: float) -> np.ndarray:
+    """g(X, Y) = d(X, Y) / d(u0, v0) on a plane of normal `normal` (rectified camera frame):
+    d ∝ 1/Z = n·K⁻¹(x, y, 1) / (n·t)."""
+    Ki = np.linalg.inv(np.asarray(K, float)[:3, :3])
+    n = np.asarray(normal, float) @ Ki          # n·K⁻¹p = (nᵀK⁻¹)·p
+    num = n[0] * X + n[1] * Y + n[2]
+    den = n[0] * u0 + n[1] * v0 + n[2]
+    return num / den
+
+
+class _Warped:
+    """The refined (plane-warped) criteria at the left point, for any real disparity."""
+
+    def __init__(self, rect: StereoRectification, right: np.ndarray, patch: np.ndarray, u: float, v: float,
+                 g: np.ndarray, I: np.ndarray, J: np.ndarray):
+        self.rect, self.right, self.patch = rect, right, patch
+        self.u, self.v, self.g, self.I, self.J = u, v, g, I, J
+        self.off = rect.disparity_offset
+        self.cache: dict[float, float] = {}
+        self.anchors: dict[int, tuple] = {}
+
+    def _maps(self, d: float):
+        """Raw right-image positions of the warped window at disparity d: exact at the anchor
+        (a whole disparity), linear within 4 px of it (the rectification map's curvature over
+        a few pixels is ~1e-5 px)."""
+        near = [a for a in self.anchors if abs(a - d) <= 4.0]
+        if near:
+            a = min(near, key=lambda k: abs(k - d))
+        else:
+            a = int(np.round(d))
+            X0 = self.u + self.I - (self.off + (a - self.off) * self.g)
+            Y = self.v + self.J
+            mx0, my0 = self.rect.raw_of("right", X0, Y)
+            mx1, my1 = self.rect.raw_of("right", X0 - self.g, Y)
+            self.anchors[a] = (mx0, my0, mx1 - mx0, my1 - my0)
+        mx0, my0, dx, dy = self.anchors[a]
+        t = np.float32(d - a)
+        return mx0 + t * dx, my0 + t * dy
+
+    def __call__(self, d: float, stride: int = 1) -> float:
+        """The warped criteria at disparity d (on every `stride`-th pixel of the window)."""
+        if not np.isfinite(d):
+            return float("inf")
+        key = (round(float(d), 6), stride)
+        if key not in self.cache:
+            mx, my = self._maps(d)
+            if stride > 1:
+                mx, my, patch = mx[::stride, ::stride], my[::stride, ::stride], self.patch[::stride, ::stride]
+            else:
+                patch = self.patch
+            samples = _remap_region(self.right, mx, my)
+            diff = patch - samples
+            bad = ~np.isfinite(diff)
+            if bad.mean() > 0.02:
+                self.cache[key] = float("inf")
+            else:
+                self.cache[key] = float(np.mean(diff[~bad] ** 2))
+        return self.cache[key]
+
+    def refine(self, d_start: float, reach: int = 2, max_walk: int = 6, fine: bool = True,
+               stride: int = 1) -> tuple[float, float, float]:
+        """(disparity, minimum, curvature a) of the warped criteria near `d_start` (`fine`
+        False: the integer grid and one parabola only)."""
+        base = float(np.round(d_start))
+        vals = {k: self(base + k, stride) for k in range(-reach, reach + 1)}
+        for _ in range(max_walk):                     # walk downhill past the edge of the grid
+            k_min = min(vals, key=vals.get)
+            if k_min == min(vals):
+                vals[k_min - 1] = self(base + k_min - 1, stride)
+            elif k_min == max(vals):
+                vals[k_min + 1] = self(base + k_min + 1, stride)
+            else:
+                break
+        k_min = min(vals, key=vals.get)
+        if k_min - 1 not in vals or k_min + 1 not in vals or not np.isfinite(vals[k_min]):
+            return base + k_min, vals[k_min], 0.0
+        delta, a = _parabola_vertex(vals[k_min - 1], vals[k_min], vals[k_min + 1])
+        d1 = base + k_min + float(np.clip(delta, -0.5, 0.5))
+        if not fine:
+            # the parabola's vertex value: comparable between candidates off the integer grid
+            b = 0.5 * (vals[k_min + 1] - vals[k_min - 1])
+            return d1, max(vals[k_min] - b * b / (4.0 * a), 0.0) if a > 0 else vals[k_min], a
+        # second pass: a parabola on a finer grid around the first estimate
+        h = 0.3
+        cm, c0, cp = self(d1 - h, stride), self(d1, stride), self(d1 + h, stride)
+        delta2, a2 = _parabola_vertex(cm, c0, cp)
+        if a2 > 0:
+            d2 = d1 + h * float(np.clip(delta2, -1.0, 1.0))
+            return d2, min(self(d2, stride), c0), a2 / (h * h)
+        return d1, c0, a
+
+
+def _prewarped_template(rect: StereoRectification, left: np.ndarray, normal: np.ndarray, u: float, v: float,
+                        I: np.ndarray, J: np.ndarray, d_guess: float) -> np.ndarray:
+    """The left window as the right camera sees it if the plane's disparity at the centre is
+    `d_guess`: right offset I' shows the left offset x with x − (d(x) − d(0)) = I'."""
+    off = rect.disparity_offset
+    x = I.copy()
+    for _ in range(3):
+        g = plane_disparity_ratio(normal, rect.P1, u + x, v + J, u, v)
+        x = I + (d_guess - off) * (g - 1.0)
+    return rect.sample(left, "left", u + x, v + J)
+
+
+def find_disparity(rect: StereoRectification, left: np.ndarray, right: np.ndarray, left_point, *,
+                   window: tuple[int, int] | None = None, d_range: tuple[float, float] | None = None,
+                   plane_normal: np.ndarray | None = None, disparity_guess: float | None = None,
+                   max_reliability: float = DEFAULT_MAX_RELIABILITY,
+                   max_mismatch: float = DEFAULT_MAX_MISMATCH, candidates: int = 3) -> Correspondence:
+    """Eq. (26)–(27): the disparity of the rectified left point `left_point` (u_l, v).
+
+    `window` (h, w) px (odd; default 21 × 21); `d_range` (d_min, d_max) px searched (default:
+    the whole row of the right image, so that a best match at d ≤ 0 is seen and refused).
+    `plane_normal` (3,) in the rectified left camera frame and `disparity_guess` (px, e.g.
+    from the marker's apparent size): the search runs with the left window pre-warped as the
+    right camera would see the plane at that disparity, and the `candidates` lowest minima
+    are refined with the exactly warped window (see Correspondence); the best is the match,
+    the second gives the reliability. The result is not ok, with the reason, when the window
+    leaves the image, the minimum is at the end of the range, at d ≤ 0, ambiguous
+    (reliability above `max_reliability`) or a poor match (minimum above `max_mismatch`
+    times the window's grey-level variance)."""
+    u, v = float(left_point[0]), float(left_point[1])
+    h, w = (21, 21) if window is None else (odd(window[0]), odd(window[1]))
+    W, Himg = rect.image_size
+    hw, hh = (w - 1) // 2, (h - 1) // 2
+    off = rect.disparity_offset
+    if d_range is None:
+        d_range = (u - (W - 1) - hw, u + hw)
+    d_lo, d_hi = float(d_range[0]), float(d_range[1])
+    empty = Correspondence(False, "", np.array([u, v]), (h, w), np.zeros(0), np.zeros(0))
+    ys = v + np.arange(-hh, hh + 1)
+    xs_l = u + np.arange(-hw, hw + 1)
+    if xs_l[0] < 0 or xs_l[-1] > W - 1 or ys[0] < 0 or ys[-1] > Himg - 1:
+        empty.reason = "the correlation window leaves the left image"
+        return empty
+    patch = rect.rectify_strip(left, "left", xs_l, ys)
+    if np.isnan(patch).mean() > 0.02:
+        empty.reason = "the correlation window leaves the left image"
+        return empty
+    # right centres: integer columns c with u - c in [d_lo, d_hi]
+    c_lo = max(int(np.ceil(u - d_hi)), -hw)
+    c_hi = min(int(np.floor(u - d_lo)), W - 1 + hw)
+    if c_hi - c_lo < 4:
+        empty.reason = "the disparity search range is empty"
+        return empty
+    xs_r = np.arange(c_lo - hw, c_hi + hw + 1, dtype=float)
+    strip = rect.rectify_strip(right, "right", xs_r, ys)
+    plain = ssd_curve(patch, strip)[::-1]                 # position j <-> right centre c_lo + j
+    disp = (u - (c_lo + np.arange(len(plain))))[::-1]     # increasing disparity for plotting
+    var = max(float(np.var(np.nan_to_num(patch))), 1e-9)
+    n = h * w
+    sep = max(hw, 3)
+
+    def minima_of(curve):
+        i0 = int(np.argmin(curve))
+        mins = _local_minima(curve)
+        far = mins[np.abs(mins - i0) > sep]
+        j2 = int(far[np.argmin(curve[far])]) if len(far) else None
+        return i0, j2, mins
+
+    res = Correspondence(False, "", np.array([u, v]), (h, w), disp, plain, plain_criteria=plain)
+    i0, j2, _ = minima_of(plain)
+    res.plain_minimum = float(plain[i0])
+    res.plain_second_minimum = float(plain[j2]) if j2 is not None else float(plain.max())
+    res.plain_reliability = _ratio(res.plain_minimum, res.plain_second_minimum)
+    if 0 < i0 < len(plain) - 1:
+        delta, a = _parabola_vertex(plain[i0 - 1], plain[i0], plain[i0 + 1])
+        res.plain_disparity = float(disp[i0] + np.clip(delta, -0.5, 0.5))
+        res.parabola = (float(a), float(0.5 * (plain[i0 + 1] - plain[i0 - 1])), float(plain[i0]))
+    else:
+        res.plain_disparity = float(disp[i0])
+
+    if plane_normal is None:
+        crit = plain
+        res.disparity, res.minimum = res.plain_disparity, res.plain_minimum
+        res.second_minimum, res.reliability = res.plain_second_minimum, res.plain_reliability
+        res.second_disparity = float(disp[j2]) if j2 is not None else float("nan")
+        a = res.parabola[0] if res.parabola else 0.0
+        res.sigma_disparity = float(np.sqrt(max(res.minimum, 1e-6) / (n * a))) if a > 0 else float("inf")
+        best_index = i0
+    else:
+        J, I = np.mgrid[-hh:hh + 1, -hw:hw + 1].astype(float)
+        g = plane_disparity_ratio(plane_normal, rect.P1, u + I, v + J, u, v)
+        warped = _Warped(rect, right, patch, u, v, g, I, J)
+        # large windows are sampled on a sparser grid (at most ~REFINE_PIXELS samples for the
+        # refinement, 4x fewer for comparing the candidates): thousands of pixels already pin
+        # the disparity to a few thousandths of a pixel
+        fine_st = max(1, int(np.ceil(np.sqrt(h * w / REFINE_PIXELS))))
+        st = 2 * fine_st if h * w > 2500 else fine_st
+        guess = res.plain_disparity if disparity_guess is None else float(disparity_guess)
+        refined = []
+        crit = plain
+        for _ in range(2):
+            template = _prewarped_template(rect, left, plane_normal, u, v, I, J, guess)
+            crit = ssd_curve(template, strip)[::-1]
+            mins = _local_minima(crit)
+            order = mins[np.argsort(crit[mins])] if len(mins) else np.array([int(np.argmin(crit))])
+            chosen: list[int] = []
+            for m in order:
+                if all(abs(m - c) > sep for c in chosen):
+                    chosen.append(int(m))
+                if len(chosen) >= candidates:
+                    break
+            coarse = sorted((warped.refine(float(disp[m]), reach=1, fine=False, stride=st) + (m,) for m in chosen),
+                            key=lambda r: r[1])
+            # the two best are refined alike on the full window: best and second are compared fairly
+            refined = sorted((warped.refine(c[0], reach=1, stride=fine_st) + (c[3],) for c in coarse[:2]),
+                             key=lambda r: r[1])
+            best_d = refined[0][0]
+            if abs(best_d - guess) <= max(2.0, 0.03 * abs(guess - off)):
+                break
+            guess = best_d          # the size guess was off: warp for the disparity found, search again
+        d1, m1, a1, best_index = refined[0]
+        res.warped = True
+        res.disparity, res.minimum = d1, m1
+        n_used = ((h + fine_st - 1) // fine_st) * ((w + fine_st - 1) // fine_st)
+        res.sigma_disparity = float(np.sqrt(max(m1, 1e-6) / (n_used * a1))) if a1 > 0 else float("inf")
+        if len(refined) > 1:
+            res.second_disparity, res.second_minimum = refined[1][0], refined[1][1]
+        else:
+            res.second_minimum = float(crit.max())
+        res.reliability = _ratio(res.minimum, res.second_minimum)
+        ks = sorted(k for k in warped.cache if k[1] == fine_st)
+        res.refined_disparities = np.array([k[0] for k in ks])
+        res.refined_criteria = np.array([warped.cache[k] for k in ks])
+        res.criteria = crit
+    res.mismatch = res.minimum / var
+    if best_index == 0 or best_index == len(crit) - 1 or not np.isfinite(res.minimum):
+        res.reason = (f"no minimum of the criteria function inside the search range (best at its end, "
+                      f"d = {res.disparity:.1f} px)")
+        return res
+    if res.mismatch > max_mismatch:
+        res.reason = (f"no good match along the epipolar line in the right image (the best leaves "
+                      f"{100 * res.mismatch:.0f} % of the window's contrast unexplained): the marker is hidden "
+                      "or outside the right view, or the stereo calibration no longer fits the cameras")
+        return res
+    if res.disparity - off <= 0:
+        res.reason = (f"disparity {res.disparity - off:.2f} px ≤ 0: the best match along the epipolar line "
+                      "lies at or beyond infinity, so it is not the marker")
+        return res
+    if res.reliability > max_reliability:
+        res.reason = (f"ambiguous SSD minimum: best / second-best = {res.reliability:.2f} (limit {max_reliability}), "
+                      f"at d = {res.disparity:.1f} and {res.second_disparity:.1f} px: a repeated pattern or a second "
+                      "marker-like object on the same line")
+        return res
+    res.ok = True
+    return res
+
+
+def window_sweep(rect: StereoRectification, left: np.ndarray, right: np.ndarray, left_point, *,
+                 sizes=tuple(range(5, 38, 2)), d_range: tuple[float, float] | None = None) -> WindowSweep:
+    """The minimum of the criteria function for square windows of each size (Fig. 17)."""
+    sizes = np.asarray(list(sizes), dtype=int)
+    minima, disps, rel = [], [], []
+    for s in sizes:
+        c = find_disparity(rect, left, right, left_point, window=(int(s), int(s)), d_range=d_range,
+                           max_reliability=1.0, max_mismatch=np.inf)
+        minima.append(c.minimum)
+        disps.append(c.disparity)
+        rel.append(c.reliability)
+    return WindowSweep(sizes, np.array(minima, float), np.array(disps, float), np.array(rel, float))

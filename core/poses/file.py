@@ -1,0 +1,109 @@
+"""The pose sequence file `poses.csv` (written by pose selection, read by the Measurement step).
+
+```
+pose,q1,q2,q3,q4,q5,q6
+0,12.345,-40.000,33.100,0.000,45.250,-90.000
+```
+One row per pose in the order the robot should visit them; `pose` numbers them 0, 1, …;
+joint values in file units (degrees for revolute joints, mm for prismatic ones), 3 decimals
+(the layout of the virtual-lab dataset's `poses/joints.csv`). Lines starting with `#` and blank
+lines are ignored when reading. Writing is atomic.
+"""
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from core.errors import RoboCalError
+from core.files import atomic_write_text, read_text
+from core.robot.model import RobotModel
+
+
+@dataclass
+class PoseList:
+    """Poses read from a file: `q_file` (N, n) in deg / mm, `Q` (N, n) internal (rad / mm) when
+    read with a robot, `pose` (N,) the pose numbers, `path` the file."""
+
+    q_file: np.ndarray
+    Q: np.ndarray | None
+    pose: np.ndarray
+    path: Path | None = None
+
+    def __len__(self) -> int:
+        return len(self.q_file)
+
+
+def format_poses(q_file) -> str:
+    """The text of poses.csv for joint values (N, n) in file units."""
+    q = np.atleast_2d(np.asarray(q_file, dtype=float))
+    header = "pose," + ",".join(f"q{j + 1}" for j in range(q.shape[1]))
+    rows = [f"{i}," + ",".join(f"{0.0 if v == 0 else v:.3f}" for v in row) for i, row in enumerate(q)]
+    return "\n".join([header] + rows) + "\n"
+
+
+def write_poses(path: str | Path, q_file) -> Path:
+    """Write poses.csv atomically (joint values (N, n) in deg / mm)."""
+    return atomic_write_text(path, format_poses(q_file))
+
+
+def read_poses(path: str | Path, robot: RobotModel | None = None) -> PoseList:
+    """Read poses.csv; with `robot`, check the joint count and the limits and convert to
+    internal units. Errors name the file and line and say what to do."""
+    path = Path(path)
+    text = read_text(path, "a poses CSV file")
+    header = None
+    poses, rows = [], []
+    for line_no, raw in enumerate(text.splitlines(), start=1):
+        line = raw.strip()
+        if not line or line.startswith("#"):
+            continue
+        cells = [c.strip() for c in next(csv.reader([line]))]
+        if header is None:
+            n = len(cells) - 1
+            if cells[0] != "pose" or n < 1 or cells[1:] != [f"q{j + 1}" for j in range(n)]:
+                raise RoboCalError(f"line {line_no}: the header must be pose,q1,...,qn", source=path,
+                                   hint="Is this a RoboCal poses file?")
+            if robot is not None and n != robot.dof:
+                raise RoboCalError(f"line {line_no}: the file has {n} joint columns but the robot "
+                                   f"'{robot.name}' has {robot.dof} joints", source=path,
+                                   hint="Use the robot model these poses were selected for.")
+            header = cells
+            continue
+        if len(cells) != len(header):
+            raise RoboCalError(f"line {line_no}: expected {len(header)} values, got {len(cells)}",
+                               source=path, hint="Check for a missing or extra comma.")
+        values = []
+        for name, c in zip(header, cells):
+            try:
+                v = float(c)
+            except ValueError:
+                raise RoboCalError(f"line {line_no}, column '{name}': expected a number, got '{c}'",
+                                   source=path) from None
+            if not math.isfinite(v):
+                raise RoboCalError(f"line {line_no}, column '{name}': expected a finite number",
+                                   source=path)
+            values.append(v)
+        poses.append(int(values[0]) if float(values[0]).is_integer() else -1)
+        if poses[-1] < 0:
+            raise RoboCalError(f"line {line_no}, column 'pose': expected a whole number", source=path)
+        rows.append(values[1:])
+    if header is None:
+        raise RoboCalError("empty file (no header)", source=path, hint="A poses file starts with 'pose,q1,...'.")
+    q_file = np.array(rows, dtype=float).reshape(len(rows), len(header) - 1)
+    Q = None
+    if robot is not None:
+        Q = robot.q_from_file(q_file).reshape(q_file.shape)
+        lo, hi = robot.limits()
+        tol = 1e-6
+        bad = np.argwhere((Q < lo - tol) | (Q > hi + tol))
+        if len(bad):
+            i, j = (int(v) for v in bad[0])
+            raise RoboCalError(f"pose {poses[i]}: q{j + 1} = {q_file[i, j]:g} is outside the joint limits "
+                               f"of '{robot.name}'", source=path,
+                               hint="Select the poses again for this robot.")
+    return PoseList(q_file=q_file, Q=Q, pose=np.array(poses, dtype=int), path=path)
+

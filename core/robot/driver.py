@@ -1,0 +1,117 @@
+"""The one interface every robot connection implements (simulated now, serial later).
+
+Joint values are in internal units: radians for revolute joints, mm for prismatic ones
+(`RobotModel.q_from_file` converts from the degrees of files and screens).
+
+Safety rules shared by every driver:
+- `move_to` refuses a configuration outside the model's joint limits (RoboCalError),
+  before anything is sent to the robot;
+- `stop()` is always safe to call (connected or not, stopped or not) and latches: no motion
+  is accepted after it until `resume()`;
+- a driver is a context manager (`with driver: ...` connects and always disconnects).
+"""
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+import numpy as np
+
+from core.errors import RoboCalError
+from core.robot.model import RobotModel
+
+
+class RobotDriver(ABC):
+    """A connection to one robot whose nominal geometry and joint limits are `model`."""
+
+    #: shown in the user interface ("Simulated robot", "Serial robot on /dev/ttyUSB0", ...)
+    name: str = "robot"
+
+    def __init__(self, model: RobotModel):
+        self.model = model
+
+    # -- connection ----------------------------------------------------------------------
+    @property
+    @abstractmethod
+    def connected(self) -> bool:
+        """True between `connect()` and `disconnect()`."""
+
+    @abstractmethod
+    def connect(self) -> None:
+        """Open the connection (raises RoboCalError naming the device if it cannot)."""
+
+    @abstractmethod
+    def disconnect(self) -> None:
+        """Close the connection; safe to call twice."""
+
+    # -- motion --------------------------------------------------------------------------
+    def move_to(self, q) -> None:
+        """Move to joint configuration `q` (internal units). Refuses, with a RoboCalError and
+        without moving, a configuration outside the joint limits, a robot that is not
+        connected, and a robot that was stopped."""
+        q = self.check_joints(q)
+        if not self.connected:
+            raise RoboCalError("the robot is not connected", source=self.name,
+                               hint="Connect it first (Setup step).")
+        if self.stopped:
+            raise RoboCalError("the robot was stopped", source=self.name,
+                               hint="Check that the way is clear, then resume before moving it again.")
+        self._move(q)
+
+    @abstractmethod
+    def _move(self, q: np.ndarray) -> None:
+        """Send a checked configuration to the robot (called by `move_to` only)."""
+
+    @abstractmethod
+    def current_joints(self) -> np.ndarray:
+        """The joint configuration the robot is in now (internal units), shape (dof,)."""
+
+    @abstractmethod
+    def stop(self) -> None:
+        """Stop any motion at once and refuse further motion until `resume()`. Never raises
+        because the robot is not connected or already stopped."""
+
+    @property
+    @abstractmethod
+    def stopped(self) -> bool:
+        """True after `stop()` until `resume()`."""
+
+    @abstractmethod
+    def resume(self) -> None:
+        """Accept motion again after a stop (the user checked that the way is clear)."""
+
+    # -- checks --------------------------------------------------------------------------
+    def check_joints(self, q) -> np.ndarray:
+        """`q` as a float array of the robot's size, finite and inside the joint limits,
+        or a RoboCalError naming the joint, its value and its limits (file units)."""
+        try:
+            q = np.asarray(q, dtype=float).reshape(-1)
+        except (TypeError, ValueError) as exc:
+            raise RoboCalError(f"joint values must be numbers, got {q!r}", source=self.name) from exc
+        n = self.model.dof
+        if q.shape != (n,):
+            raise RoboCalError(f"expected {n} joint values, got {q.size}", source=self.name)
+        lo, hi = self.model.limits()
+        tol = 1e-9
+        for i, joint in enumerate(self.model.joints):
+            unit = "°" if joint.revolute else " mm"
+            to_file = np.rad2deg if joint.revolute else (lambda v: v)
+            label = joint.name or f"J{i + 1}"
+            if not np.isfinite(q[i]):
+                raise RoboCalError(f"joint {label}: value {q[i]} is not a finite number", source=self.name)
+            if q[i] < lo[i] - tol or q[i] > hi[i] + tol:
+                raise RoboCalError(
+                    f"joint {label}: {to_file(q[i]):.3f}{unit} is outside its limits "
+                    f"[{to_file(lo[i]):.3f}{unit}, {to_file(hi[i]):.3f}{unit}]; the robot was not moved",
+                    source=self.name, hint="Choose a configuration inside the joint limits.")
+        return q
+
+    # -- context manager -----------------------------------------------------------------
+    def __enter__(self) -> "RobotDriver":
+        self.connect()
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        try:
+            self.stop()
+        finally:
+            self.disconnect()

@@ -1,0 +1,133 @@
+"""The robot model file `robot.json` (format robocal.robot/1, DESIGN.md): read, validate, write.
+
+Files hold millimetres and degrees; the in-memory `RobotModel` holds millimetres and radians.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from core import transforms as tf
+from core.errors import RoboCalError
+from core.files import atomic_write_json, read_json
+from core.robot.model import PRISMATIC, REVOLUTE, Joint, RobotModel
+from core.validate import check_format, number, require, text, vector
+
+FORMAT_FAMILY = "robocal.robot"
+FORMAT_MAJOR = 1
+FORMAT = f"{FORMAT_FAMILY}/{FORMAT_MAJOR}"
+
+
+def read_robot(path: str | Path) -> RobotModel:
+    """Read and validate a robot file; raises RoboCalError naming the file and field."""
+    return robot_from_dict(read_json(path), source=path)
+
+
+def write_robot(model: RobotModel, path: str | Path) -> Path:
+    """Write atomically (a failure leaves any previous file intact)."""
+    return atomic_write_json(path, robot_to_dict(model))
+
+
+def _pose_from_dict(data, source, field: str) -> np.ndarray:
+    if data is None:
+        return np.eye(4)
+    if not isinstance(data, dict):
+        raise RoboCalError("expected an object with 'xyz' and 'rpy'", source=source, field=field)
+    xyz = vector(data.get("xyz", [0, 0, 0]), 3, source, f"{field}.xyz", "mm")
+    rpy = vector(data.get("rpy", [0, 0, 0]), 3, source, f"{field}.rpy", "degrees")
+    return tf.pose_to_matrix(xyz, np.deg2rad(rpy))
+
+
+def _pose_to_dict(T: np.ndarray) -> dict:
+    xyz, rpy = tf.matrix_to_pose(T)
+    return {"xyz": [float(v) for v in xyz], "rpy": [float(v) for v in np.rad2deg(rpy)]}
+
+
+def robot_from_dict(data: dict, source: str | Path = "<robot>") -> RobotModel:
+    check_format(data, FORMAT_FAMILY, FORMAT_MAJOR, source)
+    units = data.get("units", {"length": "mm", "angle": "deg"})
+    if not isinstance(units, dict) or units.get("length", "mm") != "mm" or units.get("angle", "deg") != "deg":
+        raise RoboCalError(f"unsupported units {units!r}", source=source, field="units",
+                           hint='RoboCal robot files use {"length": "mm", "angle": "deg"}.')
+    name = text(data.get("name", Path(str(source)).stem), source, "name")
+    joints_data = require(data, "joints", source)
+    if not isinstance(joints_data, list) or not joints_data:
+        raise RoboCalError("expected a non-empty list of joints", source=source, field="joints")
+    joints = []
+    for i, jd in enumerate(joints_data):
+        f = f"joints[{i}]"
+        if not isinstance(jd, dict):
+            raise RoboCalError("expected an object", source=source, field=f)
+        jtype = jd.get("type", REVOLUTE)
+        if jtype not in (REVOLUTE, PRISMATIC):
+            raise RoboCalError(f"unknown joint type {jtype!r}", source=source, field=f"{f}.type",
+                               hint="Use 'revolute' or 'prismatic'.")
+        revolute = jtype == REVOLUTE
+        values = {}
+        for key, unit in (("theta", "degrees"), ("d", "mm"), ("a", "mm"), ("alpha", "degrees")):
+            values[key] = number(require(jd, key, source, f"{f}.{key}"), source, f"{f}.{key}", unit)
+        values["beta"] = number(jd.get("beta", 0.0), source, f"{f}.beta", "degrees")
+        limit_unit = "degrees" if revolute else "mm"
+        lo = number(require(jd, "min", source, f"{f}.min"), source, f"{f}.min", limit_unit)
+        hi = number(require(jd, "max", source, f"{f}.max"), source, f"{f}.max", limit_unit)
+        if lo >= hi:
+            raise RoboCalError(f"min ({lo}) must be smaller than max ({hi})", source=source, field=f"{f}.min")
+        scale = np.deg2rad(1.0) if revolute else 1.0
+        joints.append(Joint(
+            type=jtype, theta=np.deg2rad(values["theta"]), d=values["d"], a=values["a"],
+            alpha=np.deg2rad(values["alpha"]), beta=np.deg2rad(values["beta"]),
+            min=lo * scale, max=hi * scale, name=text(jd.get("name", f"J{i + 1}"), source, f"{f}.name")))
+    targets_data = data.get("targets", {})
+    if not isinstance(targets_data, dict):
+        raise RoboCalError("expected an object of name: [x, y, z]", source=source, field="targets")
+    targets = {str(k): np.array(vector(v, 3, source, f"targets.{k}", "mm")) for k, v in targets_data.items()}
+    calibration = data.get("calibration")
+    if calibration is not None and not isinstance(calibration, dict):
+        raise RoboCalError("expected an object", source=source, field="calibration")
+    return RobotModel(name=name, joints=joints, base=_pose_from_dict(data.get("base"), source, "base"),
+                      tool=_pose_from_dict(data.get("tool"), source, "tool"), targets=targets,
+                      calibration=calibration,
+                      collision_radius=_collision_from_dict(data.get("collision"), len(joints), source))
+
+
+def _collision_from_dict(data, dof: int, source) -> np.ndarray | None:
+    """Optional `"collision": {"radius": [mm per link]}` (dof values, or dof + 1 with the tool
+    link last): capsule radii for the self-collision check of pose selection."""
+    if data is None:
+        return None
+    if not isinstance(data, dict):
+        raise RoboCalError('expected an object like {"radius": [mm per link]}', source=source, field="collision")
+    radius = require(data, "radius", source, "collision.radius")
+    if not isinstance(radius, list) or len(radius) not in (dof, dof + 1):
+        raise RoboCalError(f"expected a list of {dof} (or {dof + 1} with the tool) radii in mm",
+                           source=source, field="collision.radius")
+    values = np.array([number(v, source, f"collision.radius[{i}]", "mm") for i, v in enumerate(radius)])
+    if np.any(values < 0):
+        raise RoboCalError("radii must not be negative", source=source, field="collision.radius")
+    return values
+
+
+def robot_to_dict(model: RobotModel) -> dict:
+    joints = []
+    for j in model.joints:
+        scale = np.rad2deg(1.0) if j.revolute else 1.0
+        joints.append({
+            "name": j.name, "type": j.type,
+            "theta": float(np.rad2deg(j.theta)), "d": float(j.d), "a": float(j.a),
+            "alpha": float(np.rad2deg(j.alpha)), "beta": float(np.rad2deg(j.beta)),
+            "min": float(j.min * scale), "max": float(j.max * scale)})
+    out = {
+        "format": FORMAT,
+        "name": model.name,
+        "units": {"length": "mm", "angle": "deg"},
+        "joints": joints,
+        "base": _pose_to_dict(model.base),
+        "tool": _pose_to_dict(model.tool),
+        "targets": {k: [float(v) for v in p] for k, p in model.targets.items()},
+    }
+    if model.collision_radius is not None:
+        out["collision"] = {"radius": [float(v) for v in model.collision_radius]}
+    if model.calibration is not None:
+        out["calibration"] = model.calibration
+    return out

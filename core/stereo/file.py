@@ -1,0 +1,358 @@
+"""The stereo calibration file `stereo.yaml` and its exports (ROS camera_info, JSON).
+
+`stereo.yaml` is OpenCV FileStorage YAML, readable by `cv2.FileStorage` in Python and C++:
+
+    format: "robocal.stereo/1"
+    image_width, image_height            int, px
+    K1, D1, K2, D2                       intrinsics (3x3) and distortion (1x5 or 1x8, OpenCV order)
+    R, T                                 X_right = R·X_left + T; T (3x1) in mm
+    E, F                                 essential and fundamental matrices (3x3)
+    R1, R2, P1, P2, Q                    cv2.stereoRectify output (3x3, 3x4, 3x4, 4x4; mm)
+    rms_left, rms_right, rms_stereo      px
+    board_cols, board_rows, board_square inner corners and square size (mm)
+    epipolar_rms, cross_validation_px    optional, px
+
+Writing is atomic: FileStorage composes the YAML in memory and core.files writes it through a
+temporary file and a rename; a failed run never leaves half a file and never overwrites a
+previous good one. Reading names the file and the field of any problem and
+refuses unknown major versions.
+
+ROS export (`write_ros_camera_info`): one camera_info YAML per camera in the format of
+camera_calibration_parsers (image_width, image_height, camera_name, camera_matrix,
+distortion_model plumb_bob or rational_polynomial, distortion_coefficients,
+rectification_matrix, projection_matrix). ROS works in metres: the projection matrix'
+translation column (P2[0,3] = −f'·B) is converted from mm to m.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from core.stereo.board import Board
+from core.camera import CameraModel
+from core.errors import RoboCalError
+from core.files import atomic_write_json, atomic_write_text, ensure_writable_dir, json_default
+from core.stereo.rig import StereoRig
+from core.validate import check_format
+
+FAMILY = "robocal.stereo"
+MAJOR = 1
+FORMAT = f"{FAMILY}/{MAJOR}"
+
+_MATRICES = {"K1": (3, 3), "K2": (3, 3), "R": (3, 3), "T": (3, 1), "E": (3, 3), "F": (3, 3),
+             "R1": (3, 3), "R2": (3, 3), "P1": (3, 4), "P2": (3, 4), "Q": (4, 4)}
+_DIST_LENGTHS = (4, 5, 8, 12, 14)
+
+
+@dataclass
+class StereoFile:
+    """The content of stereo.yaml."""
+
+    image_size: tuple[int, int]
+    K1: np.ndarray
+    D1: np.ndarray
+    K2: np.ndarray
+    D2: np.ndarray
+    R: np.ndarray
+    T: np.ndarray             # (3,) mm
+    E: np.ndarray
+    F: np.ndarray
+    R1: np.ndarray
+    R2: np.ndarray
+    P1: np.ndarray
+    P2: np.ndarray
+    Q: np.ndarray
+    rms_left: float
+    rms_right: float
+    rms_stereo: float
+    board: Board
+    extras: dict = field(default_factory=dict)    # epipolar_rms, cross_validation_px (optional)
+
+    @property
+    def rig(self) -> StereoRig:
+        """The calibrated pair (core.camera holds k1 k2 p1 p2 k3; k4..k6 are not kept)."""
+        w, h = self.image_size
+        return StereoRig(CameraModel(self.K1, self.D1[:5], w, h), CameraModel(self.K2, self.D2[:5], w, h),
+                         self.R, self.T)
+
+    @property
+    def baseline_mm(self) -> float:
+        return float(np.linalg.norm(self.T))
+
+    @classmethod
+    def from_result(cls, result) -> "StereoFile":
+        """From a core.stereo.calibration.StereoCalibrationResult."""
+        rect = result.rectification
+        extras = {"epipolar_rms": float(result.epipolar_rms)}
+        if result.cross_validation is not None:
+            extras["cross_validation_px"] = float(result.cross_validation.rms_observed_px)
+        return cls(tuple(int(v) for v in result.image_size), result.K1, result.D1, result.K2, result.D2,
+                   result.R, result.T, result.E, result.F, rect.R1, rect.R2, rect.P1, rect.P2, rect.Q,
+                   float(result.rms_left), float(result.rms_right), float(result.rms_stereo), result.board,
+                   extras)
+
+    def to_dict(self) -> dict:
+        """Plain lists and numbers (the JSON export)."""
+        d = {"format": FORMAT, "image_width": self.image_size[0], "image_height": self.image_size[1]}
+        for key in ("K1", "D1", "K2", "D2", "R", "T", "E", "F", "R1", "R2", "P1", "P2", "Q"):
+            d[key] = np.asarray(getattr(self, key), dtype=float).tolist()
+        d.update(rms_left=self.rms_left, rms_right=self.rms_right, rms_stereo=self.rms_stereo,
+                 board_cols=self.board.cols, board_rows=self.board.rows, board_square=self.board.square,
+                 baseline_mm=self.baseline_mm, units={"length": "mm", "image": "px"})
+        d.update({k: float(v) for k, v in self.extras.items()})
+        return d
+
+
+def _as_file(data) -> StereoFile:
+    return data if isinstance(data, StereoFile) else StereoFile.from_result(data)
+
+
+# --------------------------------------------------------------------------- stereo.yaml
+
+
+def write_stereo_yaml(path: str | Path, data) -> Path:
+    """Write stereo.yaml (from a StereoFile or a StereoCalibrationResult), atomically: the YAML
+    is composed in memory by cv2.FileStorage and written through core.files."""
+    sf = _as_file(data)
+    fs = cv2.FileStorage("stereo.yaml", cv2.FILE_STORAGE_WRITE | cv2.FILE_STORAGE_MEMORY
+                         | cv2.FILE_STORAGE_FORMAT_YAML)
+    fs.write("format", FORMAT)
+    fs.write("image_width", int(sf.image_size[0]))
+    fs.write("image_height", int(sf.image_size[1]))
+    for key in ("K1", "D1", "K2", "D2", "R", "T", "E", "F", "R1", "R2", "P1", "P2", "Q"):
+        value = np.asarray(getattr(sf, key), dtype=np.float64)
+        if key in ("D1", "D2"):
+            value = value.reshape(1, -1)
+        elif key == "T":
+            value = value.reshape(3, 1)
+        fs.write(key, value)
+    for key in ("rms_left", "rms_right", "rms_stereo"):
+        fs.write(key, float(getattr(sf, key)))
+    fs.write("board_cols", int(sf.board.cols))
+    fs.write("board_rows", int(sf.board.rows))
+    fs.write("board_square", float(sf.board.square))
+    for key, value in sf.extras.items():
+        fs.write(key, float(value))
+    return atomic_write_text(path, fs.releaseAndGetString())
+
+
+def _open_storage(path, mode):
+    """cv2.FileStorage, or None when it cannot be opened (OpenCV's own log line silenced)."""
+    logging = getattr(getattr(cv2, "utils", None), "logging", None)
+    old = None
+    if logging is not None:
+        old = logging.getLogLevel()
+        logging.setLogLevel(logging.LOG_LEVEL_SILENT)
+    try:
+        fs = cv2.FileStorage(str(path), mode)
+    except (cv2.error, SystemError):      # SystemError: OpenCV's parse error under `-W error`
+        return None
+    finally:
+        if logging is not None:
+            logging.setLogLevel(old)
+    return fs if fs.isOpened() else None
+
+
+def read_stereo_yaml(path: str | Path) -> StereoFile:
+    """Read stereo.yaml with a clear message for any missing or malformed field."""
+    path = Path(path)
+    if not path.exists():
+        raise RoboCalError("file not found", source=path, hint="Run the stereo calibration first.")
+    if not path.is_file():
+        raise RoboCalError("not a file", source=path)
+    try:
+        head = path.read_bytes()[:64]
+    except OSError as exc:
+        raise RoboCalError(f"cannot read the file ({exc.strerror})", source=path) from exc
+    if b"\x00" in head:
+        raise RoboCalError("not a YAML file", source=path, hint="Give the stereo.yaml written by RoboCal.")
+    fs = _open_storage(path, cv2.FILE_STORAGE_READ)
+    if fs is None:
+        raise RoboCalError("not a readable OpenCV YAML file", source=path,
+                           hint="Give the stereo.yaml written by RoboCal, or write it again.")
+    try:
+        root = fs.root()
+        if not root.isMap():
+            raise RoboCalError("expected a map of named fields at the top level", source=path)
+        fmt = fs.getNode("format")
+        tag = fmt.string() if (not fmt.empty() and fmt.isString()) else (None if fmt.empty() else repr(fmt.real()))
+        check_format({} if tag is None else {"format": tag}, FAMILY, MAJOR, path)
+        w = _int(fs, "image_width", path)
+        h = _int(fs, "image_height", path)
+        mats = {key: _matrix(fs, key, shape, path) for key, shape in _MATRICES.items()}
+        d1 = _dist(fs, "D1", path)
+        d2 = _dist(fs, "D2", path)
+        rms = {key: _real(fs, key, path) for key in ("rms_left", "rms_right", "rms_stereo")}
+        cols = _int(fs, "board_cols", path)
+        rows = _int(fs, "board_rows", path)
+        square = _real(fs, "board_square", path)
+        extras = {}
+        for key in ("epipolar_rms", "cross_validation_px"):
+            node = fs.getNode(key)
+            if not node.empty() and (node.isReal() or node.isInt()):
+                extras[key] = float(node.real())
+    except cv2.error as exc:
+        raise RoboCalError(f"malformed OpenCV YAML ({str(exc).strip().splitlines()[-1]})", source=path) from exc
+    finally:
+        fs.release()
+    if w <= 0 or h <= 0:
+        raise RoboCalError(f"image size must be positive, got {w}x{h}", source=path, field="image_width")
+    if cols < 2 or rows < 2 or not square > 0:
+        raise RoboCalError(f"bad board definition {cols}x{rows}, {square} mm", source=path, field="board_cols")
+    for key in ("K1", "K2"):
+        K = mats[key]
+        if not (K[0, 0] > 0 and K[1, 1] > 0 and abs(K[2, 2] - 1.0) < 1e-9):
+            raise RoboCalError("not a camera matrix (fx, fy must be positive, K[2,2] = 1)", source=path, field=key)
+    R = mats["R"]
+    if not (np.allclose(R @ R.T, np.eye(3), atol=1e-6) and np.linalg.det(R) > 0):
+        raise RoboCalError("not a rotation matrix", source=path, field="R")
+    return StereoFile((w, h), mats["K1"], d1, mats["K2"], d2, R, mats["T"].reshape(3), mats["E"], mats["F"],
+                      mats["R1"], mats["R2"], mats["P1"], mats["P2"], mats["Q"],
+                      rms["rms_left"], rms["rms_right"], rms["rms_stereo"], Board(cols, rows, square), extras)
+
+
+def _node(fs, key, path):
+    node = fs.getNode(key)
+    if node.empty():
+        raise RoboCalError("missing", source=path, field=key,
+                           hint="Write the file again with `robocal stereo-calibrate`.")
+    return node
+
+
+def _int(fs, key, path) -> int:
+    node = _node(fs, key, path)
+    if not node.isInt():
+        raise RoboCalError("expected a whole number", source=path, field=key)
+    return int(node.real())
+
+
+def _real(fs, key, path) -> float:
+    node = _node(fs, key, path)
+    if not (node.isReal() or node.isInt()):
+        raise RoboCalError("expected a number", source=path, field=key)
+    value = float(node.real())
+    if not np.isfinite(value):
+        raise RoboCalError(f"expected a finite number, got {value}", source=path, field=key)
+    return value
+
+
+def _mat(fs, key, path) -> np.ndarray:
+    node = _node(fs, key, path)
+    if not node.isMap():
+        raise RoboCalError("expected an OpenCV matrix (!!opencv-matrix with rows, cols, dt, data)",
+                           source=path, field=key)
+    m = node.mat()
+    if m is None:
+        raise RoboCalError("expected an OpenCV matrix (!!opencv-matrix with rows, cols, dt, data)",
+                           source=path, field=key)
+    m = np.asarray(m, dtype=np.float64)
+    if m.ndim == 1:
+        m = m.reshape(-1, 1)
+    if not np.all(np.isfinite(m)):
+        raise RoboCalError("contains values that are not finite numbers", source=path, field=key)
+    return m
+
+
+def _matrix(fs, key, shape, path) -> np.ndarray:
+    m = _mat(fs, key, path)
+    ok = m.shape == shape or (key == "T" and m.size == 3)
+    if not ok:
+        raise RoboCalError(f"expected a {shape[0]}x{shape[1]} matrix, got {m.shape[0]}x{m.shape[1]}",
+                           source=path, field=key)
+    return m.reshape(shape)
+
+
+def _dist(fs, key, path) -> np.ndarray:
+    m = _mat(fs, key, path)
+    if min(m.shape) != 1 or m.size not in _DIST_LENGTHS:
+        raise RoboCalError(f"expected 4, 5, 8, 12 or 14 distortion coefficients in one row, "
+                           f"got a {m.shape[0]}x{m.shape[1]} matrix", source=path, field=key)
+    d = m.ravel()
+    if d.size < 5:
+        d = np.concatenate([d, np.zeros(5 - d.size)])
+    return d
+
+
+# --------------------------------------------------------------------------- exports
+
+
+def camera_info_yaml(data, side: str, camera_name: str | None = None) -> str:
+    """ROS camera_info YAML text of one camera ("left" or "right")."""
+    sf = _as_file(data)
+    if side not in ("left", "right"):
+        raise ValueError(f"side must be 'left' or 'right', got {side!r}")
+    K, D, Rr, P = (sf.K1, sf.D1, sf.R1, sf.P1) if side == "left" else (sf.K2, sf.D2, sf.R2, sf.P2)
+    D = np.asarray(D, dtype=float).ravel()
+    if D.size > 5 and np.any(D[5:8] != 0):
+        model, D = "rational_polynomial", np.concatenate([D, np.zeros(max(0, 8 - D.size))])[:8]
+    else:
+        model, D = "plumb_bob", np.concatenate([D, np.zeros(max(0, 5 - D.size))])[:5]
+    P = np.array(P, dtype=float)
+    P[:, 3] /= 1000.0          # mm -> m (ROS units)
+    name = camera_name or side
+
+    def block(label, M, rows, cols):
+        values = ", ".join(_num(v) for v in np.asarray(M, dtype=float).ravel())
+        return f"{label}:\n  rows: {rows}\n  cols: {cols}\n  data: [{values}]\n"
+
+    return (f"image_width: {int(sf.image_size[0])}\n"
+            f"image_height: {int(sf.image_size[1])}\n"
+            f"camera_name: {name}\n"
+            + block("camera_matrix", K, 3, 3)
+            + f"distortion_model: {model}\n"
+            + block("distortion_coefficients", D, 1, D.size)
+            + block("rectification_matrix", Rr, 3, 3)
+            + block("projection_matrix", P, 3, 4))
+
+
+def _num(v: float) -> str:
+    text = repr(float(v))
+    return "0" if text in ("0.0", "-0.0") else text
+
+
+def write_ros_camera_info(folder: str | Path, data, names: tuple[str, str] = ("left", "right")
+                          ) -> tuple[Path, Path]:
+    """Write left.yaml and right.yaml (ROS camera_info) into `folder`, atomically."""
+    folder = ensure_writable_dir(folder)
+    out = []
+    for side, name in zip(("left", "right"), names):
+        out.append(atomic_write_text(folder / f"{name}.yaml", camera_info_yaml(data, side, name)))
+    return out[0], out[1]
+
+
+def stereo_json(data, result=None) -> dict:
+    """The JSON export: the stereo.yaml fields, plus the calibration details when `result`
+    (a StereoCalibrationResult) is given: summary, parameter table with standard
+    deviations, per-view errors."""
+    if result is None and not isinstance(data, StereoFile):
+        result = data
+    d = _as_file(data).to_dict()
+    if result is not None:
+        d["calibration"] = result.summary()
+        d["parameters"] = [{"group": r.group, "name": r.name, "value": r.value, "std": r.std,
+                            "unit": r.unit, "fixed": r.fixed} for r in result.parameters]
+        d["views"] = [{"pair": int(i) + 1, "files": name, "rms_left": float(result.per_view_rms_left[k]),
+                       "rms_right": float(result.per_view_rms_right[k]), "rms": float(result.per_view_rms[k]),
+                       "outlier": int(i) in result.outliers}
+                      for k, (i, name) in enumerate(zip(result.view_indices, result.view_names))]
+    return _clean(json.loads(json.dumps(d, default=json_default)))
+
+
+def _clean(value):
+    """Non-finite numbers become null (strict JSON)."""
+    if isinstance(value, float):
+        return value if np.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _clean(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_clean(v) for v in value]
+    return value
+
+
+def write_stereo_json(path: str | Path, data, result=None) -> Path:
+    """Write the JSON export atomically."""
+    return atomic_write_json(path, stereo_json(data, result))

@@ -1,0 +1,106 @@
+"""Exports: the URDF's forward kinematics (parsed by yourdfpy) equals ours; the DH table CSV."""
+from __future__ import annotations
+
+import csv
+import io
+
+import numpy as np
+import pytest
+
+from core import transforms as tf
+from core.errors import RoboCalError
+from core.identification.exports import DH_COLUMNS, STD_COLUMNS, dh_table_csv, export_model, target_links, urdf_text
+from core.identification.identifiability import random_configurations
+from core.identification.solver import identify
+from core.robot.model import PRISMATIC, Joint, RobotModel, robot_path
+from core.robot.file import read_robot
+from core.virtual_lab.synthetic import perturbed_model, simulate_measurements
+
+yourdfpy = pytest.importorskip("yourdfpy")
+
+PRESETS = ["educational_6r", "puma560", "ur5", "abb_irb120"]
+
+
+def load_urdf(tmp_path, model):
+    path = export_model(model, "urdf", tmp_path / "robot.urdf")
+    return yourdfpy.URDF.load(str(path), load_meshes=False, build_collision_scene_graph=False)
+
+
+def max_fk_difference_mm(urdf, model, n=25, seed=0):
+    Q = random_configurations(model, n, seed)
+    names = [f"J{i + 1}" for i in range(model.dof)]
+    links = target_links(model)
+    worst = 0.0
+    to_urdf = np.where(model.revolute_mask(), 1.0, 1e-3)      # rad stay rad, mm become m
+    for q in Q:
+        urdf.update_cfg(dict(zip(names, q * to_urdf)))
+        frames = model.frames_many(q[None])[0]
+        for i in range(model.dof):
+            T = urdf.get_transform(f"link{i + 1}", "world")
+            worst = max(worst, np.abs(T[:3, 3] * 1000.0 - frames[i + 1, :3, 3]).max(),
+                        1000.0 * np.abs(T[:3, :3] - frames[i + 1, :3, :3]).max())   # rotation as mm at 1 m
+        T = urdf.get_transform("tool", "world")
+        worst = max(worst, np.abs(T[:3, 3] * 1000.0 - frames[-1, :3, 3]).max())
+        for target, link in links.items():
+            T = urdf.get_transform(link, "world")
+            worst = max(worst, np.abs(T[:3, 3] * 1000.0 - model.target_position(q, target)).max())
+    return worst
+
+
+@pytest.mark.parametrize("name", PRESETS)
+def test_urdf_forward_kinematics_equals_ours(tmp_path, name):
+    nominal = read_robot(robot_path(name))
+    assert max_fk_difference_mm(load_urdf(tmp_path, nominal), nominal) < 1e-6
+    perturbed = perturbed_model(nominal, 3, angle_deg=2.0)        # β ≠ 0 on the parallel axes
+    for j in perturbed.joints:
+        j.beta += 0.02                                             # and on every other joint
+    perturbed.tool = tf.pose_to_matrix([5.0, -3.0, 12.0], [0.2, -0.1, 0.4])
+    perturbed.targets["probe tip"] = np.array([10.0, 20.0, 30.0])
+    urdf = load_urdf(tmp_path, perturbed)
+    assert max_fk_difference_mm(urdf, perturbed) < 1e-6
+    assert "probe_tip" in urdf.link_map
+
+
+def test_urdf_prismatic_joint_limits_and_units(tmp_path):
+    model = RobotModel("gantry", [
+        Joint(type=PRISMATIC, theta=0.3, d=100.0, a=20.0, alpha=np.pi / 2, beta=0.01, min=-50.0, max=400.0),
+        Joint(theta=0.1, d=30.0, a=200.0, alpha=0.0, min=-2.0, max=2.0)],
+        base=tf.pose_to_matrix([100.0, 200.0, 900.0], [1.0, 0.2, -0.5]), targets={"marker": np.array([1.0, 2.0, 3.0])})
+    urdf = load_urdf(tmp_path, model)
+    assert max_fk_difference_mm(urdf, model) < 1e-6
+    j1, j2 = urdf.joint_map["J1"], urdf.joint_map["J2"]
+    assert j1.type == "prismatic" and j1.limit.lower == pytest.approx(-0.05) and j1.limit.upper == pytest.approx(0.4)
+    assert j2.type == "revolute" and j2.limit.lower == pytest.approx(-2.0) and j2.limit.upper == pytest.approx(2.0)
+    text = urdf_text(model)
+    assert text.startswith('<?xml version="1.0"?>') and 'name="gantry"' in text
+
+
+def test_urdf_of_a_calibrated_model(tmp_path):
+    nominal = read_robot(robot_path("ur5"))
+    result = identify(nominal, simulate_measurements(perturbed_model(nominal, 1), 40, rng=2))
+    assert max_fk_difference_mm(load_urdf(tmp_path, result.model), result.model) < 1e-6
+
+
+def read_csv(text):
+    return list(csv.DictReader(io.StringIO(text)))
+
+
+def test_dh_table_csv_nominal_and_calibrated(tmp_path):
+    nominal = read_robot(robot_path("educational_6r"))
+    rows = read_csv(dh_table_csv(nominal))
+    assert list(rows[0]) == DH_COLUMNS and len(rows) == 6
+    assert rows[1] == {"joint": "J2", "type": "revolute", "theta_deg": "90", "d_mm": "0", "a_mm": "120",
+                       "alpha_deg": "0", "beta_deg": "0", "min": "-100", "max": "100"}
+    result = identify(nominal, simulate_measurements(perturbed_model(nominal, 1), 40, rng=2))
+    text = dh_table_csv(result.model)
+    rows = read_csv(text)
+    assert list(rows[0]) == DH_COLUMNS + STD_COLUMNS
+    assert float(rows[1]["a_mm"]) == pytest.approx(result.model.joints[1].a, abs=1e-6)
+    assert float(rows[1]["a_std_mm"]) == pytest.approx(result.row("J2.a").std, rel=1e-6)
+    assert float(rows[1]["beta_std_deg"]) > 0                   # J2.beta estimated (Hayati)
+    assert rows[1]["d_std_mm"] == ""                             # J2.d fixed: no std
+    assert rows[0]["theta_std_deg"] == ""                        # J1.theta absorbed by the base
+    path = export_model(result.model, "dh-csv", tmp_path / "dh.csv")
+    assert path.read_text() == text
+    with pytest.raises(RoboCalError, match="unknown export format"):
+        export_model(nominal, "sdf", tmp_path / "x.sdf")

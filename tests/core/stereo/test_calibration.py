@@ -1,0 +1,240 @@
+"""Stereo calibration: ground truth from synthetic corners, corner-order consensus, outliers,
+options, uncertainty, rectification, cross-validation, and a sanity check on real pairs."""
+import json
+
+import cv2
+import numpy as np
+import pytest
+
+from core.stereo.checkerboard import detect_pairs
+from core.errors import Cancelled, RoboCalError, UsageError
+from core.stereo.calibration import CalibrationOptions, calibrate_points, calibrate_stereo
+from tests.core.stereo_synth import (BOARD, REAL_DATA, REAL_REFERENCE_FOCAL, SIZE, real_pairs,
+                                     rotation_error_deg, synthetic_views)
+
+
+@pytest.fixture(scope="module")
+def synthetic():
+    rig, left, right = synthetic_views(16, noise=0.02, seed=3)
+    result = calibrate_points(left, right, BOARD, SIZE)
+    return rig, left, right, result
+
+
+def test_ground_truth_recovered_from_noisy_corners(synthetic):
+    rig, _, _, r = synthetic
+    for K, cam in ((r.K1, rig.left), (r.K2, rig.right)):
+        assert abs(K[0, 0] / cam.fx - 1) < 1e-3
+        assert abs(K[1, 1] / cam.fy - 1) < 1e-3
+        assert abs(K[0, 2] - cam.cx) < 1.0 and abs(K[1, 2] - cam.cy) < 1.0
+    assert abs(r.baseline_mm / rig.baseline - 1) < 1e-3
+    assert rotation_error_deg(r.R, rig.R) < 0.05
+    assert 0.02 < r.rms_stereo < 0.035          # sqrt(2) x the 0.02 px noise per coordinate
+    assert r.rig.baseline == pytest.approx(r.baseline_mm)
+    assert r.rig_exact and r.pairs_used == 16 and not r.rejected
+
+
+def test_standard_deviations_match_the_actual_errors(synthetic):
+    rig, _, _, r = synthetic
+    errors = {"fx_left": r.K1[0, 0] - rig.left.fx, "cx_left": r.K1[0, 2] - rig.left.cx,
+              "fy_right": r.K2[1, 1] - rig.right.fy, "tx": r.T[0] - rig.T[0],
+              "baseline": r.baseline_mm - rig.baseline}
+    for name, err in errors.items():
+        assert 0 < r.std[name] < 1.0
+        assert abs(err) < 5 * r.std[name], name
+    rows = {(p.group, p.name): p for p in r.parameters}
+    assert rows[("left", "fx")].std == r.std["fx_left"]
+    assert rows[("left", "k3")].fixed is False
+    assert "±" in rows[("stereo", "baseline")].text()
+
+
+def test_residuals_per_view_and_per_corner(synthetic):
+    _, left, _, r = synthetic
+    V, N = len(left), BOARD.corner_count
+    assert r.residuals_left.shape == (V, N, 2) and r.residuals_right.shape == (V, N, 2)
+    assert r.per_view_rms.shape == (V,)
+    np.testing.assert_allclose(r.rms_left, np.sqrt((r.residuals_left ** 2).sum(2).mean()))
+    # OpenCV's stereo RMS is the RMS over the corners of both images
+    both = np.concatenate([r.residuals_left, r.residuals_right])
+    assert r.rms_stereo == pytest.approx(np.sqrt((both ** 2).sum(2).mean()), rel=1e-5)   # float32 corners
+    assert r.outliers == []
+
+
+def test_rectification_epipolar_error_and_maps(synthetic):
+    _, _, _, r = synthetic
+    rect = r.rectification
+    assert not rect.vertical
+    assert rect.epipolar_errors.shape == (16, BOARD.corner_count)
+    assert rect.epipolar_rms < 0.05 and rect.epipolar_max < 0.2
+    (m1, m2), (m3, m4) = rect.maps(cv2.CV_32FC1)
+    assert m1.shape == (SIZE[1], SIZE[0])
+    a, b = rect.rectify(np.zeros((SIZE[1], SIZE[0]), np.uint8), np.zeros((SIZE[1], SIZE[0]), np.uint8))
+    assert a.shape == (SIZE[1], SIZE[0])
+    assert rect.P2[0, 3] < 0                    # right camera to the right of the left one
+    assert rect.maps() is rect.maps()           # computed once per map type
+    with pytest.raises(RoboCalError, match="cannot show this pair: file not found"):
+        rect.rectify_files("missing_left.png", "missing_right.png")
+
+
+def test_cross_validation_small_for_consistent_data(synthetic):
+    _, _, _, r = synthetic
+    cv = r.cross_validation
+    assert cv is not None
+    assert cv.rms_observed_px < 0.1
+    assert cv.left.diff.shape == (len(cv.left.grid_v), len(cv.left.grid_u))
+    assert cv.left.observed.any()
+    assert cv.baseline_diff_mm < 0.5 and cv.rotation_diff_deg < 0.1
+    assert sorted(cv.views_a + cv.views_b) == list(range(16))
+    summary = r.summary()
+    assert summary["cross_validation_px"] == pytest.approx(cv.rms_observed_px)
+    json.dumps(summary)
+
+
+def test_reversed_right_corners_are_relabelled_by_stereo_consensus(synthetic):
+    _, left, right, ref = synthetic
+    right = [c.copy() for c in right]
+    right[2] = right[2][::-1].copy()
+    right[7] = right[7][::-1].copy()
+    r = calibrate_points(left, right, BOARD, SIZE, CalibrationOptions(cross_validate=False))
+    assert [i for i, _ in r.reordered] == [2, 7]
+    assert r.rms_stereo == pytest.approx(ref.rms_stereo, rel=1e-6)
+
+
+def test_upside_down_right_camera_order_found_for_every_pair(synthetic):
+    """Every right view labelled from the other end (a camera mounted upside down)."""
+    _, left, right, ref = synthetic
+    right = [c[::-1].copy() for c in right]
+    r = calibrate_points(left, right, BOARD, SIZE, CalibrationOptions(cross_validate=False))
+    assert not r.rejected and len(r.reordered) == 16
+    assert rotation_error_deg(r.R, ref.R) < 1e-6
+
+
+def test_wrongly_paired_view_is_rejected_with_reason(synthetic):
+    _, left, right, _ = synthetic
+    right = [c.copy() for c in right]
+    right[4] = right[9].copy()                      # the right image of another moment
+    r = calibrate_points(left, right, BOARD, SIZE, CalibrationOptions(cross_validate=False))
+    assert [i for i, _, _ in r.rejected] == [4]
+    assert "disagree" in r.rejected[0][2]
+    assert r.pairs_used == 15 and 4 not in r.view_indices
+
+
+def test_board_moved_between_exposures_is_rejected():
+    """Same board orientation, 150 mm apart: only the relative translation disagrees."""
+    from tests.core.stereo_synth import board_poses, true_rig
+    rig = true_rig()
+    rng = np.random.default_rng(8)
+    obj = BOARD.object_points().astype(float)
+    left, right = [], []
+    for k, (R, t) in enumerate(board_poses(10, rng, rig)):
+        ul, _ = rig.project(obj @ R.T + t)
+        moved = t + (np.array([0.0, 0.0, 150.0]) if k == 3 else 0.0)
+        _, ur = rig.project(obj @ R.T + moved)
+        left.append(ul + rng.normal(0, 0.02, ul.shape))
+        right.append(ur + rng.normal(0, 0.02, ur.shape))
+    r = calibrate_points(left, right, BOARD, SIZE, CalibrationOptions(cross_validate=False))
+    assert [i for i, _, _ in r.rejected] == [3]
+    assert "mm" in r.rejected[0][2] and "moved" in r.rejected[0][2]
+    assert abs(r.baseline_mm / rig.baseline - 1) < 1e-3
+
+
+def test_outlier_flagged_then_excluded_by_the_user():
+    rig, left, right = synthetic_views(12, noise=0.05, seed=5)
+    rng = np.random.default_rng(0)
+    left[6] = left[6] + rng.normal(0, 0.6, left[6].shape)
+    det = _fake_detections(left, right)
+    r = calibrate_stereo(det, CalibrationOptions(cross_validate=False))
+    assert r.outliers == [6]
+    assert any("large error" in w for w in r.warnings)
+    again = calibrate_stereo(det, CalibrationOptions(cross_validate=False), exclude=[6])
+    assert again.excluded == [6] and 6 not in again.view_indices
+    assert again.rms_stereo < r.rms_stereo and again.outliers == []
+    with pytest.raises(UsageError):
+        calibrate_stereo(det, exclude=[40])
+
+
+@pytest.mark.parametrize("options, check", [
+    (CalibrationOptions(radial=2), lambda r: r.D1[4] == 0 and r.D2[4] == 0 and len(r.D1) == 5),
+    (CalibrationOptions(tangential=False), lambda r: np.all(r.D1[2:4] == 0) and np.all(r.D2[2:4] == 0)),
+    (CalibrationOptions(fix_aspect=True), lambda r: abs(r.K1[0, 0] - r.K1[1, 1]) < 1e-9),
+    (CalibrationOptions(fix_principal=True),
+     lambda r: abs(r.K1[0, 2] - (SIZE[0] - 1) / 2) < 1 and abs(r.K2[1, 2] - (SIZE[1] - 1) / 2) < 1),
+    (CalibrationOptions(radial=6), lambda r: len(r.D1) == 8 and len(r.D2) == 8),
+    (CalibrationOptions(refine_intrinsics=False), lambda r: np.allclose(r.K1, r.mono_left.K)),
+])
+def test_model_options(synthetic, options, check):
+    _, left, right, _ = synthetic
+    r = calibrate_points(left, right, BOARD, SIZE, options.__class__(**{**options.__dict__, "cross_validate": False}))
+    assert check(r)
+    assert r.rms_stereo < 2.0
+    fixed = {p.name for p in r.parameters if p.group == "left" and p.fixed}
+    if options.radial == 2:
+        assert "k3" in fixed
+    if options.fix_principal:
+        assert {"cx", "cy"} <= fixed and r.std["cx_left"] == 0
+
+
+def test_bad_options_and_too_few_views(synthetic):
+    _, left, right, _ = synthetic
+    with pytest.raises(UsageError):
+        CalibrationOptions(radial=4).validate()
+    with pytest.raises(RoboCalError, match="at least 6"):
+        calibrate_points(left[:4], right[:4], BOARD, SIZE)
+
+
+def test_progress_and_cancel(synthetic):
+    _, left, right, _ = synthetic
+    seen = []
+    calibrate_points(left[:8], right[:8], BOARD, SIZE, progress=lambda f, m: seen.append(f))
+    assert seen[-1] == 1.0 and seen == sorted(seen)
+    with pytest.raises(Cancelled):
+        calibrate_points(left, right, BOARD, SIZE, cancelled=lambda: True)
+
+
+def test_too_few_usable_pairs_names_files():
+    blank = np.full((480, 640), 128, np.uint8)
+    det = detect_pairs([(blank, blank)] * 3, BOARD)
+    with pytest.raises(RoboCalError, match="no usable pair.*board not found"):
+        calibrate_stereo(det)
+
+
+def _fake_detections(left, right):
+    """A DetectionResult built from corner lists (no images)."""
+    from core.stereo.checkerboard import Detection, DetectionResult, PairDetection, coverage, view_params
+    pairs = []
+    for i, (a, b) in enumerate(zip(left, right)):
+        p = PairDetection(i, f"pair{i + 1}", f"l{i}.png", f"r{i}.png",
+                          Detection(True, a.astype(np.float32), SIZE), Detection(True, b.astype(np.float32), SIZE),
+                          accepted=True, params_left=view_params(a, BOARD, SIZE),
+                          params_right=view_params(b, BOARD, SIZE))
+        pairs.append(p)
+    return DetectionResult(BOARD, pairs, SIZE, coverage(pairs))
+
+
+# ------------------------------------------------------------------ real pairs
+
+@pytest.fixture(scope="module")
+def real_result():
+    if not REAL_DATA.is_dir():
+        pytest.skip(f"real checkerboard pairs not found at {REAL_DATA}")
+    from core.stereo.board import Board
+    det = detect_pairs(real_pairs(), Board(9, 6, 24.0))
+    return det, calibrate_stereo(det)
+
+
+def test_real_pairs_focal_lengths_near_reference(real_result):
+    det, r = real_result
+    assert r.pairs_used == 25
+    for K in (r.K1, r.K2):
+        assert abs(K[0, 0] / REAL_REFERENCE_FOCAL - 1) < 0.01
+        assert abs(K[1, 1] / REAL_REFERENCE_FOCAL - 1) < 0.01
+    assert r.rms_stereo < 0.25 and r.epipolar_rms < 0.3
+    assert r.baseline_mm == pytest.approx(92.0, abs=1.5)     # README: T = (91.20, -2.65, 12.20)
+
+
+def test_real_pairs_no_worse_than_plain_opencv(real_result):
+    _, r = real_result
+    obj = [r.object_points.astype(np.float32)] * r.pairs_used
+    L = [p.astype(np.float32) for p in r.left_points]
+    R = [p.astype(np.float32) for p in r.right_points]
+    base = cv2.stereoCalibrate(obj, L, R, None, None, None, None, r.image_size, flags=0)[0]
+    assert r.rms_stereo <= base + 1e-6

@@ -1,0 +1,174 @@
+"""stereo.yaml: round trip, readable by cv2.FileStorage, atomic write, clear read errors;
+ROS camera_info and JSON exports."""
+import json
+import os
+import re
+
+import cv2
+import numpy as np
+import pytest
+
+from core.errors import RoboCalError
+from core.stereo.calibration import CalibrationOptions, calibrate_points
+from core.stereo.file import (FORMAT, StereoFile, camera_info_yaml, read_stereo_yaml, stereo_json,
+                              write_ros_camera_info, write_stereo_json, write_stereo_yaml)
+from tests.core.stereo_synth import BOARD, SIZE, synthetic_views
+
+
+@pytest.fixture(scope="module")
+def result():
+    _, left, right = synthetic_views(10, noise=0.03, seed=11)
+    return calibrate_points(left, right, BOARD, SIZE)
+
+
+@pytest.fixture(scope="module")
+def rational():
+    _, left, right = synthetic_views(10, noise=0.03, seed=11)
+    return calibrate_points(left, right, BOARD, SIZE, CalibrationOptions(radial=6, cross_validate=False))
+
+
+def test_round_trip(tmp_path, result):
+    path = write_stereo_yaml(tmp_path / "stereo.yaml", result)
+    sf = read_stereo_yaml(path)
+    assert sf.image_size == SIZE and sf.board == BOARD
+    for key in ("K1", "D1", "K2", "D2", "R", "E", "F", "R1", "R2", "P1", "P2", "Q"):
+        expected = getattr(result, key) if hasattr(result, key) else getattr(result.rectification, key)
+        np.testing.assert_allclose(getattr(sf, key), np.asarray(expected).reshape(getattr(sf, key).shape),
+                                   rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(sf.T, result.T)
+    assert sf.rms_stereo == pytest.approx(result.rms_stereo)
+    assert sf.extras["epipolar_rms"] == pytest.approx(result.epipolar_rms)
+    assert sf.rig.baseline == pytest.approx(result.baseline_mm)
+    again = tmp_path / "again.yaml"
+    write_stereo_yaml(again, sf)
+    assert read_stereo_yaml(again).to_dict() == sf.to_dict()
+
+
+def test_readable_by_plain_opencv(tmp_path, result):
+    path = write_stereo_yaml(tmp_path / "stereo.yaml", result)
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    assert fs.getNode("format").string() == FORMAT
+    assert int(fs.getNode("image_width").real()) == SIZE[0]
+    assert fs.getNode("K1").mat().shape == (3, 3)
+    assert fs.getNode("D1").mat().shape == (1, 5)
+    assert fs.getNode("T").mat().shape == (3, 1)
+    assert fs.getNode("Q").mat().shape == (4, 4)
+    for key in ("rms_left", "rms_right", "rms_stereo", "board_square"):
+        assert fs.getNode(key).isReal()
+    assert int(fs.getNode("board_cols").real()) == 9 and int(fs.getNode("board_rows").real()) == 6
+    fs.release()
+
+
+def test_failed_write_keeps_the_previous_file(tmp_path, result, monkeypatch):
+    path = tmp_path / "stereo.yaml"
+    write_stereo_yaml(path, result)
+    before = path.read_bytes()
+
+    def boom(*args):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(os, "replace", boom)
+    with pytest.raises(RoboCalError, match="cannot write"):
+        write_stereo_yaml(path, result)
+    monkeypatch.undo()
+    assert path.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["stereo.yaml"]      # no temp file left
+
+
+def _write_text(tmp_path, text, name="s.yaml"):
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+def _good_text(tmp_path, result):
+    return write_stereo_yaml(tmp_path / "good.yaml", result).read_text()
+
+
+def test_read_errors_name_the_field(tmp_path, result):
+    text = _good_text(tmp_path, result)
+    no_q = re.sub(r"Q: !!opencv-matrix\n(   .*\n)+", "", text)
+    with pytest.raises(RoboCalError, match="field 'Q': missing"):
+        read_stereo_yaml(_write_text(tmp_path, no_q))
+    wrong = text.replace("format: \"robocal.stereo/1\"", "format: \"robocal.stereo/2\"")
+    with pytest.raises(RoboCalError, match="unknown format version 2"):
+        read_stereo_yaml(_write_text(tmp_path, wrong))
+    other = text.replace("robocal.stereo/1", "robocal.robot/1")
+    with pytest.raises(RoboCalError, match="'robocal.robot' file"):
+        read_stereo_yaml(_write_text(tmp_path, other))
+    untagged = text.replace("format: \"robocal.stereo/1\"\n", "")
+    with pytest.raises(RoboCalError, match="field 'format': missing"):
+        read_stereo_yaml(_write_text(tmp_path, untagged))
+    shape = re.sub(r"(K1: !!opencv-matrix\n   rows: )3", r"\g<1>1", text)
+    shape = re.sub(r"(K1: !!opencv-matrix\n   rows: 1\n   cols: )3", r"\g<1>9", shape)
+    with pytest.raises(RoboCalError, match="field 'K1': expected a 3x3 matrix, got 1x9"):
+        read_stereo_yaml(_write_text(tmp_path, shape))
+    text_width = text.replace("image_width: 1280", "image_width: wide")
+    with pytest.raises(RoboCalError, match="field 'image_width'"):
+        read_stereo_yaml(_write_text(tmp_path, text_width))
+
+
+def test_read_errors_for_bad_files(tmp_path):
+    with pytest.raises(RoboCalError, match="file not found"):
+        read_stereo_yaml(tmp_path / "none.yaml")
+    with pytest.raises(RoboCalError, match="not a readable OpenCV YAML"):
+        read_stereo_yaml(_write_text(tmp_path, "%YAML:1.0\n---\nK1: [1, 2\n"))
+    binary = tmp_path / "b.yaml"
+    binary.write_bytes(b"\x00\x01garbage")
+    with pytest.raises(RoboCalError, match="not a YAML file"):
+        read_stereo_yaml(binary)
+    with pytest.raises(RoboCalError, match="top level"):
+        read_stereo_yaml(_write_text(tmp_path, "%YAML:1.0\n---\n- 1\n- 2\n"))
+
+
+def test_rotation_checked(tmp_path, result):
+    sf = StereoFile.from_result(result)
+    sf.R = sf.R * 1.1
+    path = write_stereo_yaml(tmp_path / "bad.yaml", sf)
+    with pytest.raises(RoboCalError, match="field 'R': not a rotation matrix"):
+        read_stereo_yaml(path)
+
+
+def _ros_fields(text):
+    """A tiny reader of the camera_info YAML layout (no PyYAML needed)."""
+    out, current = {}, None
+    for line in text.splitlines():
+        if not line.startswith(" "):
+            key, _, value = line.partition(":")
+            current = key
+            out[key] = value.strip() if value.strip() else {}
+        else:
+            k, _, v = line.strip().partition(":")
+            v = v.strip()
+            out[current][k] = [float(x) for x in v.strip("[]").split(",")] if v.startswith("[") else int(v)
+    return out
+
+
+def test_ros_camera_info_export(tmp_path, result, rational):
+    left, right = write_ros_camera_info(tmp_path / "ros", result)
+    assert left.name == "left.yaml" and right.name == "right.yaml"
+    f = _ros_fields(right.read_text())
+    assert list(f) == ["image_width", "image_height", "camera_name", "camera_matrix", "distortion_model",
+                       "distortion_coefficients", "rectification_matrix", "projection_matrix"]
+    assert f["image_width"] == "1280" and f["camera_name"] == "right"
+    assert f["distortion_model"] == "plumb_bob" and f["distortion_coefficients"]["cols"] == 5
+    np.testing.assert_allclose(np.reshape(f["camera_matrix"]["data"], (3, 3)), result.K2)
+    P = np.reshape(f["projection_matrix"]["data"], (3, 4))
+    P2 = result.rectification.P2
+    np.testing.assert_allclose(P[:, :3], P2[:, :3])
+    assert P[0, 3] == pytest.approx(P2[0, 3] / 1000.0)          # ROS: metres
+    assert P[0, 3] / P[0, 0] == pytest.approx(-result.baseline_mm / 1000, rel=0.01)
+    g = _ros_fields(camera_info_yaml(rational, "left"))
+    assert g["distortion_model"] == "rational_polynomial" and len(g["distortion_coefficients"]["data"]) == 8
+
+
+def test_json_export(tmp_path, result):
+    path = write_stereo_json(tmp_path / "stereo.json", result)
+    data = json.loads(path.read_text())
+    assert data["format"] == FORMAT and data["board_cols"] == 9
+    assert np.allclose(data["K1"], result.K1)
+    assert data["calibration"]["pairs_used"] == 10
+    assert len(data["views"]) == 10 and {"rms_left", "rms_right", "outlier"} <= set(data["views"][0])
+    assert any(p["name"] == "baseline" and p["std"] > 0 for p in data["parameters"])
+    plain = stereo_json(StereoFile.from_result(result))
+    assert "calibration" not in plain
