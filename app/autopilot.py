@@ -68,9 +68,8 @@ class Autopilot(QObject):
     def _after(self, ok: bool, message: str) -> None:
         page = self.window.current_page()
         n = len(self.window.pages)
-        status = "done" if ok and page.built else ("not built" if ok else "FAILED")
-        self._say(f"[{page.step.number}/{n}] {page.title}: {status}"
-                  + (f" ({message})" if message and not (ok and not page.built) else ""))
+        status = "done" if ok else "FAILED"
+        self._say(f"[{page.step.number}/{n}] {page.title}: {status}" + (f" ({message})" if message else ""))
         if self.screenshots is not None:
             try:
                 self.saved.append(self.window.save_screenshot(self.screenshots / screenshot_name(page.step)))

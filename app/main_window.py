@@ -28,8 +28,8 @@ QLabel#pageTitle { font-size: 17pt; font-weight: 600; color: #202124; }
 QLabel#pageSummary { font-size: 10.5pt; color: #5f6368; }
 QLabel#hint { color: #5f6368; }
 QLabel#sectionHeading { font-weight: 600; font-size: 11pt; }
-QLabel#notBuiltNotice { font-size: 13pt; font-weight: 600; color: #8a4b00; }
-QFrame#notBuiltBox { background: #fef7e0; border: 1px solid #f9d77e; border-radius: 6px; }
+QLabel#loadErrorNotice { font-size: 13pt; font-weight: 600; color: #8a4b00; }
+QFrame#loadErrorBox { background: #fef7e0; border: 1px solid #f9d77e; border-radius: 6px; }
 QLabel#pageStatus { font-weight: 600; color: #8a4b00; padding: 4px 0; }
 QLabel#pageStatus[ok="true"] { color: #188038; }
 QListWidget#stepList { font-size: 10.5pt; border: none; background: #f8f9fa; padding: 6px; }
@@ -323,7 +323,7 @@ class MainWindow(QMainWindow):
 
     def can_go_next(self) -> bool:
         page = self.current_page()
-        return self._current < len(self.pages) - 1 and (not page.built or page.is_complete())
+        return self._current < len(self.pages) - 1 and page.is_complete()
 
     def next(self) -> None:
         if self.can_go_next():
@@ -337,8 +337,6 @@ class MainWindow(QMainWindow):
         for i, page in enumerate(self.pages):
             if page.load_error:
                 s = StepState.ERROR
-            elif not page.built:
-                s = StepState.NOT_BUILT
             else:
                 s = StepState.DONE if page.is_complete() else StepState.TODO
             self.step_list.set_state(i, s)
@@ -349,7 +347,7 @@ class MainWindow(QMainWindow):
             self.back_button.setEnabled(self._current > 0)
             self.action_back.setEnabled(self._current > 0)
             page = self.current_page()
-            if page.built and not page.is_complete() and self._current < len(self.pages) - 1:
+            if not page.is_complete() and self._current < len(self.pages) - 1:
                 self.next_button.setToolTip("Finish this step first")
             else:
                 self.next_button.setToolTip("")

@@ -3,41 +3,59 @@ virtual lab, and the results the steps hand to each other.
 
 Every page gets the same `WizardState` (``self.state``) and listens to its signals rather
 than to other pages. The project folder stays the durable truth: a step that produces a
-file writes it with ``state.project.path("stereo")`` etc.; `outputs` holds the in-memory
-result objects (e.g. the stereo calibration result) for the pages that follow.
+file writes it with ``state.project.path("stereo")`` etc. The in-memory results the steps
+hand on are typed attributes, each with its signal and its setter:
+
+    state.set_stereo(result)          # stereoChanged(result)          StereoCalibrationResult
+    state.set_marker(trained)         # markerChanged(trained)         TrainedMarker
+    state.set_poses(selection)        # posesChanged(selection)        PoseSelectionResult
+    state.set_measurements(path)      # measurementsChanged(path)      Path of measurements.csv
+    state.set_identification(result, accuracy)   # identificationChanged(result)
+
+The virtual lab is built once, on a worker thread, by `request_lab(callback)`.
 """
 from __future__ import annotations
 
 import shutil
 import tempfile
 from pathlib import Path
-from typing import Any
+from typing import Callable
 
 from PySide6.QtCore import QObject, Signal
 
+from app.lab import VirtualLab, build_lab
+from app.worker import TaskRunner
 from core import project as projects
-from app.lab import build_lab
 from core.errors import RoboCalError
-from core.robot.model import RobotModel, robot_path
+from core.identification.model_comparison import TruthAccuracy
+from core.identification.solver import IdentificationResult
+from core.marker.training import TrainedMarker
+from core.poses.selection import PoseSelectionResult
 from core.robot.driver import RobotDriver
-from core.robot.simulated import SimulatedRobot
 from core.robot.file import read_robot
-
+from core.robot.model import RobotModel, robot_path
+from core.robot.simulated import SimulatedRobot
+from core.stereo.calibration import StereoCalibrationResult
 
 
 class WizardState(QObject):
     """Shared state of one wizard window.
 
     Signals: `projectChanged(Project | None)`, `robotChanged(RobotModel | None)`,
-    `connectionChanged(RobotDriver | None)`, `labChanged(VirtualLab | None)`,
-    `outputChanged(str)` (name of the output set with `set_output`).
+    `connectionChanged(RobotDriver | None)`, `labChanged(VirtualLab | None)`, and one per
+    step result (`stereoChanged`, `markerChanged`, `posesChanged`, `measurementsChanged`,
+    `identificationChanged`) with the new value.
     """
 
     projectChanged = Signal(object)
     robotChanged = Signal(object)
     connectionChanged = Signal(object)
     labChanged = Signal(object)
-    outputChanged = Signal(str)
+    stereoChanged = Signal(object)
+    markerChanged = Signal(object)
+    posesChanged = Signal(object)
+    measurementsChanged = Signal(object)
+    identificationChanged = Signal(object)
 
     def __init__(self, parent: QObject | None = None, *, seed: int = 0, noise: float = 0.5):
         super().__init__(parent)
@@ -47,8 +65,16 @@ class WizardState(QObject):
         self.robot_connection: RobotDriver | None = None
         self.seed = seed                          # virtual lab: same seed, same lab
         self.noise = noise                        # virtual lab: sensor noise (grey levels)
-        self.outputs: dict[str, Any] = {}
-        self._lab = None
+        self.stereo: StereoCalibrationResult | None = None
+        self.marker: TrainedMarker | None = None
+        self.poses: PoseSelectionResult | None = None
+        self.measurements: Path | None = None
+        self.identification: IdentificationResult | None = None
+        self.accuracy: TruthAccuracy | None = None    # virtual lab: identified vs true robot
+        self._lab: VirtualLab | None = None
+        self._lab_waiting: list[tuple[Callable, Callable | None]] = []
+        self._lab_tasks = TaskRunner(self, max_threads=1)
+        self._lab_token = 0
         self._temp_dirs: list[Path] = []
 
     # -- project -------------------------------------------------------------------------
@@ -65,7 +91,7 @@ class WizardState(QObject):
         robot is already chosen, that robot is written into the project."""
         robot = projects.load_robot(project) if (project is not None and load_robot) else None
         self.project = project
-        self.outputs.clear()
+        self._clear_results()
         self.projectChanged.emit(project)
         if robot is not None:
             self.set_robot(robot, project.robot_source or str(project.path("robot")), persist=False)
@@ -109,7 +135,7 @@ class WizardState(QObject):
             projects.save_robot(self.project, model, source)
         self.robot = model
         self.robot_source = source
-        self._set_lab(None)
+        self._drop_lab()
         self.robotChanged.emit(model)
         self._update_connection()
 
@@ -150,22 +176,53 @@ class WizardState(QObject):
 
     # -- virtual lab ---------------------------------------------------------------------
     @property
-    def lab(self):
-        """The virtual lab for the current robot, created on first use
-        (``VirtualLab.create(robot=..., seed=..., noise=...)``)."""
+    def lab(self) -> VirtualLab:
+        """The virtual lab for the current robot, built here if no page asked for it yet
+        (~2 s: pages use `request_lab` instead, which builds it on a worker thread)."""
         if self._lab is None:
-            self._set_lab(build_lab(self.robot, self.seed, self.noise))
-            self._update_connection()
+            self._lab_token += 1
+            self._take_lab(build_lab(self.robot, self.seed, self.noise))
         return self._lab
 
     @property
     def has_lab(self) -> bool:
         return self._lab is not None
 
-    def adopt_lab(self, lab) -> None:
-        """Take a lab a page built on a worker thread (VirtualLab.create takes ~2 s, too long
-        for the GUI thread), so that later pages reuse it. Ignored if the state already has
-        one, or if it was built for another robot, seed or noise."""
+    def request_lab(self, callback: Callable[[VirtualLab], None],
+                    on_error: Callable[[str], None] | None = None) -> None:
+        """Call `callback(lab)` with the virtual lab of the current robot, seed and noise: at
+        once when it exists, otherwise when the one build on the worker thread ends (every
+        page that asks meanwhile waits for the same build). A failed build calls `on_error`."""
+        if self._lab is not None:
+            callback(self._lab)
+            return
+        self._lab_waiting.append((callback, on_error))
+        if len(self._lab_waiting) > 1:
+            return                                # a build is already under way
+        self._lab_token += 1
+        token = self._lab_token
+
+        def built(lab):
+            if token == self._lab_token:
+                self._take_lab(lab)
+
+        def failed(message: str):
+            if token != self._lab_token:
+                return
+            waiting, self._lab_waiting = self._lab_waiting, []
+            for _, err in waiting:
+                if err is not None:
+                    err(message)
+
+        def cancelled():
+            failed("the virtual lab was not built")
+
+        self._lab_tasks.start(build_lab, self.robot, self.seed, float(self.noise), on_result=built,
+                              on_error=failed, on_cancelled=cancelled, label="Building the virtual lab")
+
+    def adopt_lab(self, lab: VirtualLab | None) -> None:
+        """Take a lab a page built itself, if it matches this state's robot, seed and noise.
+        Transitional: pages move to `request_lab`, after which this goes."""
         if self._lab is not None or lab is None or self.robot is None:
             return
         if (getattr(lab, "seed", None), getattr(lab, "noise", None)) != (self.seed, float(self.noise)):
@@ -173,8 +230,23 @@ class WizardState(QObject):
         nominal = getattr(lab, "nominal_robot", None)
         if nominal is None or nominal.name != self.robot.name or nominal.dof != self.robot.dof:
             return
+        self._take_lab(lab)
+
+    def _take_lab(self, lab: VirtualLab) -> None:
         self._set_lab(lab)
         self._update_connection()
+        waiting, self._lab_waiting = self._lab_waiting, []
+        for callback, _ in waiting:
+            callback(lab)
+
+    def _drop_lab(self) -> None:
+        """The robot changed: forget the lab, and any lab being built for the old robot."""
+        self._lab_token += 1
+        waiting, self._lab_waiting = self._lab_waiting, []
+        for _, err in waiting:
+            if err is not None:
+                err("the robot changed while the virtual lab was being built")
+        self._set_lab(None)
 
     def _set_lab(self, lab) -> None:
         if lab is self._lab:
@@ -182,14 +254,38 @@ class WizardState(QObject):
         self._lab = lab
         self.labChanged.emit(lab)
 
-    # -- outputs of the steps ------------------------------------------------------------
-    def set_output(self, name: str, value: Any) -> None:
-        self.outputs[name] = value
-        self.outputChanged.emit(name)
+    # -- results the steps hand on ----------------------------------------------------------
+    def set_stereo(self, result: StereoCalibrationResult | None) -> None:
+        self.stereo = result
+        self.stereoChanged.emit(result)
+
+    def set_marker(self, trained: TrainedMarker | None) -> None:
+        self.marker = trained
+        self.markerChanged.emit(trained)
+
+    def set_poses(self, selection: PoseSelectionResult | None) -> None:
+        self.poses = selection
+        self.posesChanged.emit(selection)
+
+    def set_measurements(self, path: Path | None) -> None:
+        self.measurements = None if path is None else Path(path)
+        self.measurementsChanged.emit(self.measurements)
+
+    def set_identification(self, result: IdentificationResult | None,
+                           accuracy: TruthAccuracy | None = None) -> None:
+        self.identification = result
+        self.accuracy = accuracy
+        self.identificationChanged.emit(result)
+
+    def _clear_results(self) -> None:
+        self.stereo = self.marker = self.poses = self.measurements = None
+        self.identification = self.accuracy = None
 
     # -- end -----------------------------------------------------------------------------
     def close(self) -> None:
         """Stop and disconnect the robot, delete temporary projects. Safe to call twice."""
+        self._lab_token += 1
+        self._lab_tasks.shutdown()
         if self.robot_connection is not None:
             self.robot_connection.stop()
             self.robot_connection.disconnect()

@@ -3,6 +3,11 @@
 A long core function takes `progress` (called with a fraction in [0, 1] and a short
 message) and `cancelled` (returns True once the user pressed Cancel), both optional,
 wraps them in a `Monitor`, and calls `monitor.step(...)` between units of work.
+
+A sub-task gets its share of the progress bar from `Monitor.sub(start, stop)`; a Monitor is
+itself a progress function, so it can be passed on as another function's `progress`:
+
+    inner(..., progress=monitor.sub(0.0, 0.25), cancelled=cancelled)
 """
 from __future__ import annotations
 
@@ -38,3 +43,7 @@ class Monitor:
         """A monitor for a sub-task covering [start, stop] of this one."""
         return Monitor(self.progress, self.cancelled,
                        self.start + self.span * start, self.span * (stop - start))
+
+    def __call__(self, fraction: float, message: str = "") -> None:
+        """A Monitor is a progress function: ``progress=monitor.sub(a, b)``."""
+        self.step(fraction, message)

@@ -1,4 +1,4 @@
-"""A side list of numbered steps, each with a state: not built / to do / done (or failed)."""
+"""A side list of numbered steps, each with a state: to do / done (or failed to load)."""
 from __future__ import annotations
 
 from enum import Enum
@@ -11,14 +11,12 @@ from PySide6.QtWidgets import (QAbstractItemView, QListWidget, QListWidgetItem, 
 
 
 class StepState(Enum):
-    NOT_BUILT = "not built"
     TODO = "to do"
     DONE = "done"
     ERROR = "failed to load"
 
 
 _COLOURS = {
-    StepState.NOT_BUILT: QColor("#9aa0a6"),
     StepState.TODO: QColor("#1a73e8"),
     StepState.DONE: QColor("#188038"),
     StepState.ERROR: QColor("#c5221f"),
@@ -27,7 +25,7 @@ _COLOURS = {
 
 def state_icon(state: StepState, number: int, size: int = 28) -> QIcon:
     """A round badge: the step number in a ring (to do), on a green disc with a tick (done),
-    in a dashed grey ring (not built), on a red disc (failed to load)."""
+    on a red disc (failed to load)."""
     scale = 2
     pix = QPixmap(size * scale, size * scale)
     pix.setDevicePixelRatio(scale)
@@ -41,10 +39,7 @@ def state_icon(state: StepState, number: int, size: int = 28) -> QIcon:
         p.setBrush(QBrush(colour))
         p.drawEllipse(rect)
     else:
-        pen = QPen(colour, 2)
-        if state is StepState.NOT_BUILT:
-            pen.setStyle(Qt.PenStyle.DashLine)
-        p.setPen(pen)
+        p.setPen(QPen(colour, 2))
         p.setBrush(Qt.BrushStyle.NoBrush)
         p.drawEllipse(rect)
     if state is StepState.DONE:
@@ -150,4 +145,4 @@ class StepList(QListWidget):
         item.setText(f"{row + 1}. {self._titles[row]}\n{state.value}")
         item.setIcon(state_icon(state, row + 1))
         item.setToolTip(f"Step {row + 1}: {self._titles[row]} ({state.value})")
-        item.setForeground(QBrush(QColor("#5f6368") if state is StepState.NOT_BUILT else QColor("#202124")))
+        item.setForeground(QBrush(QColor("#202124")))

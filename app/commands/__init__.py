@@ -21,16 +21,13 @@ class CommandResult:
 
 class ProgressLine:
     """One updating progress line on stderr when it is a terminal; silent otherwise (so pipes,
-    logs and --json output stay clean). Pass it, or a `part(start, stop)` of it, as `progress`."""
+    logs and --json output stay clean). Pass it, or ``Monitor(line).sub(start, stop)``, as `progress`."""
 
     def __init__(self, command: str, stream=None):
         self.command = command
         self.stream = stream or sys.stderr
         self.active = bool(getattr(self.stream, "isatty", lambda: False)())
         self.shown = False
-
-    def part(self, start: float, stop: float):
-        return lambda fraction, message: self(start + (stop - start) * fraction, message)
 
     def __call__(self, fraction: float, message: str) -> None:
         if not self.active:

@@ -13,6 +13,7 @@ from app.commands import CommandResult, ProgressLine, check_output
 from core.stereo.board import Board
 from core.stereo.checkerboard import detect_folders
 from core.errors import UsageError
+from core.task import Monitor
 from core.stereo.calibration import CalibrationOptions, StereoCalibrationResult, calibrate_stereo
 from core.stereo.file import write_ros_camera_info, write_stereo_json, write_stereo_yaml
 
@@ -78,9 +79,9 @@ def run(args) -> CommandResult:
         check_output(str(Path(args.ros) / "left.yaml"), "--ros")
     progress = ProgressLine("stereo-calibrate")
     try:
-        detections = detect_folders(_source(args.left), _source(args.right), board, progress=progress.part(0, 0.6))
+        detections = detect_folders(_source(args.left), _source(args.right), board, progress=Monitor(progress).sub(0, 0.6))
         exclude = _parse_exclude(args.exclude, detections)
-        result = calibrate_stereo(detections, options, exclude=exclude, progress=progress.part(0.6, 1.0))
+        result = calibrate_stereo(detections, options, exclude=exclude, progress=Monitor(progress).sub(0.6, 1.0))
     finally:
         progress.close()
     written = [str(write_stereo_yaml(args.out, result))]

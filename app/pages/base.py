@@ -12,8 +12,12 @@ A page is a QWidget built from the shared `WizardState` and the window's `TaskRu
         def on_enter(self): ...            # the page became current
         def is_complete(self): ...         # from real state; call self.notify_complete()
         def autopilot(self, done): ...     # do the work alone, then done(True) / done(False, why)
+        def on_busy_changed(self): ...     # enable/disable controls while a task runs
 
-and one line in app/pages/registry.py: ``Step.STEREO: "app.pages.stereo_page:StereoPage"``.
+and one line in app/pages/registry.py. Long work goes through `TaskMixin.start` (one task at
+a time per page, one progress row, Cancel, errors shown in the status line), as Orange3's
+ConcurrentWidgetMixin: the function is plain Python (core, or app/jobs/<step>.py) and the
+page only draws what it returns.
 """
 from __future__ import annotations
 
@@ -26,23 +30,136 @@ from app.messages import show_error
 from app.pages.steps import Step
 from app.state import WizardState
 from app.worker import TaskHandle, TaskRunner
+from core.errors import RoboCalError
+from widgets.progress_row import ProgressRow
 
 #: ``done(ok=True, message="")``: how a page tells the autopilot it has finished
 DoneCallback = Callable[..., None]
 
 
-class WizardPage(QWidget):
+class TaskMixin:
+    """One long task at a time for a page: start, progress, Cancel, and its outcome.
+
+    ``self.start(fn, *args, on_done=draw, then=next_step, status="Working…")`` runs
+    ``fn(*args, progress=…, cancelled=…)`` on the window's worker pool. On the GUI thread:
+    ``on_done(value)`` then ``then()``; a failure or a RoboCalError raised by `on_done` goes to
+    `on_failed(message)` (status line, autopilot told); Cancel to `on_cancelled()`. A result that
+    arrives after `forget_task()` (another project or robot) is dropped. `progress_row()` is the
+    page's progress bar and Cancel button; `on_busy_changed()` is the hook to enable controls.
+    Needs `run_task`, `_set_status` and `_finish_autopilot` (WizardPage has them).
+    """
+
+    _task: TaskHandle | None = None
+    _task_token: int = 0
+    _progress_row: ProgressRow | None = None
+
+    @property
+    def busy(self) -> bool:
+        """A task of this page is running."""
+        return self._task is not None
+
+    def progress_row(self) -> ProgressRow:
+        """The page's progress bar with its Cancel button (made on first use)."""
+        if self._progress_row is None:
+            self._progress_row = ProgressRow()
+            self._progress_row.cancelRequested.connect(self.cancel)
+            self._progress_row.set_busy(self.busy)
+        return self._progress_row
+
+    def start(self, fn: Callable, *args, on_done: Callable[[Any], None], label: str = "",
+              then: Callable[[], None] | None = None, status: str = "",
+              on_failed: Callable[[str], None] | None = None,
+              on_cancelled: Callable[[], None] | None = None, **kwargs) -> bool:
+        """Run `fn` on a worker unless a task is running (then say so and return False)."""
+        if self.busy:
+            self._set_status("Busy: wait for the running task or cancel it.", False)
+            return False
+        self._task_token += 1
+        token = self._task_token
+        failed = on_failed or self.on_failed
+        cancelled_ = on_cancelled or self.on_cancelled
+
+        def ended() -> bool:
+            if token != self._task_token:
+                return False
+            self._task = None
+            self._busy_changed()
+            return True
+
+        def result(value):
+            if not ended():
+                return
+            try:
+                on_done(value)
+            except RoboCalError as exc:
+                failed(exc.message)
+                return
+            if then is not None:
+                then()
+
+        def error(message: str):
+            if ended():
+                failed(message)
+
+        def cancelled():
+            if ended():
+                cancelled_()
+
+        self._task = self.run_task(fn, *args, on_result=result, on_error=error, on_cancelled=cancelled,
+                                   on_progress=self._task_progress, label=label, **kwargs)
+        self._busy_changed()
+        if status:
+            self._set_status(status, None)
+        return True
+
+    def cancel(self) -> None:
+        """Ask the running task to stop (its `on_cancelled` follows)."""
+        if self._task is not None:
+            self._task.cancel()
+
+    def forget_task(self) -> None:
+        """Cancel the running task and drop whatever it returns (the project or robot changed)."""
+        self._task_token += 1
+        if self._task is not None:
+            self._task.cancel()
+            self._task = None
+            self._busy_changed()
+
+    def on_failed(self, message: str) -> None:
+        """Default outcome of a failed task: the message in the status line, the autopilot told."""
+        self._set_status(f"✗ {message}", False)
+        if self._progress_row is not None:
+            self._progress_row.reset()
+        self._finish_autopilot(False, message)
+
+    def on_cancelled(self) -> None:
+        """Default outcome of a cancelled task."""
+        self._set_status("Cancelled.", False)
+        self._finish_autopilot(False, "cancelled")
+
+    def on_busy_changed(self) -> None:
+        """A task started or ended: enable or disable the page's controls here."""
+
+    def _busy_changed(self) -> None:
+        if self._progress_row is not None:
+            self._progress_row.set_busy(self.busy)
+        self.on_busy_changed()
+
+    def _task_progress(self, fraction: float, message: str) -> None:
+        if self._progress_row is not None:
+            self._progress_row.set_progress(fraction, message)
+
+
+class WizardPage(TaskMixin, QWidget):
     """One step of the wizard.
 
-    Class attributes: `step` (Step), `title` and `help_name` (default from the step),
-    `built` (False only for the placeholder of a step that is not built yet).
+    Class attributes: `step` (Step), `title` and `help_name` (default from the step).
     Signal: `completeChanged()`, emitted when `is_complete()` may have changed.
     """
 
     step: Optional[Step] = None
     title: str = ""
     help_name: str = ""
-    built: bool = True
     load_error: Optional[str] = None   # set on the stand-in of a page that failed to load
 
     completeChanged = Signal()

@@ -27,8 +27,6 @@ from core.report import calibration_report
 from core.robot.file import read_robot
 
 EXPORT_FOLDER = "export"
-IDENTIFICATION_OUTPUT = "identification"
-ACCURACY_OUTPUT = "identification_accuracy"
 
 
 @dataclass
@@ -139,7 +137,8 @@ class ExportPage(WizardPage):
 
         state.projectChanged.connect(self._project_changed)
         state.robotChanged.connect(lambda *_: self.refresh())
-        state.outputChanged.connect(lambda *_: self.refresh())
+        state.identificationChanged.connect(lambda *_: self.refresh())
+        state.stereoChanged.connect(lambda *_: self.refresh())
         self.refresh()
 
     # -- where ---------------------------------------------------------------------------
@@ -170,7 +169,7 @@ class ExportPage(WizardPage):
 
     # -- sources -------------------------------------------------------------------------
     def _result(self):
-        return self.state.outputs.get(IDENTIFICATION_OUTPUT)
+        return self.state.identification
 
     def calibrated_source(self) -> str | None:
         """'result' (this session's identification), 'file' (the project's calibrated.json) or None."""
@@ -228,7 +227,7 @@ class ExportPage(WizardPage):
 
     def _write_report(self, folder: Path) -> list[Path]:
         text = calibration_report(self.state.project, robot=self.state.robot, identification=self._result(),
-                                  accuracy=self.state.outputs.get(ACCURACY_OUTPUT))
+                                  accuracy=self.state.accuracy)
         return [atomic_write_text(folder / "report.html", text)]
 
     # -- actions -------------------------------------------------------------------------

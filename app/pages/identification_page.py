@@ -43,8 +43,6 @@ from widgets.parameter_table import ParameterTable
 from widgets.residual_plots import ResidualPlots
 
 TRUTH_POSES = 200          # fresh random visible poses for the accuracy against the true robot
-OUTPUT = "identification"
-ACCURACY_OUTPUT = "identification_accuracy"
 IDEAL_BUTTON_TEXT = "Use ideal virtual-lab measurements (no images)"
 VALIDATION_NONE, VALIDATION_HOLDOUT, VALIDATION_KFOLD = range(3)
 
@@ -75,7 +73,7 @@ def run_identification(robot: RobotModel, path: str | Path, *, fixed=(), huber: 
     with_truth = lab is not None or lab_args is not None
     fit = monitor.sub(0.02, 0.85 if with_truth else 1.0)
     result = identify(robot, meas, fixed=list(fixed), huber=huber, holdout=holdout, kfold=kfold, seed=seed,
-                      progress=lambda f, m="": fit.step(f, m), cancelled=cancelled)
+                      progress=fit, cancelled=cancelled)
     accuracy = None
     if with_truth:
         monitor.step(0.86, "virtual lab: comparing with the true robot")
@@ -549,9 +547,7 @@ class IdentificationPage(WizardPage):
             self.state.adopt_lab(run.lab)
         self.run_result = run
         self.saved_path = None
-        self.state.set_output(OUTPUT, run.result)
-        if run.accuracy is not None:
-            self.state.set_output(ACCURACY_OUTPUT, run.accuracy)
+        self.state.set_identification(run.result, run.accuracy)
         self._show_result()
         self._refresh_source()
         self._set_status("✓ Identified. Save calibrated.json to keep the result in the project.", ok=True)

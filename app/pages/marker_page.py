@@ -7,7 +7,7 @@ The chapter's chain, each stage drawn from what core returns:
    automatically (drawn dashed) or inside a crop rectangle the user drags; SIFT keypoints,
    the fitted outline and its reference point (the intersection of the diagonals) are drawn.
    The marker goes into the project (marker.npz, marker_training.png) and to
-   ``state.outputs["marker"]``.
+   ``state.marker``.
 2. **Live pair** (virtual lab: the robot at a random visible pose, "Next pose"): in both
    images the SIFT matches (agreeing / not), the homography's outline, the region of
    interest, the Canny edge pixels and the fitted outline, the reference point; the 3D point
@@ -42,7 +42,7 @@ from PySide6.QtWidgets import (QAbstractItemView, QCheckBox, QDoubleSpinBox, QFi
 
 from app.pages.base import WizardPage
 from app.lab import build_lab
-from app.pages.measurement_inputs import (MARKER_OUTPUT, TRAINING_FILE, VERIFICATION_FORMAT, StereoSource,
+from app.pages.measurement_inputs import (TRAINING_FILE, VERIFICATION_FORMAT, StereoSource,
                                           marker_file, preview_source, stereo_source, verification_file)
 from app.pages.steps import Step
 from core.marker.correspondence import WindowSweep
@@ -388,7 +388,7 @@ class MarkerPage(WizardPage):
         state.projectChanged.connect(self._context_changed)
         state.robotChanged.connect(self._context_changed)
         state.labChanged.connect(self._lab_changed)
-        state.outputChanged.connect(self._output_changed)
+        state.stereoChanged.connect(lambda *_: self._refresh_stereo())
         self._context_changed()
 
     # -- construction ---------------------------------------------------------------------
@@ -649,10 +649,6 @@ class MarkerPage(WizardPage):
             self._lab = lab
             self.state.adopt_lab(lab)
 
-    def _output_changed(self, name: str) -> None:
-        if name == "stereo":
-            self._refresh_stereo()
-
     def _context_changed(self, *_) -> None:
         """Another project or robot: start again, from the project's saved marker if any."""
         self._token += 1
@@ -683,7 +679,7 @@ class MarkerPage(WizardPage):
                 message, ok = f"The project's marker.npz cannot be used ({exc.message}); train again.", False
             else:
                 self._set_trained(trained, np.zeros(2), marker_file(project))
-                self.state.set_output(MARKER_OUTPUT, trained)
+                self.state.set_marker(trained)
                 self.training_image = TrainingImage(trained.image, trained.source or str(marker_file(project)),
                                                     trained.outline)
                 self.size_spin.setValue(trained.outer_size)
@@ -973,7 +969,7 @@ class MarkerPage(WizardPage):
         self._show_training_image()
         self._show_live()
         self._show_verification()
-        self.state.set_output(MARKER_OUTPUT, trained)
+        self.state.set_marker(trained)
         self._set_status(f"✓ Trained: {trained.n_image_features} SIFT features on the marker "
                          f"({trained.n_features} with the simulated tilted views), saved as {path.name}. "
                          "Now check it on a live pair (Next pose) and run a verification.", True)

@@ -17,8 +17,6 @@ from core.errors import RoboCalError
 from core.marker.training import TrainedMarker
 from core.stereo.file import StereoFile, read_stereo_yaml
 
-MARKER_OUTPUT = "marker"
-STEREO_OUTPUT = "stereo"
 MARKER_FILE = "marker.npz"
 TRAINING_FILE = "marker_training.png"
 VERIFICATION_FILE = "marker_verification.json"
@@ -36,7 +34,7 @@ def verification_file(project) -> Path:
 def project_marker(state) -> TrainedMarker | None:
     """The trained marker: the Marker step's output, else the project's marker.npz, else None.
     Raises RoboCalError when marker.npz exists but cannot be read."""
-    trained = state.outputs.get(MARKER_OUTPUT)
+    trained = state.marker
     if trained is not None:
         return trained
     project = state.project
@@ -70,7 +68,7 @@ def stereo_source(state) -> StereoSource:
             w, h = sf.image_size
             return StereoSource(rect, "file", f"stereo.yaml: {w}x{h} px, stereo RMS {sf.rms_stereo:.3f} px, "
                                               f"baseline {sf.baseline_mm:.1f} mm")
-    result = state.outputs.get(STEREO_OUTPUT)
+    result = state.stereo
     if result is not None:
         try:
             sf = StereoFile.from_result(result)

@@ -18,7 +18,7 @@ The page shows the poses with their status (measured / rejected with the reason 
 the current pair as a thumbnail, the measured points in two orthographic views (with the
 nominal model's predictions in the virtual lab), and a summary. The step is complete when
 measurements.csv holds at least as many poses as identification needs; the path goes to
-``state.outputs["measurements"]``.
+``state.measurements``.
 """
 from __future__ import annotations
 
@@ -50,8 +50,6 @@ from widgets.marker_views import marker_pair_thumbnail
 from widgets.plot_theme import AFTER, colour
 from widgets.workspace_views import ARM, CAMERA, CANDIDATE, HIGHLIGHT, WorkspaceViews, camera_wedges
 
-OUTPUT = "measurements"
-POSES_OUTPUT = "poses"
 THUMB_WIDTH = 400            # px per camera in the live thumbnail
 MEASURED, REJECTED, PENDING, RUNNING = "measured", "rejected", "pending", "running"
 STATUS_COLUMN = 5
@@ -193,7 +191,9 @@ class MeasurementPage(WizardPage):
         state.projectChanged.connect(self._context_changed)
         state.robotChanged.connect(self._context_changed)
         state.labChanged.connect(self._lab_changed)
-        state.outputChanged.connect(self._output_changed)
+        state.posesChanged.connect(lambda *_: self._poses_changed())
+        state.markerChanged.connect(lambda *_: self._sources_changed())
+        state.stereoChanged.connect(lambda *_: self._sources_changed())
         state.connectionChanged.connect(lambda *_: self._update_buttons())
         self._context_changed()
 
@@ -331,10 +331,12 @@ class MeasurementPage(WizardPage):
             self._lab = self.state.lab
         return self._lab
 
-    def _output_changed(self, name: str) -> None:
-        if name == POSES_OUTPUT and not self.busy and self.loaded_csv is None:
+    def _poses_changed(self) -> None:
+        if not self.busy and self.loaded_csv is None:
             self._load_poses()
-        elif name in ("marker", "stereo") and not self.busy:
+
+    def _sources_changed(self) -> None:
+        if not self.busy:
             self._show_sources()
             self._show_views()
 
@@ -360,7 +362,7 @@ class MeasurementPage(WizardPage):
         if state.project is None or robot is None:
             problem = "No project or robot yet (Setup step)."
         else:
-            selection = state.outputs.get(POSES_OUTPUT)
+            selection = state.poses
             try:
                 if self.loaded_csv is not None:
                     self.poses = read_pose_list(self.loaded_csv, robot)
@@ -393,8 +395,8 @@ class MeasurementPage(WizardPage):
         elif not self.busy:
             self._ready_status()
         self._update_buttons()
-        if self.is_complete() and state.outputs.get(OUTPUT) is None:
-            state.set_output(OUTPUT, self.measurements_path())      # measured in an earlier session
+        if self.is_complete() and state.measurements is None:
+            state.set_measurements(self.measurements_path())      # measured in an earlier session
 
     def _read_existing(self) -> None:
         """Statuses from measurements.csv and its rejects file (an earlier run of this list)."""
@@ -663,7 +665,7 @@ class MeasurementPage(WizardPage):
                 self._finish_autopilot(False, "cancelled")
             return
         if self.state.project is not None and self.measurements_path().is_file():
-            self.state.set_output(OUTPUT, self.measurements_path())
+            self.state.set_measurements(self.measurements_path())
         if self.is_complete():
             self._set_status(f"✓ Done: {c[MEASURED]} of {len(self.rows)} poses measured"
                              + (f", {c[REJECTED]} rejected (see the reasons)" if c[REJECTED] else "")

@@ -7,7 +7,7 @@ poses as a table (joint values, marker depth) and on two orthographic views of t
 (top x–z and side z–y in the left camera frame: the cameras with their fields of view, the
 candidate and selected marker positions, the arm of the highlighted pose). In the virtual lab
 the candidates are limited to poses where both cameras see the marker, above the table. The
-result goes to the Measurement step as ``state.outputs["poses"]`` (a PoseSelectionResult:
+result goes to the Measurement step as ``state.poses`` (a PoseSelectionResult:
 ``.Q`` rad/mm, ``.q_file`` deg/mm, ``.path``) and as the project's poses.csv.
 """
 from __future__ import annotations
@@ -35,7 +35,6 @@ from core.task import Monitor
 from widgets.index_curve_plot import IndexCurvePlot
 from widgets.workspace_views import WorkspaceViews, camera_wedges
 
-OUTPUT = "poses"
 DEMO_COUNT = 30
 DEMO_CANDIDATES = 1000
 INDEX_CHOICES = [
@@ -350,7 +349,7 @@ class PosesPage(WizardPage):
             except RoboCalError as exc:
                 self.show_error(exc.message)
                 written = " (poses.csv could not be written)"
-        self.state.set_output(OUTPUT, run.result)
+        self.state.set_poses(run.result)
         self._show()
         r = run.result
         self._set_status(f"✓ {r.count} poses selected in {r.seconds:.1f} s.{written}", ok=True)

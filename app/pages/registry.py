@@ -1,49 +1,46 @@
-"""Which class is the page of each step. To drop in a real page, change its one line below
-(the class is imported only when the window is built, so a page module may import freely).
+"""The page of each step, and how the window builds them.
 
-A not-built step uses NotBuiltPage, which reads the issue number and the description of
-the step from app/pages/steps.py.
+A page that fails to build is replaced by a page that shows the error (logged with its
+traceback), so the rest of the wizard still opens.
 """
 from __future__ import annotations
 
-import importlib
 import logging
 import traceback
 
+from app.pages.base import WizardPage
+from app.pages.export_page import ExportPage
+from app.pages.identification_page import IdentificationPage
+from app.pages.load_error_page import PageLoadErrorPage
+from app.pages.marker_page import MarkerPage
+from app.pages.measurement_page import MeasurementPage
+from app.pages.poses_page import PosesPage
+from app.pages.setup_page import SetupPage
 from app.pages.steps import Step
+from app.pages.stereo_page import StereoPage
+from app.worker import error_message
 
 log = logging.getLogger(__name__)
 
-NOT_BUILT = "app.pages.not_built:NotBuiltPage"
-
-PAGES: dict[Step, str] = {
-    Step.SETUP: "app.pages.setup_page:SetupPage",
-    Step.STEREO: "app.pages.stereo_page:StereoPage",            # issue 3
-    Step.MARKER: "app.pages.marker_page:MarkerPage",            # issue 4
-    Step.POSES: "app.pages.poses_page:PosesPage",
-    Step.MEASUREMENT: "app.pages.measurement_page:MeasurementPage",    # issue 4
-    Step.IDENTIFICATION: "app.pages.identification_page:IdentificationPage",    # issue 5
-    Step.EXPORT: "app.pages.export_page:ExportPage",            # issue 5
+PAGES: dict[Step, type[WizardPage]] = {
+    Step.SETUP: SetupPage,
+    Step.STEREO: StereoPage,
+    Step.MARKER: MarkerPage,
+    Step.POSES: PosesPage,
+    Step.MEASUREMENT: MeasurementPage,
+    Step.IDENTIFICATION: IdentificationPage,
+    Step.EXPORT: ExportPage,
 }
 
 
-def page_class(step: Step):
-    """Import the page class registered for `step` ("module:Class")."""
-    module_name, _, class_name = PAGES[step].partition(":")
-    return getattr(importlib.import_module(module_name), class_name)
-
-
-def create_page(step: Step, state, tasks):
-    """Build the page of `step`; a page that fails to import or to build is replaced by a
-    page showing the error (logged with its traceback), so the wizard still opens."""
+def create_page(step: Step, state, tasks) -> WizardPage:
+    """Build the page of `step`, or the error page if building it fails."""
     try:
-        return page_class(step)(state, tasks, step=step)
+        return PAGES[step](state, tasks, step=step)
     except Exception as exc:  # noqa: BLE001 - shown on the page and logged
-        log.error("page %s (%s) failed to load:\n%s", step.name, PAGES[step], traceback.format_exc())
-        from app.pages.not_built import PageLoadErrorPage
-        from app.worker import error_message
+        log.error("page %s (%s) failed to load:\n%s", step.name, PAGES[step].__name__, traceback.format_exc())
         return PageLoadErrorPage(state, tasks, step=step, error=error_message(exc))
 
 
-def create_pages(state, tasks) -> list:
+def create_pages(state, tasks) -> list[WizardPage]:
     return [create_page(step, state, tasks) for step in Step]

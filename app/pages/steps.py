@@ -33,15 +33,14 @@ class Step(IntEnum):
 class StepInfo:
     title: str
     summary: str        # one line under the page title
-    description: str    # one paragraph: what the step does (shown while it is not built)
-    issue: int          # the issue that builds the page
+    description: str    # one paragraph: what the step does
 
 
 STEP_INFO: dict[Step, StepInfo] = {
     Step.SETUP: StepInfo(
         "Setup", "Project folder, robot model, robot connection and cameras.",
         "Choose or create the project folder, pick the robot's nominal DH model (a preset or "
-        "a robot.json file), and say how RoboCal reaches the robot and the cameras.", 2),
+        "a robot.json file), and say how RoboCal reaches the robot and the cameras."),
     Step.STEREO: StepInfo(
         "Stereo calibration", "Checkerboard pairs → intrinsics, distortion, stereo geometry.",
         "You show a checkerboard to both cameras in many positions and tilts. RoboCal detects "
@@ -49,36 +48,36 @@ STEP_INFO: dict[Step, StepInfo] = {
         "estimates each camera's focal lengths, principal point and lens distortion, then the "
         "rotation and translation between the two cameras and the rectification that makes "
         "epipolar lines horizontal. It reports the reprojection error per view and the "
-        "uncertainty of the result, and writes stereo.yaml.", 3),
+        "uncertainty of the result, and writes stereo.yaml."),
     Step.MARKER: StepInfo(
         "Marker", "Train the end-effector marker and check its 3D detection.",
         "You mark the marker on one training image. On every stereo pair RoboCal then finds the "
         "marker area with SIFT features, takes a precise reference point from Canny edges, "
         "finds the same point in the other image by SSD area correlation along the epipolar "
         "line, and triangulates its 3D position. You check the detection live on a few pairs "
-        "before measuring.", 4),
+        "before measuring."),
     Step.POSES: StepInfo(
         "Pose sequence", "Robot configurations that make the parameters observable.",
         "RoboCal proposes robot configurations inside the joint limits where the marker stays "
         "in view of both cameras, and picks a set that makes every geometric parameter "
         "observable: it shows the condition number of the calibration Jacobian and other "
-        "observability indices as poses are added, and writes poses.csv.", 6),
+        "observability indices as poses are added, and writes poses.csv."),
     Step.MEASUREMENT: StepInfo(
         "Measurement", "Drive the robot through the poses and locate the marker in 3D.",
         "The robot moves to each pose of the sequence (Stop is always one key away: Esc). At "
         "each pose both cameras capture an image, the marker is located in 3D, and the joint "
         "values and the marker position are written to measurements.csv. Poses where the "
-        "marker is not found are flagged, never silently dropped.", 4),
+        "marker is not found are flagged, never silently dropped."),
     Step.IDENTIFICATION: StepInfo(
         "Identification", "Estimate the DH parameters, base and tool from the measurements.",
         "RoboCal estimates the robot's geometric parameters, the base pose in the camera frame "
         "and the marker offset by iterative least squares on the differential model "
         "Δx = J<sub>g</sub>·Δg. It removes parameters the measurements cannot identify, shows the "
         "position errors before and after calibration, the parameter uncertainties, and a "
-        "check on poses left out of the fit, and writes calibrated.json.", 5),
+        "check on poses left out of the fit, and writes calibrated.json."),
     Step.EXPORT: StepInfo(
         "Export", "Parameter files and a report.",
         "Writes the calibrated robot in the formats other tools read (RoboCal JSON, a DH "
         "table as CSV, URDF) and the camera calibration as OpenCV and ROS camera files, plus "
-        "a report of the whole calibration with its figures and plots.", 5),
+        "a report of the whole calibration with its figures and plots."),
 }

@@ -12,7 +12,7 @@ standard deviations, the summary figures with an interpretation each, a rectifie
 with horizontal epipolar lines, and the per-corner residual scatter.
 
 The step is complete once a calibration is saved as the project's stereo.yaml (or the
-project already has a readable one). The result also goes to ``state.outputs["stereo"]``.
+project already has a readable one). The result also goes to ``state.stereo``.
 """
 from __future__ import annotations
 
@@ -51,7 +51,6 @@ from widgets.residual_scatter import ResidualScatter
 from widgets.thumbnail_strip import BAD, MUTED, WARN, ThumbnailStrip, compose_pair_thumbnail
 from widgets.value_table import ValueTable
 
-OUTPUT = "stereo"
 VIRTUAL_PAIRS = 20
 RENDER_CHUNK = 4            # pairs rendered per worker task (thumbnails and bars fill in between)
 FILE_CHUNK = 6              # pairs detected per worker task when adding folders
@@ -1289,7 +1288,7 @@ class StereoPage(WizardPage):
             self._set_status(f"stereo.yaml was not written: {exc.message}", ok=False)
             return None
         self.saved_path = path
-        self.state.set_output(OUTPUT, r)
+        self.state.set_stereo(r)
         self._set_status(f"Saved {path} ({r.pairs_used} pairs, stereo RMS {r.rms_stereo:.3f} px). "
                          "This step is done.", ok=True)
         self.notify_complete()

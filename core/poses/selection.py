@@ -509,7 +509,7 @@ def select_poses(robot: RobotModel, count: int, *, candidates: int = DEFAULT_CAN
     if candidate_set is None:
         candidate_set = generate_candidates(robot, candidates, seed=seed, margin=margin, rig=rig,
                                             plate_size=plate_size, target=target, visibility=visibility,
-                                            floor=floor, progress=_sub_progress(monitor, 0.0, 0.25),
+                                            floor=floor, progress=monitor.sub(0.0, 0.25),
                                             cancelled=cancelled)
     cands = candidate_set
     warnings = []
@@ -599,11 +599,6 @@ def select_poses(robot: RobotModel, count: int, *, candidates: int = DEFAULT_CAN
         recommended=recommended, exchanges=exchanges, seed=seed, seconds=time.perf_counter() - t0,
         marker=cands.marker[chosen], depth=None if cands.depth is None else cands.depth[chosen],
         warnings=warnings)
-
-
-def _sub_progress(monitor: Monitor, start: float, stop: float):
-    sub = monitor.sub(start, stop)
-    return lambda fraction, message="": sub.step(fraction, message)
 
 
 def write_selection(result: PoseSelectionResult, path: str | Path) -> Path:

@@ -62,8 +62,7 @@ def give_result(page, calibration, measurements=True):
     meas, result, accuracy = calibration
     if measurements:
         write_measurements(meas, page.state.project.path("measurements"))
-    page.state.set_output("identification", result)
-    page.state.set_output("identification_accuracy", accuracy)
+    page.state.set_identification(result, accuracy)
     return result
 
 

@@ -102,7 +102,7 @@ def test_ideal_measurements_identify_and_export(lab_page, qtbot, monkeypatch, tm
     wait_idle(qtbot, page)
     result = page.result
     assert result is not None and page.is_complete()
-    assert page.state.outputs["identification"] is result
+    assert page.state.identification is result
     assert result.after.rms_mm < 0.15 < 1.0 < result.before.rms_mm
     assert result.validation.method == "holdout" and result.validation.fraction == 0.25
 
@@ -139,7 +139,7 @@ def test_ideal_measurements_identify_and_export(lab_page, qtbot, monkeypatch, tm
     # validation figures and the accuracy against the lab's true robot
     text = page.validation_view.toPlainText()
     assert "held-out poses" in text and "true robot" in text
-    accuracy = page.state.outputs["identification_accuracy"]
+    accuracy = page.state.accuracy
     assert accuracy.calibrated.rms_mm < 0.2 * accuracy.nominal.rms_mm
     assert "against the true robot" in page.summary.text()
 
@@ -187,7 +187,7 @@ def test_options_reach_the_identification(hw_page, qtbot):
     for name in ("J5.d", "marker.z"):
         r = [row.name for row in result.parameters].index(name)
         assert result.parameters[r].status == FIXED_BY_USER and page.table.is_greyed(r)
-    assert "identification_accuracy" not in page.state.outputs      # no true robot in hardware mode
+    assert page.state.accuracy is None      # no true robot in hardware mode
     assert "3-fold cross validation" in page.validation_view.toPlainText()
 
 
@@ -217,7 +217,7 @@ def test_cancel_keeps_the_page_usable(hw_page, qtbot):
     qtbot.mouseClick(page.cancel_button, Qt.MouseButton.LeftButton)
     wait_idle(qtbot, page)
     assert page.status.text().startswith("Cancelled") and page.result is None
-    assert not page.is_complete() and "identification" not in page.state.outputs
+    assert not page.is_complete() and page.state.identification is None
     assert page.run_button.isEnabled() and not page.cancel_button.isEnabled()
     identify(qtbot, page)                                  # and it still works afterwards
     assert page.is_complete()

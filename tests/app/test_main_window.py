@@ -10,12 +10,10 @@ from PySide6.QtWidgets import QApplication
 from app.main_window import MainWindow
 from app.pages import registry
 from app.pages.base import WizardPage
-from app.pages.not_built import NotBuiltPage
 from app.pages.steps import STEP_INFO, Step
 from app.state import WizardState
 from widgets.step_list import StepState
 
-NOT_BUILT_STEPS = [step for step in Step if registry.PAGES[step] == registry.NOT_BUILT]
 HELP_PHRASES = {
     Step.SETUP: "Rz(θ", Step.STEREO: "k1r²", Step.MARKER: "SSD(d)", Step.POSES: "κ = σ1 / σm",
     Step.MEASUREMENT: "Z = f · b / d", Step.IDENTIFICATION: "Δg = (ΦTΦ)−1 ΦT ΔX",
@@ -54,7 +52,7 @@ def test_seven_steps_in_order(window):
         "1. Setup", "2. Stereo calibration", "3. Marker", "4. Pose sequence", "5. Measurement",
         "6. Identification", "7. Export"]
     assert all(isinstance(p, WizardPage) and p.load_error is None for p in window.pages)
-    assert window.current_step is Step.SETUP and window.page(Step.SETUP).built
+    assert window.current_step is Step.SETUP and window.page(Step.SETUP).load_error is None
 
 
 def test_visit_every_page_from_the_side_list_with_screenshots(window, qtbot, tmp_path):
@@ -91,19 +89,12 @@ def test_explain_panel_can_be_hidden_and_shown(window):
     assert window.action_explain.shortcut() == QKeySequence(Qt.Key.Key_F1)
 
 
-def test_each_page_is_real_or_says_it_is_not_built(window):
+def test_each_step_has_its_own_page(window):
     for step in Step:
         page = window.page(step)
         window.go_to(step)
-        if step in NOT_BUILT_STEPS:
-            assert isinstance(page, NotBuiltPage) and not page.built
-            assert page.notice.isVisible()
-            assert f"This step is not built yet (issue {STEP_INFO[step].issue})." in page.text()
-            assert STEP_INFO[step].description[:40] in page.text()
-            assert window.step_list.state(int(step)) is StepState.NOT_BUILT
-        else:
-            assert page.built and type(page).__name__ == registry.PAGES[step].split(":")[1], step
-            assert window.step_list.state(int(step)) is not StepState.NOT_BUILT
+        assert page.load_error is None and type(page) is registry.PAGES[step], step
+        assert window.step_list.state(int(step)) is not StepState.ERROR
 
 
 def test_next_is_gated_by_the_setup_page(window, tmp_path):
@@ -126,7 +117,7 @@ def test_next_waits_for_each_page_and_back_walks_all_pages(ready_window, qtbot):
         win.step_list.setCurrentRow(int(step))          # the side list reaches every page
         assert win.current_step is step
         page = win.page(step)
-        may_leave = step is not last and (not page.built or page.is_complete())
+        may_leave = step is not last and page.is_complete()
         assert win.next_button.isEnabled() == may_leave, step
         if may_leave:
             qtbot.mouseClick(win.next_button, Qt.MouseButton.LeftButton)
@@ -233,11 +224,18 @@ def test_closing_the_window_cancels_tasks_and_disconnects(ready_window, qtbot):
 
 
 def test_a_page_that_fails_to_load_is_shown_not_fatal(qtbot, monkeypatch):
-    monkeypatch.setitem(registry.PAGES, Step.MARKER, "app.pages.no_such_module:MarkerPage")
+    class BrokenPage(WizardPage):
+        step = Step.MARKER
+
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            raise ValueError("no marker widgets")
+
+    monkeypatch.setitem(registry.PAGES, Step.MARKER, BrokenPage)
     win = MainWindow(WizardState())
     qtbot.addWidget(win)
     page = win.page(Step.MARKER)
-    assert page.load_error and "ModuleNotFoundError" in page.load_error
+    assert page.load_error == "ValueError: no marker widgets"
     assert "could not be loaded" in page.notice.text()
     assert win.step_list.state(int(Step.MARKER)) is StepState.ERROR
     done = []
@@ -245,11 +243,9 @@ def test_a_page_that_fails_to_load_is_shown_not_fatal(qtbot, monkeypatch):
     assert done and done[0][0] is False
 
 
-def test_registry_lines_are_module_colon_class():
+def test_every_registered_page_is_a_wizard_page_of_its_step():
     for step in Step:
-        module, _, cls = registry.PAGES[step].partition(":")
-        assert module.startswith("app.pages.") and cls
-        assert issubclass(registry.page_class(step), WizardPage)
+        assert issubclass(registry.PAGES[step], WizardPage) and registry.PAGES[step].step is step
 
 
 def test_page_registered_for_the_wrong_step_is_refused(qtbot):

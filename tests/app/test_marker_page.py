@@ -13,7 +13,7 @@ from PySide6.QtCore import Qt
 
 from app.pages.marker_page import TAB_LIVE, TAB_SSD, MarkerPage
 from app.pages.measurement_inputs import MARKER_FILE, TRAINING_FILE, VERIFICATION_FILE
-from app.pages.registry import page_class
+from app.pages.registry import PAGES
 from app.pages.steps import Step
 from app.worker import TaskRunner
 from core.marker.training import TrainedMarker
@@ -50,7 +50,7 @@ def wait(qtbot, page, timeout=60000):
 
 
 def test_registered_for_the_marker_step():
-    assert page_class(Step.MARKER) is MarkerPage
+    assert PAGES[Step.MARKER] is MarkerPage
 
 
 def test_train_locate_plot_and_verify(qtbot, page, boxes):
@@ -75,7 +75,7 @@ def test_train_locate_plot_and_verify(qtbot, page, boxes):
     folder = state.project.folder
     assert TrainedMarker.load(folder / MARKER_FILE).n_features == t.n_features
     assert cv2.imread(str(folder / TRAINING_FILE), cv2.IMREAD_GRAYSCALE).shape == t.image.shape
-    assert state.outputs["marker"] is t
+    assert state.marker is t
     assert not page.is_complete()                       # trained, not yet located
     # a live pair: every stage drawn in both images
     with qtbot.waitSignal(page.completeChanged, timeout=60000):

@@ -11,7 +11,7 @@ from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QApplication
 
 from app.pages.measurement_page import MEASURED, PENDING, REJECTED, MeasurementPage
-from app.pages.registry import page_class
+from app.pages.registry import PAGES
 from app.pages.steps import Step
 from app.worker import TaskRunner
 from core.marker.training import train_marker
@@ -71,7 +71,7 @@ def page_ids(page, status=MEASURED) -> list[int]:
 
 
 def test_registered_for_the_measurement_step():
-    assert page_class(Step.MEASUREMENT) is MeasurementPage
+    assert PAGES[Step.MEASUREMENT] is MeasurementPage
 
 
 def test_cancel_keeps_every_measurement_and_resume_continues(qtbot, page, boxes):
@@ -113,7 +113,7 @@ def test_cancel_keeps_every_measurement_and_resume_continues(qtbot, page, boxes)
     assert page.thumb.image_shape()[1] > 600
     assert f"<b>{len(ids)}</b> measured" in page.summary.text()
     assert "Identification needs at least" in page.summary.text()
-    assert page.state.outputs["measurements"] == page.measurements_path()
+    assert page.state.measurements == page.measurements_path()
     assert boxes == []
 
 

@@ -9,7 +9,7 @@ import pytest
 from PySide6.QtCore import Qt
 
 from app.pages.poses_page import PosesPage
-from app.pages.registry import page_class
+from app.pages.registry import PAGES
 from app.pages.steps import Step
 from app.state import WizardState
 from app.worker import TaskRunner
@@ -42,7 +42,7 @@ def select(qtbot, page, count=12, candidates=300):
 
 
 def test_registered_for_the_pose_step():
-    assert page_class(Step.POSES) is PosesPage
+    assert PAGES[Step.POSES] is PosesPage
 
 
 def test_select_fills_table_plot_views_and_output(qtbot, page):
@@ -82,7 +82,7 @@ def test_select_fills_table_plot_views_and_output(qtbot, page):
     np.testing.assert_allclose(page.views.side.arm.getData()[0], expected[0, :, 2])
     np.testing.assert_allclose(page.views.side.arm.getData()[1], expected[0, :, 1])
     # the output for the Measurement step: in memory and as the project's poses.csv
-    assert page.state.outputs["poses"] is r
+    assert page.state.poses is r
     poses = read_poses(page.state.project.path("poses"), page.state.robot)
     np.testing.assert_allclose(poses.Q, r.Q, atol=1e-9)
     assert "poses.csv" in page.status.text()

@@ -100,12 +100,46 @@ def test_real_virtual_lab_when_present(state):
     assert state.robot_connection.model is lab.true_robot
 
 
-def test_project_then_outputs(state, tmp_path, qtbot):
+def test_step_results_are_handed_on_with_their_signals(state, tmp_path, qtbot):
     state.new_project(tmp_path / "p")
-    state.set_output("stereo", {"rms": 0.2})
-    assert state.outputs["stereo"] == {"rms": 0.2}
+    marker, selection = object(), object()
+    with qtbot.waitSignal(state.markerChanged) as got:
+        state.set_marker(marker)
+    assert got.args == [marker] and state.marker is marker
+    state.set_poses(selection)
+    with qtbot.waitSignal(state.measurementsChanged) as got:
+        state.set_measurements(str(tmp_path / "m.csv"))
+    assert state.measurements == tmp_path / "m.csv" and got.args == [tmp_path / "m.csv"]
+    state.set_identification("result", "accuracy")
+    assert (state.identification, state.accuracy) == ("result", "accuracy")
     state.open_project(tmp_path / "p")               # a (re)opened project starts clean
-    assert state.outputs == {}
+    assert (state.stereo, state.marker, state.poses, state.measurements, state.identification,
+            state.accuracy) == (None,) * 6
+
+
+def test_request_lab_builds_once_on_a_worker_for_every_page_that_asks(state, fake_lab, qtbot):
+    state.seed, state.noise = 7, 0.0
+    state.choose_preset("educational_6r")
+    got = []
+    state.request_lab(lambda lab: got.append(("stereo", lab)))
+    state.request_lab(lambda lab: got.append(("marker", lab)))
+    assert got == [] and not state.has_lab              # built on the worker, not here
+    qtbot.waitUntil(lambda: len(got) == 2, timeout=5000)
+    assert len(fake_lab.created) == 1 and got[0][1] is got[1][1] is state.lab
+    state.request_lab(lambda lab: got.append(("poses", lab)))
+    assert got[-1] == ("poses", state.lab)              # there already: at once
+    assert state.robot_connection.model is state.lab.true_robot
+
+
+def test_a_lab_built_for_the_previous_robot_is_dropped(state, fake_lab, qtbot):
+    state.choose_preset("educational_6r")
+    got, errors = [], []
+    state.request_lab(got.append, errors.append)
+    state.choose_preset("ur5")                          # while the build runs
+    assert errors == ["the robot changed while the virtual lab was being built"]
+    qtbot.waitUntil(lambda: not state._lab_tasks.busy, timeout=5000)
+    qtbot.wait(20)
+    assert got == [] and not state.has_lab
 
 
 def test_save_without_project_is_refused(state):

@@ -141,7 +141,7 @@ def test_virtual_lab_pairs_calibrate_drop_outlier_and_export(page, qtbot, tmp_pa
     sf = read_stereo_yaml(path)
     assert sf.image_size == r.image_size and sf.board == page.board
     assert abs(sf.rms_stereo - page.result.rms_stereo) < 1e-9
-    assert page.is_complete() and page.state.outputs["stereo"] is page.result
+    assert page.is_complete() and page.state.stereo is page.result
 
     patch_dirs(monkeypatch, tmp_path / "ros")
     qtbot.mouseClick(page.ros_button, Qt.MouseButton.LeftButton)

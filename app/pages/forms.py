@@ -1,0 +1,69 @@
+"""Small builders for the controls every page has: a labelled spin box, a named button, a row."""
+from __future__ import annotations
+
+from typing import Callable
+
+from PySide6.QtWidgets import QDoubleSpinBox, QHBoxLayout, QLabel, QPushButton, QSpinBox, QWidget
+
+
+def button(text: str, name: str = "", *, on_click: Callable[[], object] | None = None,
+           tooltip: str = "") -> QPushButton:
+    """A push button with an object name (tests find it by name) and a click handler called
+    with no arguments."""
+    b = QPushButton(text)
+    if name:
+        b.setObjectName(name)
+    if tooltip:
+        b.setToolTip(tooltip)
+    if on_click is not None:
+        b.clicked.connect(lambda *_: on_click())
+    return b
+
+
+def spin(value: int, lo: int, hi: int, *, name: str = "", suffix: str = "", tooltip: str = "",
+         step: int = 1) -> QSpinBox:
+    """An integer spin box."""
+    s = QSpinBox()
+    s.setRange(lo, hi)
+    s.setValue(value)
+    s.setSingleStep(step)
+    if name:
+        s.setObjectName(name)
+    if suffix:
+        s.setSuffix(suffix)
+    if tooltip:
+        s.setToolTip(tooltip)
+    return s
+
+
+def double_spin(value: float, lo: float, hi: float, *, decimals: int = 2, step: float = 0.1, name: str = "",
+                suffix: str = "", tooltip: str = "") -> QDoubleSpinBox:
+    """A decimal spin box."""
+    s = QDoubleSpinBox()
+    s.setDecimals(decimals)
+    s.setRange(lo, hi)
+    s.setSingleStep(step)
+    s.setValue(value)
+    if name:
+        s.setObjectName(name)
+    if suffix:
+        s.setSuffix(suffix)
+    if tooltip:
+        s.setToolTip(tooltip)
+    return s
+
+
+def row(*items, stretch: bool = True) -> QHBoxLayout:
+    """A horizontal row of widgets; a str item becomes a label; a trailing stretch by default."""
+    layout = QHBoxLayout()
+    layout.setContentsMargins(0, 0, 0, 0)
+    for item in items:
+        if isinstance(item, str):
+            layout.addWidget(QLabel(item))
+        elif isinstance(item, QWidget):
+            layout.addWidget(item)
+        else:
+            layout.addLayout(item)
+    if stretch:
+        layout.addStretch(1)
+    return layout

@@ -1,0 +1,97 @@
+"""TaskMixin: one task per page, progress row, Cancel, failures and stale results."""
+from __future__ import annotations
+
+import threading
+
+import pytest
+
+from app.pages.base import WizardPage
+from app.pages.steps import Step
+from app.state import WizardState
+from app.worker import TaskRunner
+from core.errors import RoboCalError
+from core.task import Monitor
+
+
+class Page(WizardPage):
+    step = Step.EXPORT
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.busy_seen = []
+        self.autopilot_said = []
+        self._autopilot_done = lambda ok, message="": self.autopilot_said.append((ok, message))
+
+    def on_busy_changed(self):
+        self.busy_seen.append(self.busy)
+
+
+@pytest.fixture
+def page(qtbot):
+    state, tasks = WizardState(), TaskRunner()
+    p = Page(state, tasks)
+    qtbot.addWidget(p)
+    yield p
+    tasks.shutdown()
+    state.close()
+
+
+def work(x, *, progress=None, cancelled=None):
+    Monitor(progress, cancelled).step(0.5, "half way")
+    return 2 * x
+
+
+def test_result_then_next_step_and_busy_hook(page, qtbot):
+    got = []
+    row = page.progress_row()
+    assert page.start(work, 21, on_done=got.append, then=lambda: got.append("then"), status="Working…")
+    assert page.busy and row.cancel_button.isEnabled() and page.status.text() == "Working…"
+    qtbot.waitUntil(lambda: not page.busy, timeout=5000)
+    assert got == [42, "then"] and page.busy_seen == [True, False] and not row.cancel_button.isEnabled()
+
+
+def test_one_task_at_a_time(page, qtbot):
+    gate = threading.Event()
+    assert page.start(lambda: gate.wait(5), on_done=lambda _: None)
+    assert not page.start(work, 1, on_done=lambda _: None)
+    assert "Busy" in page.status.text()
+    gate.set()
+    qtbot.waitUntil(lambda: not page.busy, timeout=5000)
+
+
+def test_failure_and_a_refusing_on_done_reach_the_status_line_and_the_autopilot(page, qtbot):
+    def bad():
+        raise RoboCalError("the board was not found", source="left01.png")
+    page.start(bad, on_done=lambda _: None)
+    qtbot.waitUntil(lambda: not page.busy, timeout=5000)
+    assert page.status.text().startswith("✗ ") and "board was not found" in page.status.text()
+    assert page.autopilot_said[-1][0] is False
+
+    def refuse(_):
+        raise RoboCalError("too few pairs")
+    page.start(work, 1, on_done=refuse, then=lambda: pytest.fail("then after a refusal"))
+    qtbot.waitUntil(lambda: not page.busy, timeout=5000)
+    assert page.status.text() == "✗ too few pairs"
+
+
+def test_cancel_from_the_progress_row(page, qtbot):
+    def endless(*, progress=None, cancelled=None):
+        m = Monitor(progress, cancelled)
+        while True:
+            m.step(0.1, "waiting")
+            threading.Event().wait(0.01)
+    page.start(endless, on_done=lambda _: pytest.fail("no result after Cancel"))
+    page.progress_row().cancel_button.click()
+    qtbot.waitUntil(lambda: not page.busy, timeout=5000)
+    assert page.status.text() == "Cancelled." and page.autopilot_said[-1] == (False, "cancelled")
+
+
+def test_a_forgotten_task_delivers_nothing(page, qtbot):
+    gate, got = threading.Event(), []
+    page.start(lambda: gate.wait(5) and 1, on_done=got.append)
+    page.forget_task()
+    assert not page.busy
+    gate.set()
+    qtbot.waitUntil(lambda: not page.tasks.busy, timeout=5000)
+    qtbot.wait(20)
+    assert got == []
