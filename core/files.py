@@ -54,6 +54,46 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
     return atomic_write_bytes(path, text.encode("utf-8"))
 
 
+def atomic_write_many(files: dict[str | Path, bytes | str]) -> list[Path]:
+    """Write several files as one: every file goes to a temporary beside its target first, and
+    only when all are written (and synced) are they renamed into place. A failure while writing
+    leaves every target as it was."""
+    temps: list[tuple[str, Path]] = []
+    try:
+        for path, data in files.items():
+            path = Path(path)
+            folder = ensure_writable_dir(path.parent if str(path.parent) else Path("."))
+            fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+            temps.append((tmp, path))
+            with os.fdopen(fd, "wb") as handle:
+                handle.write(data.encode("utf-8") if isinstance(data, str) else data)
+                handle.flush()
+                os.fsync(handle.fileno())
+            os.chmod(tmp, 0o666 & ~_UMASK)
+    except OSError as exc:
+        for tmp, _ in temps:
+            Path(tmp).unlink(missing_ok=True)
+        failed = temps[-1][1] if temps else next(iter(files), "")
+        raise RoboCalError(f"cannot write the file ({exc.strerror}); no output was changed", source=failed,
+                           hint="Check the disk space and permissions.") from exc
+    except BaseException:
+        for tmp, _ in temps:
+            Path(tmp).unlink(missing_ok=True)
+        raise
+    done: list[Path] = []
+    for tmp, path in temps:        # renames in one folder: these do not run out of space
+        try:
+            os.replace(tmp, path)
+        except OSError as exc:
+            for left, _ in temps[len(done):]:
+                Path(left).unlink(missing_ok=True)
+            written = ", ".join(p.name for p in done) or "none"
+            raise RoboCalError(f"cannot replace the file ({exc.strerror}); already replaced: {written}",
+                               source=path, hint="Check the permissions.") from exc
+        done.append(path)
+    return done
+
+
 def json_default(value):
     """`json.dumps(default=...)` for numpy arrays and scalars."""
     if isinstance(value, np.ndarray):

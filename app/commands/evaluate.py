@@ -6,6 +6,10 @@ from app.commands import CommandResult
 HELP = "Position errors of a robot model against measurements"
 
 
+INPUTS = ("robot", "measurements")      # checked against OUTPUTS before the run (app/commands/paths.py)
+OUTPUTS = ()
+
+
 def add_arguments(parser) -> None:
     parser.add_argument("--robot", required=True, metavar="R.json", help="robot model file (e.g. a calibrated one)")
     parser.add_argument("--measurements", required=True, metavar="M.csv", help="measurements file")

@@ -6,6 +6,10 @@ from app.commands import CommandResult, check_output
 HELP = "Export a robot model as URDF or a DH table (CSV)"
 
 
+INPUTS = ("robot",)      # checked against OUTPUTS before the run (app/commands/paths.py)
+OUTPUTS = ("out",)
+
+
 def add_arguments(parser) -> None:
     parser.add_argument("--robot", required=True, metavar="R.json", help="robot model file (e.g. a calibrated one)")
     parser.add_argument("--format", required=True, choices=["urdf", "dh-csv"], help="export format")

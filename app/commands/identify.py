@@ -8,6 +8,10 @@ from app.commands import CommandResult, check_output
 HELP = "Kinematic identification: DH parameters, base pose and target offsets from measurements"
 
 
+INPUTS = ("robot", "measurements")      # checked against OUTPUTS before the run (app/commands/paths.py)
+OUTPUTS = ("out",)
+
+
 def add_arguments(parser) -> None:
     parser.add_argument("--robot", required=True, metavar="R.json", help="nominal robot model file")
     parser.add_argument("--measurements", required=True, metavar="M.csv", help="measurements file")

@@ -17,6 +17,10 @@ from app.commands import CommandResult
 HELP = "3D marker reference point (mm, left camera frame) from one stereo pair"
 
 
+INPUTS = ("stereo", "marker", "left", "right")      # checked against OUTPUTS before the run (app/commands/paths.py)
+OUTPUTS = ()
+
+
 def add_arguments(parser) -> None:
     parser.add_argument("--stereo", required=True, metavar="S", help="stereo calibration file (stereo.yaml)")
     parser.add_argument("--marker", required=True, metavar="M",

@@ -16,6 +16,10 @@ from app.commands import CommandResult, ProgressLine
 HELP = "Batch of pose image pairs to a measurements file (marker located in 3D per pose)"
 
 
+INPUTS = ("stereo", "marker", "images", "joints", "robot")      # checked against OUTPUTS before the run (app/commands/paths.py)
+OUTPUTS = ("out",)
+
+
 def add_arguments(parser) -> None:
     parser.add_argument("--stereo", required=True, metavar="S", help="stereo calibration file (stereo.yaml)")
     parser.add_argument("--marker", required=True, metavar="M",

@@ -14,6 +14,10 @@ from app.commands import CommandResult, check_output
 HELP = "Pose sequence chosen by observability (condition number or O1/O3/O4/O5 of the calibration Jacobian)"
 
 
+INPUTS = ("robot", "stereo")      # checked against OUTPUTS before the run (app/commands/paths.py)
+OUTPUTS = ("out",)
+
+
 def add_arguments(parser) -> None:
     parser.add_argument("--robot", metavar="R.json",
                         help="robot model file (with --stereo its base pose must be in the left camera frame)")

@@ -7,6 +7,10 @@ from app.commands import CommandResult, ProgressLine
 HELP = "Write a virtual-lab dataset: checkerboard pairs, marker training image, pose images, joints, truth.json"
 
 
+INPUTS = ("robot",)      # checked against OUTPUTS before the run (app/commands/paths.py)
+OUTPUTS = ("out",)
+
+
 def add_arguments(parser) -> None:
     parser.add_argument("--out", required=True, metavar="DIR",
                         help="output folder (new, empty, or a previous dataset, which is replaced)")

@@ -20,6 +20,10 @@ from core.stereo.file import write_ros_camera_info, write_stereo_json, write_ste
 HELP = "Stereo calibration from checkerboard image pairs (matched by sorted file name)"
 
 
+INPUTS = ("left", "right")      # checked against OUTPUTS before the run (app/commands/paths.py)
+OUTPUTS = ("out", "export_json", "ros/left.yaml", "ros/right.yaml")
+
+
 def add_arguments(parser) -> None:
     parser.add_argument("--left", required=True, nargs="+", metavar="DIR",
                         help="left camera images: a folder, a quoted pattern like 'dir/left*.jpg', or files")

@@ -370,6 +370,7 @@ class MeasurementWriter:
     dof: int
     sigmas: bool = False
     _handle: object = field(default=None, init=False, repr=False)
+    _write_failed: bool = field(default=False, init=False, repr=False)
 
     def __post_init__(self):
         self.path = Path(self.path)
@@ -434,13 +435,22 @@ class MeasurementWriter:
         try:
             self._write(format_row(pose, target, q_file, xyz, sigma) + "\n")
         except OSError as exc:
+            self._write_failed = True
             raise RoboCalError(f"cannot write the file ({exc.strerror})", source=self.path,
                                hint="Check the disk space and permissions.") from exc
 
     def close(self) -> None:
-        if self._handle is not None:
-            self._handle.close()
-            self._handle = None
+        """Close the file. After a failed write (already reported) the unwritten rest is dropped
+        quietly, so the first, clear message is the one the user reads."""
+        handle, self._handle = self._handle, None
+        if handle is None:
+            return
+        try:
+            handle.close()
+        except OSError as exc:
+            if not self._write_failed:
+                raise RoboCalError(f"cannot finish writing the file ({exc.strerror})", source=self.path,
+                                   hint="Check the disk space and permissions.") from exc
 
     def __enter__(self) -> "MeasurementWriter":
         return self

@@ -1,0 +1,71 @@
+"""Which files a command reads and writes, checked before any work starts.
+
+Each command module may declare ``INPUTS`` and ``OUTPUTS``: tuples of argparse destinations
+(a file, a folder, or a list of them). ``OUTPUTS`` entries may also be ``"dest/NAME"`` for a
+file NAME written inside the folder given by ``dest`` (e.g. ``"ros/left.yaml"``).
+
+- An output that is the same file as an input, or as another output, is a usage error (exit 2):
+  a run must never overwrite what it reads.
+- An output that is an existing image inside an input folder is refused the same way.
+- While the command runs, every output is held by an advisory lock (core.locks), so a second
+  run writing the same file is refused with the number of the process that holds it.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Iterable
+
+from core.errors import UsageError
+
+IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm", ".webp"}
+
+
+def _values(args, dest: str) -> list[Path]:
+    value = getattr(args, dest, None)
+    if value is None or value == "" or value is False:
+        return []
+    items = value if isinstance(value, (list, tuple)) else [value]
+    return [Path(v) for v in items if v not in (None, "")]
+
+
+def _option(dest: str) -> str:
+    return "--" + dest.replace("_", "-")
+
+
+def declared(args, names: Iterable[str]) -> list[tuple[str, Path]]:
+    """(option name, path) for each declared destination that was given."""
+    found = []
+    for name in names:
+        dest, _, inside = name.partition("/")
+        for path in _values(args, dest):
+            found.append((_option(dest), path / inside if inside else path))
+    return found
+
+
+def _same(a: Path, b: Path) -> bool:
+    try:
+        if a.exists() and b.exists():
+            return os.path.samefile(a, b)
+    except OSError:
+        pass
+    return os.path.abspath(a) == os.path.abspath(b)
+
+
+def check_overlaps(args, module) -> list[Path]:
+    """Refuse outputs that overwrite an input or each other; return the output paths."""
+    inputs = declared(args, getattr(module, "INPUTS", ()))
+    outputs = declared(args, getattr(module, "OUTPUTS", ()))
+    for i, (o_name, o_path) in enumerate(outputs):
+        for o2_name, o2_path in outputs[i + 1:]:
+            if _same(o_path, o2_path):
+                raise UsageError(f"{o_name} and {o2_name} name the same file ({o_path}); give two different files")
+        for i_name, i_path in inputs:
+            if _same(o_path, i_path):
+                raise UsageError(f"{o_name} is the same file as {i_name} ({i_path}): the output would overwrite "
+                                 f"the input; choose another {o_name}")
+            if (i_path.is_dir() and o_path.suffix.lower() in IMAGE_SUFFIXES and o_path.exists()
+                    and Path(os.path.abspath(i_path)) in Path(os.path.abspath(o_path)).parents):
+                raise UsageError(f"{o_name} ({o_path}) is an image inside the {i_name} folder: the output would "
+                                 f"overwrite an input image; choose another {o_name}")
+    return [p for _, p in outputs]

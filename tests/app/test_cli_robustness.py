@@ -1,0 +1,92 @@
+"""The command line never shows a traceback and never overwrites what it reads: outputs that
+are inputs, two runs into one output, a closed / full / broken stdout, Ctrl-C at start-up."""
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import app.cli as cli
+from app.cli import main
+from core.locks import output_lock
+
+ROOT = Path(__file__).resolve().parents[2]
+ROBOT = ROOT / "resources" / "robots" / "ur5.json"
+
+
+def run_shell(cmd: str, tmp_path: Path) -> subprocess.CompletedProcess:
+    """Run `robocal` under bash (for redirections); stderr captured."""
+    return subprocess.run(["bash", "-c", cmd], cwd=tmp_path, capture_output=True, text=True, timeout=120,
+                          env={"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT), "HOME": str(tmp_path)})
+
+
+ROBOCAL = f"{sys.executable} -m app.cli"
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["identify", "--robot", "{robot}", "--measurements", "{m}", "--out", "{m}"],
+     "--out is the same file as --measurements"),
+    (["export", "--robot", "{robot}", "--format", "urdf", "--out", "{robot}"], "--out is the same file as --robot"),
+    (["select-poses", "--robot", "{robot}", "--count", "5", "--out", "{robot}"], "--out is the same file as --robot"),
+    (["stereo-calibrate", "--left", "{left}", "--right", "{left}", "--board", "9x6", "--square", "25",
+      "--out", "{image}"], "is an image inside the --left folder"),
+    (["stereo-calibrate", "--left", "{left}", "--right", "{left}", "--board", "9x6", "--square", "25",
+      "--out", "{tmp}/s.yaml", "--export-json", "{tmp}/s.yaml"], "--out and --export-json name the same file"),
+])
+def test_an_output_that_would_overwrite_an_input_is_a_usage_error(argv, message, tmp_path, capsys):
+    robot = tmp_path / "robot.json"
+    shutil.copy(ROBOT, robot)
+    m = tmp_path / "m.csv"
+    m.write_text("# robocal.measurements/1\npose,target,q1,q2,q3,q4,q5,q6,x,y,z\n")
+    left = tmp_path / "left"
+    left.mkdir()
+    (left / "l01.png").write_bytes(b"not really a png")
+    values = {"robot": robot, "m": m, "left": left, "image": left / "l01.png", "tmp": tmp_path}
+    before = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
+    assert main([a.format(**values) for a in argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0], err
+    assert {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()} == before
+
+
+def test_a_second_writer_of_the_same_output_is_refused(tmp_path, capsys):
+    out = tmp_path / "dh.csv"
+    with output_lock(out):
+        assert main(["export", "--robot", str(ROBOT), "--format", "dh-csv", "--out", str(out)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "being written by process" in err[0] and str(out) in err[0]
+    assert not out.exists()
+    assert main(["export", "--robot", str(ROBOT), "--format", "dh-csv", "--out", str(out)]) == 0
+    assert out.exists()
+
+
+@pytest.mark.parametrize("redirect, expected", [
+    (">/dev/full", "cannot print the result (No space left on device)"),
+    (">&-", "standard output is closed"),
+])
+def test_stdout_full_or_closed_is_one_line(redirect, expected, tmp_path):
+    proc = run_shell(f"{ROBOCAL} export --robot {ROBOT} --format dh-csv --out {tmp_path}/dh.csv "
+                     f"{redirect}", tmp_path)
+    lines = proc.stderr.strip().splitlines()
+    assert proc.returncode == 1 and len(lines) == 1 and expected in lines[0], proc.stderr
+    assert (tmp_path / "dh.csv").exists()          # the work itself was done
+
+
+def test_a_closed_pipe_is_one_line(tmp_path):
+    err = tmp_path / "err.txt"
+    proc = run_shell(f"set -o pipefail; {ROBOCAL} export --robot {ROBOT} --format dh-csv "
+                     f"--out {tmp_path}/dh.csv --json 2>{err} | (exec 0<&-; true)", tmp_path)
+    text = err.read_text()
+    assert "Traceback" not in text and len(text.strip().splitlines()) <= 1, text
+    assert proc.returncode in (0, 1)               # 1 when the write met the closed pipe
+
+
+def test_ctrl_c_while_starting_is_one_line_and_exit_130(monkeypatch, capsys):
+    def interrupted():
+        raise KeyboardInterrupt
+    monkeypatch.setattr(cli, "build_parser", interrupted)
+    assert main(["identify", "--robot", "r.json"]) == 130
+    assert capsys.readouterr().err == "robocal identify: interrupted\n"
