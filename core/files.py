@@ -151,6 +151,12 @@ def read_json(path: str | Path) -> dict:
     except json.JSONDecodeError as exc:
         raise RoboCalError(f"not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})",
                            source=path, hint="Fix the syntax or re-export the file.") from exc
+    except RecursionError:
+        raise RoboCalError("the JSON is nested too deeply to be a RoboCal file", source=path,
+                           hint="Check that this is the right file.") from None
+    except ValueError as exc:           # e.g. an integer with more digits than Python converts
+        raise RoboCalError(f"not a usable JSON file ({exc})", source=path,
+                           hint="Check that this is the right file.") from exc
     if not isinstance(data, dict):
         raise RoboCalError("expected a JSON object at the top level", source=path)
     return data

@@ -5,7 +5,11 @@ import math
 from pathlib import Path
 from typing import Any
 
+from core.bounds import ANGLE_DEG, LENGTH_MM, Bound
 from core.errors import RoboCalError
+
+#: the plausibility bound of a number read with this unit (core.bounds)
+UNIT_BOUNDS: dict[str, Bound] = {"mm": LENGTH_MM, "degrees": ANGLE_DEG, "deg": ANGLE_DEG}
 
 
 def check_format(data: dict, family: str, major: int, source: str | Path) -> int:
@@ -39,15 +43,20 @@ def require(data: dict, key: str, source, field: str | None = None) -> Any:
 
 
 def number(value: Any, source, field: str, unit: str = "") -> float:
-    """A finite number (bools and text are refused)."""
+    """A finite number (bools and text are refused), within the plausibility bound of its unit."""
     what = f"a number{' in ' + unit if unit else ''}"
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         shown = f"the text {value!r}" if isinstance(value, str) else repr(value)
         raise RoboCalError(f"expected {what}, got {shown}", source=source, field=field,
                            hint="Write a plain number without quotes or units.")
+    try:
+        value = float(value)
+    except OverflowError:                  # an integer with hundreds of digits
+        raise RoboCalError(f"expected {what}, got a number too large to use", source=source, field=field) from None
     if not math.isfinite(value):
         raise RoboCalError(f"expected {what}, got {value!r}", source=source, field=field)
-    return float(value)
+    bound = UNIT_BOUNDS.get(unit)
+    return bound.check(value, source=source, field=field) if bound is not None else value
 
 
 def vector(value: Any, length: int, source, field: str, unit: str = "") -> list[float]:

@@ -4,6 +4,7 @@ from __future__ import annotations
 import math
 
 from app.commands import CommandResult, check_output
+from app.commands import options
 
 HELP = "Kinematic identification: DH parameters, base pose and target offsets from measurements"
 
@@ -18,16 +19,16 @@ def add_arguments(parser) -> None:
     parser.add_argument("--out", required=True, metavar="calibrated.json",
                         help="calibrated robot model to write (only written when identification succeeds)")
     group = parser.add_mutually_exclusive_group()
-    group.add_argument("--holdout", type=float, metavar="FRACTION",
+    group.add_argument("--holdout", type=options.fraction, metavar="FRACTION",
                        help="hold out this fraction of the poses for validation (e.g. 0.25); "
                             "the model is fitted on the others")
-    group.add_argument("--kfold", type=int, metavar="K",
+    group.add_argument("--kfold", type=options.folds, metavar="K",
                        help="K-fold cross validation (the model is fitted on all poses)")
     parser.add_argument("--fix", default="", metavar="NAMES",
                         help="comma-separated parameters to keep at their nominal value, e.g. J2.a,base.rz,marker.x")
-    parser.add_argument("--huber", type=float, metavar="K",
+    parser.add_argument("--huber", type=options.huber_k, metavar="K",
                         help="robust (Huber) fit: down-weight points beyond K robust standard deviations (e.g. 3)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the validation split (default 0)")
+    parser.add_argument("--seed", type=options.seed, default=0, help="seed of the validation split (default 0)")
 
 
 def run(args) -> CommandResult:
@@ -38,10 +39,6 @@ def run(args) -> CommandResult:
 
     if args.holdout is not None and not 0.0 < args.holdout < 1.0:
         raise UsageError(f"--holdout must be between 0 and 1, got {args.holdout}")
-    if args.kfold is not None and args.kfold < 2:
-        raise UsageError(f"--kfold must be at least 2, got {args.kfold}")
-    if args.huber is not None and not args.huber > 0:
-        raise UsageError(f"--huber must be positive, got {args.huber}")
     check_output(args.out, "--out")
     robot = read_robot(args.robot)
     meas = read_measurements(args.measurements, robot)

@@ -13,6 +13,7 @@ point does not depend on it, and without a known size the size check is skipped)
 from __future__ import annotations
 
 from app.commands import CommandResult
+from app.commands import options
 
 HELP = "3D marker reference point (mm, left camera frame) from one stereo pair"
 
@@ -27,7 +28,7 @@ def add_arguments(parser) -> None:
                         help="marker training image (png/jpg), marker description (.json) or trained marker (.npz)")
     parser.add_argument("--left", required=True, metavar="L", help="left camera image")
     parser.add_argument("--right", required=True, metavar="R", help="right camera image")
-    parser.add_argument("--marker-size", type=float, metavar="MM",
+    parser.add_argument("--marker-size", type=options.size_mm, metavar="MM",
                         help="side of the marker's outer black square in mm (default: from the marker "
                              "description beside the image, else 40)")
 

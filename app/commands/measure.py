@@ -12,6 +12,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from app.commands import CommandResult, ProgressLine
+from app.commands import options
 
 HELP = "Batch of pose image pairs to a measurements file (marker located in 3D per pose)"
 
@@ -28,7 +29,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--joints", required=True, metavar="J.csv", help="joint values per pose (pose,q1,...,qn)")
     parser.add_argument("--out", required=True, metavar="meas.csv", help="measurements file to write")
     parser.add_argument("--robot", metavar="R.json", help="robot model: checks the joint count and joint types")
-    parser.add_argument("--marker-size", type=float, metavar="MM",
+    parser.add_argument("--marker-size", type=options.size_mm, metavar="MM",
                         help="side of the marker's outer black square in mm (default: from the marker "
                              "description beside the image, else 40)")
     group = parser.add_mutually_exclusive_group()

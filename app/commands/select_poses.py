@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 from app.commands import CommandResult, check_output
+from app.commands import options
 
 HELP = "Pose sequence chosen by observability (condition number or O1/O3/O4/O5 of the calibration Jacobian)"
 
@@ -21,9 +22,9 @@ OUTPUTS = ("out",)
 def add_arguments(parser) -> None:
     parser.add_argument("--robot", metavar="R.json",
                         help="robot model file (with --stereo its base pose must be in the left camera frame)")
-    parser.add_argument("--count", required=True, type=int, metavar="N", help="number of poses to select")
+    parser.add_argument("--count", required=True, type=options.pose_count, metavar="N", help="number of poses to select")
     parser.add_argument("--out", required=True, metavar="poses.csv", help="pose sequence to write (pose,q1..qn; degrees)")
-    parser.add_argument("--candidates", type=int, default=2000, metavar="M",
+    parser.add_argument("--candidates", type=options.candidates, default=2000, metavar="M",
                         help="feasible candidate configurations to choose from (default 2000)")
     parser.add_argument("--index", default="cond", choices=["cond", "O1", "O3", "O4", "O5"],
                         help="observability index to optimise (default cond, the condition number)")
@@ -31,17 +32,17 @@ def add_arguments(parser) -> None:
     source.add_argument("--stereo", metavar="S", help="stereo.yaml: keep only poses where both cameras see the marker")
     source.add_argument("--virtual-lab", action="store_true",
                         help="use the virtual lab's cameras, placed robot and table (robot from --robot or the demo arm)")
-    parser.add_argument("--lab-seed", type=int, default=0, help="seed of the virtual lab (default 0, as the demo)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the candidate poses (default 0)")
-    parser.add_argument("--margin", type=float, default=5.0, metavar="DEG",
+    parser.add_argument("--lab-seed", type=options.seed, default=0, help="seed of the virtual lab (default 0, as the demo)")
+    parser.add_argument("--seed", type=options.seed, default=0, help="seed of the candidate poses (default 0)")
+    parser.add_argument("--margin", type=options.angle_deg, default=5.0, metavar="DEG",
                         help="keep this far from every joint limit (degrees; mm for prismatic joints; default 5)")
-    parser.add_argument("--plate", type=float, metavar="MM",
+    parser.add_argument("--plate", type=options.size_mm, metavar="MM",
                         help="marker plate side for the visibility check with --stereo (default: the default marker's)")
-    parser.add_argument("--max-angle", type=float, default=60.0, metavar="DEG",
+    parser.add_argument("--max-angle", type=options.angle_deg, default=60.0, metavar="DEG",
                         help="largest angle between the marker normal and each camera direction (default 60)")
-    parser.add_argument("--min-depth", type=float, metavar="MM", help="smallest marker depth (default 350; lab 400)")
-    parser.add_argument("--max-depth", type=float, metavar="MM", help="largest marker depth (default 1000; lab 900)")
-    parser.add_argument("--random-trials", type=int, default=100, metavar="K",
+    parser.add_argument("--min-depth", type=options.depth_mm, metavar="MM", help="smallest marker depth (default 350; lab 400)")
+    parser.add_argument("--max-depth", type=options.depth_mm, metavar="MM", help="largest marker depth (default 1000; lab 900)")
+    parser.add_argument("--random-trials", type=options.random_trials, default=100, metavar="K",
                         help="random selections of the same size to compare with (default 100)")
 
 
@@ -52,14 +53,8 @@ def run(args) -> CommandResult:
     from core.poses.selection import select_poses, write_selection
     from core.robot.file import read_robot
 
-    if args.count < 1:
-        raise UsageError(f"--count must be at least 1, got {args.count}")
     if args.candidates < args.count:
         raise UsageError(f"--candidates ({args.candidates}) must be at least --count ({args.count})")
-    if args.margin < 0:
-        raise UsageError(f"--margin must not be negative, got {args.margin}")
-    if args.random_trials < 1:
-        raise UsageError(f"--random-trials must be at least 1, got {args.random_trials}")
     if args.robot is None and not args.virtual_lab:
         raise UsageError("--robot is required (or --virtual-lab for the demo arm)")
     options: dict = {}

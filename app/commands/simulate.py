@@ -3,6 +3,7 @@ from __future__ import annotations
 
 
 from app.commands import CommandResult, ProgressLine
+from app.commands import options
 
 HELP = "Write a virtual-lab dataset: checkerboard pairs, marker training image, pose images, joints, truth.json"
 
@@ -16,24 +17,17 @@ def add_arguments(parser) -> None:
                         help="output folder (new, empty, or a previous dataset, which is replaced)")
     parser.add_argument("--robot", metavar="R.json",
                         help="nominal robot model file (default: the educational 6R preset)")
-    parser.add_argument("--seed", type=int, default=0, help="random seed; the same seed gives the same files (default 0)")
-    parser.add_argument("--pairs", type=int, default=20, help="checkerboard image pairs (default 20)")
-    parser.add_argument("--poses", type=int, default=40, help="robot poses with marker image pairs (default 40)")
-    parser.add_argument("--noise", type=float, default=0.5,
+    parser.add_argument("--seed", type=options.seed, default=0, help="random seed; the same seed gives the same files (default 0)")
+    parser.add_argument("--pairs", type=options.pair_count, default=20, help="checkerboard image pairs (default 20)")
+    parser.add_argument("--poses", type=options.image_poses, default=40, help="robot poses with marker image pairs (default 40)")
+    parser.add_argument("--noise", type=options.noise_grey, default=0.5,
                         help="sensor read noise, grey levels (default 0.5; 0 for noise-free images)")
 
 
 def run(args) -> CommandResult:
-    from core.errors import UsageError
     from core.robot.file import read_robot
     from app.lab import simulate_dataset
 
-    if args.pairs < 0 or args.poses < 0:
-        raise UsageError("--pairs and --poses must be zero or positive")
-    if not args.noise >= 0:
-        raise UsageError("--noise must be zero or positive (grey levels)")
-    if args.seed < 0:
-        raise UsageError("--seed must be zero or positive")
     robot = read_robot(args.robot) if args.robot else None
     progress = ProgressLine("simulate")
     try:

@@ -10,6 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from app.commands import CommandResult, ProgressLine, check_output
+from app.commands import options
 from core.stereo.board import Board
 from core.stereo.checkerboard import detect_folders
 from core.errors import UsageError
@@ -31,7 +32,7 @@ def add_arguments(parser) -> None:
                         help="right camera images (same forms as --left)")
     parser.add_argument("--board", required=True, metavar="COLSxROWS",
                         help="inner corners of the checkerboard, e.g. 9x6")
-    parser.add_argument("--square", required=True, type=float, metavar="MM", help="square size in mm")
+    parser.add_argument("--square", required=True, type=options.size_mm, metavar="MM", help="square size in mm")
     parser.add_argument("--out", default="stereo.yaml", metavar="FILE",
                         help="calibration file to write (default: stereo.yaml)")
     parser.add_argument("--radial", type=int, choices=(2, 3, 6), default=3,
@@ -44,7 +45,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--exclude", metavar="LIST", default="",
                         help="pairs to leave out: numbers (1 = first pair in sorted order) or file names, "
                              "comma-separated")
-    parser.add_argument("--outlier-k", type=float, default=3.0, metavar="K",
+    parser.add_argument("--outlier-k", type=options.outlier_k, default=3.0, metavar="K",
                         help="flag pairs whose error exceeds median + K·sigma (default 3)")
     parser.add_argument("--ros", metavar="DIR", help="also write ROS camera_info files left.yaml and right.yaml here")
     parser.add_argument("--export-json", metavar="FILE", help="also write the full result as JSON")

@@ -15,6 +15,7 @@ docs/file-formats.md, section "Trained marker").
 from __future__ import annotations
 
 import io
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -131,8 +132,8 @@ class TrainedMarker:
                 data = {k: z[k] for k in z.files}
         except FileNotFoundError as exc:
             raise RoboCalError("file not found", source=path, hint="Check the path.") from exc
-        except (OSError, ValueError) as exc:
-            raise RoboCalError("not a trained-marker file (.npz)", source=path,
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:   # also a truncated file
+            raise RoboCalError("not a trained-marker file (.npz), or a truncated one", source=path,
                                hint="Train the marker again (robocal locate accepts the training image).") from exc
         tag = str(data.get("format", ""))
         family, _, major = tag.partition("/")
@@ -157,6 +158,9 @@ class TrainedMarker:
                        outline_sigma_px=float(data.get("outline_sigma_px", 0.0)), source=str(path))
         except KeyError as exc:
             raise RoboCalError(f"missing entry {exc.args[0]!r}", source=path,
+                               hint="Train the marker again.") from exc
+        except (ValueError, TypeError, IndexError) as exc:       # an entry of the wrong shape or type
+            raise RoboCalError(f"an entry has the wrong shape or type ({exc})", source=path,
                                hint="Train the marker again.") from exc
 
 

@@ -32,6 +32,7 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
+from core.bounds import ANGLE_DEG, LENGTH_MM, POSE_ID, SIGMA_MM, Bound
 from core.errors import RoboCalError
 from core.files import atomic_write_text, drop_partial_last_line, read_text
 from core.robot.model import RobotModel
@@ -179,6 +180,15 @@ def _number(path, line_no: int, column: str, text: str) -> float:
     return value
 
 
+def _bounded(path, line_no: int, column: str, text: str, bound: Bound) -> float:
+    """A number within its plausibility bound (core.bounds)."""
+    value = _number(path, line_no, column, text)
+    if not bound.lo <= value <= bound.hi:
+        raise _error(path, line_no, f"{value:g} {bound.unit} is outside {bound.lo:g} … {bound.hi:g} {bound.unit} "
+                     f"({bound.reason})", column=column, hint="Check the value and its unit.")
+    return value
+
+
 def _check_header(path, line_no: int, cols: list[str], minor: int, dof: int | None) -> dict:
     """Validate the header; return the column layout {name: index}, joint count, sigmas flag."""
     seen = {}
@@ -238,7 +248,10 @@ def read_measurements(path: str | Path, robot: RobotModel | None = None) -> Meas
         if minor is None:
             raise _error(path, line_no, f"the file must start with the format tag line '{TAG_LINE}'",
                          hint="Is this a RoboCal measurements file? Add the tag line if it is.")
-        cells = [c.strip() for c in next(csv.reader([line]))]
+        try:
+            cells = [c.strip() for c in next(csv.reader([line]))]
+        except csv.Error as exc:              # e.g. a field over the csv module's 128 KiB limit
+            raise _error(path, line_no, f"unreadable row ({exc})", hint="Check the row; is this a CSV file?") from None
         if layout is None:
             layout = _check_header(path, line_no, cells, minor, robot.dof if robot is not None else None)
             header_len = len(cells)
@@ -259,6 +272,9 @@ def read_measurements(path: str | Path, robot: RobotModel | None = None) -> Meas
 
     idx, n_q = layout["index"], layout["n_q"]
     q_names = [f"q{i + 1}" for i in range(n_q)]
+    # joint values in file units: degrees for revolute joints, mm for prismatic (the wider bound without a robot)
+    q_bounds = ([ANGLE_DEG if j.revolute else LENGTH_MM for j in robot.joints] if robot is not None
+                else [LENGTH_MM] * n_q)
     N = len(rows)
     pose = np.empty(N, dtype=int)
     targets: list[str] = []
@@ -272,24 +288,29 @@ def read_measurements(path: str | Path, robot: RobotModel | None = None) -> Meas
         lines[k] = line_no
         p_text = cells[idx["pose"]]
         try:
-            pose[k] = int(p_text)
+            pose_id = int(p_text)
         except ValueError:
             raise _error(path, line_no, f"expected a whole number as pose id, got '{p_text}'",
                          column="pose") from None
+        if not POSE_ID.lo <= pose_id <= POSE_ID.hi:
+            raise _error(path, line_no, f"pose id {p_text[:20]} is outside {POSE_ID.lo:g} … {POSE_ID.hi:g} "
+                         f"({POSE_ID.reason})", column="pose")
+        pose[k] = pose_id
         target = cells[idx["target"]]
         if not target:
             raise _error(path, line_no, "empty target name", column="target",
                          hint="Name the measured point (e.g. marker).")
         targets.append(target)
         for j, c in enumerate(q_names):
-            q_file[k, j] = _number(path, line_no, c, cells[idx[c]])
+            q_file[k, j] = _bounded(path, line_no, c, cells[idx[c]], q_bounds[j])
         for j, c in enumerate(XYZ_COLUMNS):
-            xyz[k, j] = _number(path, line_no, c, cells[idx[c]])
+            xyz[k, j] = _bounded(path, line_no, c, cells[idx[c]], LENGTH_MM)
         if sigma is not None:
             for j, c in enumerate(SIGMA_COLUMNS):
                 s = _number(path, line_no, c, cells[idx[c]])
                 if s <= 0:
                     raise _error(path, line_no, f"a standard deviation must be positive, got {s}", column=c)
+                s = _bounded(path, line_no, c, cells[idx[c]], SIGMA_MM)
                 sigma[k, j] = s
         key = (int(pose[k]), target)
         if key in seen_points:

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from core.bounds import LENGTH_MM, POSE_ID
 from core.errors import RoboCalError
 from core.files import atomic_write_text, read_text
 from core.robot.model import RobotModel
@@ -61,7 +62,11 @@ def read_poses(path: str | Path, robot: RobotModel | None = None) -> PoseList:
         line = raw.strip()
         if not line or line.startswith("#"):
             continue
-        cells = [c.strip() for c in next(csv.reader([line]))]
+        try:
+            cells = [c.strip() for c in next(csv.reader([line]))]
+        except csv.Error as exc:              # e.g. a field over the csv module's 128 KiB limit
+            raise RoboCalError(f"line {line_no}: unreadable row ({exc})", source=path,
+                               hint="Check the row; is this a CSV file?") from None
         if header is None:
             n = len(cells) - 1
             if cells[0] != "pose" or n < 1 or cells[1:] != [f"q{j + 1}" for j in range(n)]:
@@ -86,6 +91,7 @@ def read_poses(path: str | Path, robot: RobotModel | None = None) -> PoseList:
             if not math.isfinite(v):
                 raise RoboCalError(f"line {line_no}, column '{name}': expected a finite number",
                                    source=path)
+            (POSE_ID if name == "pose" else LENGTH_MM).check(v, source=path, field=f"line {line_no}, {name}")
             values.append(v)
         poses.append(int(values[0]) if float(values[0]).is_integer() else -1)
         if poses[-1] < 0:

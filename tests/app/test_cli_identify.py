@@ -124,7 +124,7 @@ def test_usage_errors(tmp_path, capsys, data):
     code, err = bad_run(capsys, tmp_path, meas_path=data / "m.csv", extra=["--fix", "J9.zz"])
     assert code == 2 and "unknown parameter 'J9.zz'" in err
     code, err = bad_run(capsys, tmp_path, meas_path=data / "m.csv", extra=["--holdout", "1.5"])
-    assert code == 2 and "--holdout must be between 0 and 1" in err
+    assert code == 2 and "argument --holdout: 1.5 is outside 0 … 1" in err
     code = main(["identify", "--robot", ROBOT, "--measurements", m, "--out", str(tmp_path / "c.json"),
                  "--holdout", "0.2", "--kfold", "3"])
     assert code == 2 and "not allowed with argument" in capsys.readouterr().err

@@ -174,7 +174,7 @@ def test_unwritable_output_refused_before_the_work(tmp_path, capsys):
 
 @pytest.mark.parametrize("extra, words", [
     (["--board", "9by6"], ["board size must look like 9x6"]),
-    (["--square", "-3"], ["square size must be positive"]),
+    (["--square", "-3"], ["argument --square: -3 mm is outside 0.001 … 10000 mm"]),
     (["--radial", "4"], ["invalid choice"]),
     (["--exclude", "99"], ["pair 99 does not exist"]),
 ])
