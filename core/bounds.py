@@ -38,6 +38,8 @@ ANGLE_DEG = Bound(-3600.0, 3600.0, "degrees", "ten turns is more than any joint 
 SIGMA_MM = Bound(1e-9, 1e3, "mm", "a point known to worse than a metre is no measurement")
 #: pose ids in measurement and pose files
 POSE_ID = Bound(0, 1e9, "", "pose ids count poses; a billion is beyond any calibration")
+#: measured points in one measurements file (memory and time of identification grow with them)
+POINT_COUNT = Bound(1, 200_000, "", "a calibration uses hundreds of points; identifying 200 000 already takes minutes")
 #: random seeds
 SEED = Bound(0, 2**32 - 1, "", "seeds are non-negative 32-bit integers")
 #: image noise of the virtual lab, grey levels (8-bit images)

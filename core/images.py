@@ -6,6 +6,10 @@ Every image RoboCal analyses (checkerboards, marker pairs, training images) goes
 """
 from __future__ import annotations
 
+import contextlib
+import os
+import tempfile
+import threading
 from pathlib import Path
 
 import cv2
@@ -42,13 +46,40 @@ def decode_gray(data: bytes) -> tuple[np.ndarray | None, str | None]:
     elif data[:8] == b"\x89PNG\r\n\x1a\n":
         if b"IEND" not in data[-32:]:
             return None, "truncated PNG (the file ends before the image data)"
-    try:
-        image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
-    except cv2.error:
-        image = None
+    with _decoder_messages() as said:
+        try:
+            image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+        except cv2.error:
+            image = None
     if image is None:
-        return None, "not a readable image"
+        detail = " ".join(said()).strip()
+        return None, "not a readable image" + (f" ({detail[:120]})" if detail else "")
     return to_gray8(image), None
+
+
+_STDERR_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def _decoder_messages():
+    """Catch what the image libraries (libpng, libjpeg) print on the process's stderr while
+    decoding, so it becomes part of RoboCal's message instead of noise on the terminal.
+    Yields a function returning the captured lines. Decodes are serialised while captured."""
+    lines: list[str] = []
+    with _STDERR_LOCK, tempfile.TemporaryFile() as sink:
+        try:
+            saved = os.dup(2)
+        except OSError:                   # no stderr at all: nothing to capture
+            yield lambda: lines
+            return
+        try:
+            os.dup2(sink.fileno(), 2)
+            yield lambda: lines
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            sink.seek(0)
+            lines.extend(sink.read().decode("utf-8", "replace").splitlines())
 
 
 def to_gray8(image: np.ndarray) -> np.ndarray:

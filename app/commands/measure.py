@@ -9,6 +9,7 @@ rejected are skipped) or replaced with `--overwrite`; otherwise it is refused.
 """
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 from app.commands import CommandResult, ProgressLine
@@ -34,7 +35,11 @@ def add_arguments(parser) -> None:
                              "description beside the image, else 40)")
     group = parser.add_mutually_exclusive_group()
     group.add_argument("--resume", action="store_true", help="continue an existing output (skip poses done)")
-    group.add_argument("--overwrite", action="store_true", help="replace an existing output and its rejects file")
+    group.add_argument("--overwrite", action="store_true",
+                       help="measure again into new files that replace the output and its rejects file "
+                            "only when the run succeeds")
+    parser.add_argument("--retry-rejected", action="store_true",
+                        help="with --resume: measure the poses rejected in an earlier run again")
 
 
 def run(args) -> CommandResult:
@@ -67,8 +72,15 @@ def run(args) -> CommandResult:
         raise RoboCalError(f"{len(pairs)} image pairs in {images} but {len(poses)} poses in the joints file",
                            source=args.joints, hint="Give one row per image pair, in the order of the file names.")
     locator, _ = setup_locator(args)
-    if args.overwrite:
-        for p in (out, rejects):
+    if args.retry_rejected and not args.resume:
+        raise UsageError("--retry-rejected goes with --resume")
+    # a new run writes beside the old files and replaces them only when it succeeds;
+    # a run that measures nothing leaves no files behind (a plain re-run then just works)
+    fresh = not args.resume
+    write_out = out.with_name(f".{out.name}.new") if fresh else out
+    write_rejects = rejects_path_for(write_out) if fresh else rejects
+    if fresh:
+        for p in (write_out, write_rejects):
             p.unlink(missing_ok=True)
     by_pose = {int(pid): pair for pid, pair in zip(poses.pose, pairs)}
 
@@ -83,21 +95,27 @@ def run(args) -> CommandResult:
 
     progress = ProgressLine("measure")
     try:
-        result = run_measurements(poses, out, locate=locator.locate, capture_pose=capture_pose, rejects=rejects,
-                                  resume=True, keep_locations=False, progress=progress)
+        result = run_measurements(poses, write_out, locate=locator.locate, capture_pose=capture_pose,
+                                  rejects=write_rejects, resume=True, retry_rejected=args.retry_rejected,
+                                  keep_locations=False, progress=progress)
+        if fresh and not result.measured:
+            raise _nothing_measured(result, len(poses))
+    except BaseException:
+        if fresh:
+            for p in (write_out, write_rejects):
+                p.unlink(missing_ok=True)
+        raise
     finally:
         progress.close()
+    if fresh:
+        _replace(write_out, out)
+        _replace(write_rejects, rejects)
     data = result.summary()
     data["points"] = [{"pose": o.pose, "x": float(o.point[0]), "y": float(o.point[1]), "z": float(o.point[2]),
                        "sigma": [float(v) for v in o.sigma] if o.sigma is not None else None}
                       for o in result.measured]
     n_new = len(result.measured)
     done_before = len(result.skipped)
-    if n_new == 0 and result.rejected and not done_before:
-        first = result.rejected[0]
-        raise RoboCalError(f"none of the {len(poses)} poses could be measured (reasons in {rejects}); "
-                           f"pose {first.pose}: {first.reason}",
-                           hint="Check the stereo calibration and the marker image.")
     lines = [f"Measured {n_new} of {len(poses)} poses into {out}"
              + (f" ({done_before} done in an earlier run)" if done_before else "")
              + (f"; {len(result.rejected)} rejected, reasons in {rejects}:" if result.rejected else ".")]
@@ -106,3 +124,29 @@ def run(args) -> CommandResult:
     if len(result.rejected) > 10:
         lines.append(f"  ... and {len(result.rejected) - 10} more")
     return CommandResult(text="\n".join(lines), data=data)
+
+
+def _nothing_measured(result, n_poses: int) -> Exception:
+    """The refusal of a new run that measured no pose: the most common reason, and no file written."""
+    from collections import Counter
+    from core.errors import RoboCalError
+    reasons = Counter(o.reason for o in result.rejected)
+    why = ""
+    if reasons:
+        reason, count = reasons.most_common(1)[0]
+        why = f"; {count} of them: {reason}"
+    return RoboCalError(f"none of the {n_poses} poses could be measured{why} (no file was written)",
+                        hint="Check the stereo calibration and the marker image.")
+
+
+def _replace(new: Path, old: Path) -> None:
+    """Put a finished run's file in place of the old one (or remove the old one if the run wrote none)."""
+    from core.errors import RoboCalError
+    try:
+        if new.exists():
+            os.replace(new, old)
+        else:
+            old.unlink(missing_ok=True)
+    except OSError as exc:
+        raise RoboCalError(f"cannot replace the file ({exc.strerror})", source=old,
+                           hint="The new measurements are in " + str(new)) from exc

@@ -23,6 +23,7 @@ measurement run that is interrupted keeps every point taken so far.
 from __future__ import annotations
 
 import csv
+import io
 import math
 import os
 import re
@@ -32,7 +33,7 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from core.bounds import ANGLE_DEG, LENGTH_MM, POSE_ID, SIGMA_MM, Bound
+from core.bounds import ANGLE_DEG, LENGTH_MM, POINT_COUNT, POSE_ID, SIGMA_MM, Bound
 from core.errors import RoboCalError
 from core.files import atomic_write_text, drop_partial_last_line, read_text
 from core.robot.model import RobotModel
@@ -237,7 +238,7 @@ def read_measurements(path: str | Path, robot: RobotModel | None = None) -> Meas
     minor = None
     layout = None
     rows: list[tuple[int, list[str]]] = []
-    for line_no, raw in enumerate(text.splitlines(), start=1):
+    for line_no, raw in enumerate(io.StringIO(text), start=1):
         line = raw.strip()
         if not line:
             continue
@@ -260,6 +261,9 @@ def read_measurements(path: str | Path, robot: RobotModel | None = None) -> Meas
             raise _error(path, line_no, f"expected {header_len} values (as in the header), got {len(cells)}",
                          hint="Check for a missing or extra comma.")
         rows.append((line_no, cells))
+        if len(rows) > POINT_COUNT.hi:
+            raise _error(path, line_no, f"more than {POINT_COUNT.hi:,.0f} measured points ({POINT_COUNT.reason})",
+                         hint="Split the file, or keep a subset of the poses.")
     if minor is None:
         raise RoboCalError("empty file (no format tag, no header)", source=path,
                            hint=f"A measurements file starts with '{TAG_LINE}'.")

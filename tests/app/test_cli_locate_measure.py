@@ -142,8 +142,24 @@ def test_measure_writes_the_measurements_and_resumes(dataset, tmp_path, capsys):
     assert main(args + ["--resume", "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
     assert d["skipped"] == 6 and d["measured"] == 0
-    # overwrite with the robot model: checked joint count, all 6 measured with the good image back
+    # a failed --overwrite (cameras swapped: no pose measurable) keeps the earlier results byte for byte
+    before = (out.read_bytes(), rejects.read_bytes())
+    swapped = tmp_path / "swapped"
+    shutil.copytree(images / "left", swapped / "right")
+    shutil.copytree(images / "right", swapped / "left")
+    wrong = args[:]
+    wrong[wrong.index("--images") + 1] = str(swapped)
+    assert main(wrong + ["--overwrite"]) == 1
+    assert "none of the 6 poses could be measured" in capsys.readouterr().err
+    assert (out.read_bytes(), rejects.read_bytes()) == before
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".meas")) == []
+    # the rejected pose is measured again on request once its image is good
     shutil.copy(ds / "poses" / "right" / "pose_004.png", images / "right" / "pose_004.png")
+    assert main(args + ["--resume", "--retry-rejected", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["measured"] == 1 and d["skipped"] == 5
+    assert list(read_measurements(out).pose) == [0, 1, 2, 3, 5, 4]
+    # overwrite with the robot model: checked joint count, all 6 measured
     robot = tmp_path / "robot.json"
     robot.write_text(json.dumps(truth["nominal_robot"]))
     assert main(args + ["--overwrite", "--robot", str(robot), "--json"]) == 0
@@ -172,3 +188,6 @@ def test_measure_bad_inputs(dataset, tmp_path, capsys):
     assert main(bad + ["--joints", str(ds / "poses" / "joints.csv")]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "none of the 6 poses could be measured" in err[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["imgs", "joints.csv"]     # nothing left behind
+    assert main(bad + ["--joints", str(ds / "poses" / "joints.csv")]) == 1        # the same refusal again
+    assert "none of the 6 poses" in capsys.readouterr().err
