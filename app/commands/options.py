@@ -22,7 +22,7 @@ def _make(bound: Bound, kind: type) -> Callable[[str], float | int]:
             value = kind(text)
         except ValueError:
             raise argparse.ArgumentTypeError(
-                f"expected {'a whole number' if kind is int else 'a number'}, got '{text}'") from None
+                f"expected {'a whole number' if kind is int else 'a number'}, got {text!r}") from None
         if not (math.isfinite(value) and bound.lo <= value <= bound.hi):
             unit = f" {bound.unit}" if bound.unit else ""
             raise argparse.ArgumentTypeError(f"{text}{unit} is outside {bound.lo:g} … {bound.hi:g}{unit} "
