@@ -32,13 +32,19 @@ COMMANDS = {
 }
 
 
+def one_line(text: str) -> str:
+    """`text` as one printable line: control characters and line separators (which a file's
+    contents may carry into a message) are shown escaped."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text.rstrip("\n"))
+
+
 def say(line: str) -> None:
     """One line on stderr; silent if stderr itself is closed or broken."""
     stream = sys.stderr
     if stream is None:
         return
     try:
-        stream.write(line.rstrip("\n") + "\n")
+        stream.write(one_line(line) + "\n")
         stream.flush()
     except (OSError, ValueError):
         pass

@@ -113,7 +113,7 @@ MEAS_LINES = None
 
 @FUZZ
 @given(line=st.integers(0, 12), column=st.integers(0, 10),
-       value=st.one_of(st.text(alphabet=" ,\"#x0123456789.e-+n\n", max_size=10),
+       value=st.one_of(st.text(alphabet=" ,\"#x0123456789.e-+n\n\r\x1e\x0b\u2028", max_size=10),
                        st.sampled_from(["nan", "inf", "1e308", "-1e300", "", "1e20", "9" * 400, "  ", "\"a,b\""])))
 def test_malformed_measurement_files(files, tmp_path_factory, line, column, value):
     work = tmp_path_factory.mktemp("meas")
