@@ -29,6 +29,7 @@ COMMANDS = {
     "identify": "identify",
     "evaluate": "evaluate",
     "export": "export",
+    "import-measurements": "import_measurements",
 }
 
 

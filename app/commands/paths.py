@@ -1,8 +1,9 @@
 """Which files a command reads and writes, checked before any work starts.
 
 Each command module may declare ``INPUTS`` and ``OUTPUTS``: tuples of argparse destinations
-(a file, a folder, or a list of them). ``OUTPUTS`` entries may also be ``"dest/NAME"`` for a
-file NAME written inside the folder given by ``dest`` (e.g. ``"ros/left.yaml"``).
+(a file, a folder, or a list of them), named in messages as ``--dest``, or as LABEL when
+written ``"dest=LABEL"`` (positional arguments). ``OUTPUTS`` entries may also be
+``"dest/NAME"`` for a file NAME written inside the folder given by ``dest`` (``"ros/left.yaml"``).
 
 - An output that is the same file as an input, or as another output, is a usage error (exit 2):
   a run must never overwrite what it reads.
@@ -37,9 +38,10 @@ def declared(args, names: Iterable[str]) -> list[tuple[str, Path]]:
     """(option name, path) for each declared destination that was given."""
     found = []
     for name in names:
+        name, _, label = name.partition("=")
         dest, _, inside = name.partition("/")
         for path in _values(args, dest):
-            found.append((_option(dest), path / inside if inside else path))
+            found.append((label or _option(dest), path / inside if inside else path))
     return found
 
 
