@@ -694,6 +694,7 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
     if holdout is not None and kfold is not None:
         raise UsageError("use either a held-out fraction or k-fold cross validation, not both")
     monitor = Monitor(progress, cancelled)
+    robot, unknown = with_unknown_targets(robot, meas)
     meas = _with_q(meas, robot)
     check_against_robot(meas, robot)
     fixed = list(fixed)
@@ -741,6 +742,9 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
     before = error_stats(fit.initial, train)
     after = error_stats(fit.model, train)
     warnings = []
+    if unknown:
+        warnings.append(f"target(s) {', '.join(unknown)} are not in the robot file: their offsets on the tool "
+                        f"were estimated from a start at the tool origin")
     unmeasured = [t for t in robot.targets if t not in set(meas.target)]
     if unmeasured:
         warnings.append(f"target(s) {', '.join(unmeasured)} were not measured: their offsets keep the "
@@ -764,6 +768,19 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
         weighted=train.sigma is not None)
     model.calibration = result.calibration_section()
     return result
+
+
+def with_unknown_targets(robot: RobotModel, meas: Measurements) -> tuple[RobotModel, list[str]]:
+    """The robot with every target the measurements name but the robot file lacks (laser-tracker
+    reflectors whose offsets nobody measured) added at the tool origin, where identification
+    starts its estimate; and their names. The robot itself is not changed."""
+    unknown = [t for t in meas.target_names if t not in robot.targets]
+    if not unknown:
+        return robot, []
+    robot = robot.copy()
+    for name in unknown:
+        robot.targets[name] = np.zeros(3)
+    return robot, unknown
 
 
 def write_calibrated_model(result: IdentificationResult, path: str | Path) -> Path:

@@ -133,7 +133,7 @@ class Measurements:
 
     def with_robot(self, robot: RobotModel) -> "Measurements":
         """A copy with Q converted to internal units through `robot` (checks the joint count)."""
-        check_against_robot(self, robot)
+        check_against_robot(self, robot, targets=False)
         out = self.subset(slice(None))
         out.Q = robot.q_from_file(self.q_file)
         return out
@@ -332,14 +332,15 @@ def read_measurements(path: str | Path, robot: RobotModel | None = None) -> Meas
     return meas
 
 
-def check_against_robot(meas: Measurements, robot: RobotModel) -> None:
-    """Joint count and target names must match the robot (errors name file and line)."""
+def check_against_robot(meas: Measurements, robot: RobotModel, *, targets: bool = True) -> None:
+    """Joint count (and, with `targets`, target names) must match the robot (errors name file and line).
+    Reading checks the joints only: identification estimates targets the robot file lacks."""
     src = meas.source or "<measurements>"
     if meas.dof != robot.dof:
         raise RoboCalError(f"the measurements have {meas.dof} joint values per row but the robot "
                            f"'{robot.name}' has {robot.dof} joints", source=src,
                            hint="Use the robot model these measurements were taken with.")
-    for i, t in enumerate(meas.target):
+    for i, t in enumerate(meas.target if targets else ()):
         if t not in robot.targets:
             known = ", ".join(robot.targets) or "none"
             raise RoboCalError(f"{meas.where(i)}: target '{t}' is not defined in the robot "

@@ -100,7 +100,9 @@ def test_bad_numbers_and_joint_count(tmp_path, capsys):
 
 
 def test_unknown_target_and_too_few_poses(tmp_path, capsys, data):
-    code, err = bad_run(capsys, tmp_path, HEAD + "0,probe,1,2,3,4,5,6,10,20,30\n")
+    (tmp_path / "probe.csv").write_text(HEAD + "0,probe,1,2,3,4,5,6,10,20,30\n")
+    code = main(["evaluate", "--robot", ROBOT, "--measurements", str(tmp_path / "probe.csv")])
+    err = capsys.readouterr().err          # a model can only be evaluated at targets it defines
     assert code == 1 and "target 'probe' is not defined in the robot" in err
     rows = "".join(f"{i},marker,{i},{2 * i},{3 * i},4,5,6,{10 + i},{20 - i},{30 + i * i}\n" for i in range(5))
     code, err = bad_run(capsys, tmp_path, HEAD + rows)

@@ -337,9 +337,10 @@ def test_targets_measured_and_unmeasured(presets):
     both = simulate_measurements(true, 30, rng=1, targets=["marker", "probe"])
     r2 = identify(nominal, both)
     assert {"probe.x", "marker.x"} <= set(r2.estimated) and r2.n_points == 60
-    other = presets["educational_6r"]        # has no 'probe'
-    with pytest.raises(RoboCalError, match="target 'probe' is not defined in the robot"):
-        identify(other, both)
+    other = presets["educational_6r"]        # has no 'probe': estimated from the tool origin, and said so
+    r3 = identify(other, both)
+    assert "probe.x" in r3.estimated and "probe" not in other.targets
+    assert any("probe are not in the robot file" in w for w in r3.warnings)
 
 
 def test_divergence_is_reported(presets):

@@ -8,7 +8,7 @@ import pytest
 
 from core.errors import RoboCalError
 from core.robot.model import robot_path
-from core.measurement.file import (TAG_LINE, MeasurementWriter, Measurements, header_columns,
+from core.measurement.file import (TAG_LINE, MeasurementWriter, Measurements, check_against_robot, header_columns,
                                read_measurements, write_measurements)
 from core.robot.file import read_robot
 
@@ -137,8 +137,9 @@ def test_missing_tag_line_and_empty_files(tmp_path):
 
 def test_target_not_in_robot_is_named(tmp_path, robot):
     path = write(tmp_path, f"{TAG_LINE}\n{HEADER}\n0,marker,1,2,3,4,5,6,10,20,30\n1,probe,1,2,3,4,5,6,10,20,30\n")
+    meas = read_measurements(path, robot)          # reading checks the joints; identification estimates 'probe'
     with pytest.raises(RoboCalError, match=r"line 4: target 'probe' is not defined in the robot .*its targets: marker"):
-        read_measurements(path, robot)
+        check_against_robot(meas, robot)
 
 
 def test_inconsistent_pose_duplicates_and_bad_sigma(tmp_path, robot):
