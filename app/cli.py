@@ -30,6 +30,7 @@ COMMANDS = {
     "evaluate": "evaluate",
     "export": "export",
     "import-measurements": "import_measurements",
+    "robot-import": "robot_import",
 }
 
 

@@ -1,0 +1,260 @@
+"""A nominal robot model from a URDF serial chain.
+
+The chain from a base link to a tip link (revolute, continuous, prismatic and fixed joints) is
+turned into standard DH rows (chapter eq. 1) plus a base and a tool transform, so that the
+forward kinematics of both agree for every joint configuration:
+
+- at the zero configuration each moving joint's axis is a line in the base link's frame
+  (URDF units: metres and radians, converted to mm and degrees);
+- DH frame i sits on the common normal between the axes of joints i and i+1 (for parallel
+  axes the normal through the previous origin is taken, so d = 0; for intersecting axes
+  a = 0 and x is along z_{i-1} × z_i); θ or d at q = 0 becomes the joint's offset;
+- the last frame is placed on the last axis, and whatever remains to the tip link, including
+  the fixed joints after it, becomes the tool transform; the base link to the first DH frame
+  becomes the base transform.
+
+URDF joints are read with the standard library's ElementTree (the format is a few elements).
+"""
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from core import transforms as tf
+from core.errors import RoboCalError
+from core.robot.model import PRISMATIC, REVOLUTE, Joint, RobotModel
+
+M_TO_MM = 1000.0
+_EPS = 1e-9
+
+
+@dataclass
+class _UrdfJoint:
+    name: str
+    type: str
+    parent: str
+    child: str
+    origin: np.ndarray          # 4x4, parent link -> joint frame, mm
+    axis: np.ndarray            # unit vector in the joint frame
+    lower: float | None         # rad or mm
+    upper: float | None
+
+
+@dataclass
+class UrdfImport:
+    """The model and what was assumed while building it."""
+
+    model: RobotModel
+    base_link: str
+    tip_link: str
+    notes: list[str]
+
+
+def _floats(text: str | None, n: int, source, where: str) -> np.ndarray:
+    if text is None:
+        return np.zeros(n)
+    try:
+        values = np.array([float(v) for v in text.split()])
+    except ValueError:
+        raise RoboCalError(f"expected {n} numbers, got {text!r}", source=source, field=where) from None
+    if values.shape != (n,) or not np.all(np.isfinite(values)):
+        raise RoboCalError(f"expected {n} finite numbers, got {text!r}", source=source, field=where)
+    return values
+
+
+def _read(path: Path) -> tuple[str, dict[str, _UrdfJoint]]:
+    try:
+        root = ET.parse(path).getroot()
+    except FileNotFoundError:
+        raise RoboCalError("file not found", source=path, hint="Check the path of the URDF file.") from None
+    except (ET.ParseError, OSError) as exc:
+        raise RoboCalError(f"not a readable URDF (XML) file ({exc})", source=path) from None
+    if root.tag != "robot":
+        raise RoboCalError(f"the root element is <{root.tag}>, not <robot>", source=path, hint="Give a URDF file.")
+    joints: dict[str, _UrdfJoint] = {}
+    for el in root.findall("joint"):
+        name = el.get("name", "")
+        where = f"joint '{name}'"
+        jtype = el.get("type", "")
+        parent, child = el.find("parent"), el.find("child")
+        if parent is None or child is None:
+            raise RoboCalError("a joint without <parent> or <child>", source=path, field=where)
+        if el.find("mimic") is not None:
+            raise RoboCalError("a mimic joint (coupled to another joint) cannot be part of a DH chain",
+                               source=path, field=where, hint="Choose a tip link before it.")
+        origin = el.find("origin")
+        xyz = _floats(origin.get("xyz") if origin is not None else None, 3, path, f"{where} origin xyz")
+        rpy = _floats(origin.get("rpy") if origin is not None else None, 3, path, f"{where} origin rpy")
+        axis_el = el.find("axis")
+        axis = _floats(axis_el.get("xyz") if axis_el is not None else "1 0 0", 3, path, f"{where} axis")
+        if jtype in ("revolute", "continuous", "prismatic"):
+            norm = float(np.linalg.norm(axis))
+            if norm < _EPS:
+                raise RoboCalError("the joint axis is zero", source=path, field=where)
+            axis = axis / norm
+        limit = el.find("limit")
+        lower = upper = None
+        if limit is not None and jtype != "continuous":
+            scale = M_TO_MM if jtype == "prismatic" else 1.0
+            lower = float(limit.get("lower", "0")) * scale
+            upper = float(limit.get("upper", "0")) * scale
+        child_link = child.get("link", "")
+        if child_link in {j.child for j in joints.values()}:
+            raise RoboCalError(f"link '{child_link}' has two parent joints: the URDF is not a tree (a closed chain)",
+                               source=path, field=where, hint="RoboCal models serial arms.")
+        joints[name] = _UrdfJoint(name, jtype, parent.get("link", ""), child_link,
+                                  tf.make_transform(tf.rpy_to_matrix(rpy), xyz * M_TO_MM), axis, lower, upper)
+    return root.get("name", path.stem), joints
+
+
+def _chain(path: Path, joints: dict[str, _UrdfJoint], base: str | None, tip: str | None) -> list[_UrdfJoint]:
+    by_child = {j.child: j for j in joints.values()}
+    links = {j.parent for j in joints.values()} | set(by_child)
+    roots = sorted(links - set(by_child))
+    if base is None:
+        if len(roots) != 1:
+            raise RoboCalError(f"the URDF has {len(roots)} root links ({', '.join(roots)})", source=path,
+                               hint="Name the base link with --base.")
+        base = roots[0]
+    if tip is None:
+        leaves = sorted(set(by_child) - {j.parent for j in joints.values()})
+        moving_leaves = [leaf for leaf in leaves if _moving_count(by_child, base, leaf) > 0]
+        if len(moving_leaves) != 1:
+            raise RoboCalError(f"the URDF has {len(moving_leaves)} end links ({', '.join(moving_leaves)})",
+                               source=path, hint="Name the tip link with --tip (e.g. the flange or tool link).")
+        tip = moving_leaves[0]
+    for link, option in ((base, "--base"), (tip, "--tip")):
+        if link not in links:
+            raise RoboCalError(f"no link named '{link}'", source=path, field=option,
+                               hint=f"Links: {', '.join(sorted(links))}.")
+    chain, link = [], tip
+    while link != base:
+        if link not in by_child:
+            raise RoboCalError(f"link '{tip}' is not below link '{base}'", source=path,
+                               hint="Give a tip link that descends from the base link.")
+        joint = by_child[link]
+        if joint.type in ("floating", "planar"):
+            raise RoboCalError(f"a {joint.type} joint cannot be part of a robot arm's chain", source=path,
+                               field=f"joint '{joint.name}'")
+        if joint.type not in ("revolute", "continuous", "prismatic", "fixed"):
+            raise RoboCalError(f"unknown joint type '{joint.type}'", source=path, field=f"joint '{joint.name}'")
+        chain.append(joint)
+        link = joint.parent
+    return chain[::-1]
+
+
+def _moving_count(by_child: dict, base: str, leaf: str) -> int:
+    n, link = 0, leaf
+    while link in by_child and link != base:
+        n += by_child[link].type != "fixed"
+        link = by_child[link].parent
+    return n if link == base else 0
+
+
+def _closest(p1, z1, p2, z2) -> tuple[np.ndarray, np.ndarray] | None:
+    """Closest points of two non-parallel lines (None when parallel)."""
+    n = np.cross(z1, z2)
+    nn = float(n @ n)
+    if nn < 1e-12:
+        return None
+    d = p2 - p1
+    t1 = float(np.cross(d, z2) @ n) / nn
+    t2 = float(np.cross(d, z1) @ n) / nn
+    return p1 + t1 * z1, p2 + t2 * z2
+
+
+def _angle_about(a, b, axis) -> float:
+    """Angle that turns unit vector a onto b about `axis` (both perpendicular to it)."""
+    return math.atan2(float(np.cross(a, b) @ axis), float(a @ b))
+
+
+def import_urdf(path: str | Path, *, base: str | None = None, tip: str | None = None) -> UrdfImport:
+    """The DH model (with base and tool transforms) of the URDF chain from `base` to `tip`
+    (the root and the single moving end link when not given). Lengths mm, angles radians."""
+    path = Path(path)
+    name, joints = _read(path)
+    chain = _chain(path, joints, base, tip)
+    base = base or chain[0].parent
+    tip = tip or chain[-1].child
+    moving = []                       # (urdf joint, axis point, axis direction) in the base link frame, q = 0
+    T = np.eye(4)
+    for j in chain:
+        T = T @ j.origin
+        if j.type != "fixed":
+            moving.append((j, T[:3, 3].copy(), T[:3, :3] @ j.axis))
+    T_tip = T
+    if not moving:
+        raise RoboCalError(f"no moving joint between '{base}' and '{tip}'", source=path)
+    notes: list[str] = []
+    # frame 0 on the first axis, x chosen perpendicular to it (towards the base link's x where possible)
+    p0, z0 = moving[0][1], moving[0][2]
+    x0 = np.array([1.0, 0.0, 0.0]) - z0[0] * z0
+    if np.linalg.norm(x0) < 1e-6:
+        x0 = np.array([0.0, 1.0, 0.0]) - z0[1] * z0
+    x0 /= np.linalg.norm(x0)
+    frame = tf.make_transform(np.column_stack([x0, np.cross(z0, x0), z0]), p0)
+    base_T = frame.copy()
+    dh: list[Joint] = []
+    for i, (j, p, z) in enumerate(moving):
+        O, x_prev, z_prev = frame[:3, 3], frame[:3, 0], frame[:3, 2]
+        if i + 1 < len(moving):
+            p_next, z_next = moving[i + 1][1], moving[i + 1][2]
+            closest = _closest(O, z_prev, p_next, z_next)
+            if closest is None:                          # parallel axes: the normal through O
+                c_a = O
+                c_b = p_next + ((O - p_next) @ z_next) * z_next
+            else:
+                c_a, c_b = closest
+            normal = c_b - c_a
+            if np.linalg.norm(normal) > 1e-6:
+                x_new = normal / np.linalg.norm(normal)
+            elif closest is not None:                    # intersecting axes
+                x_new = np.cross(z_prev, z_next)
+                x_new /= np.linalg.norm(x_new)
+            else:                                        # the same line
+                x_new = x_prev
+            z_new = z_next
+        else:                                            # the last axis: a frame on it, nearest the tip
+            c_a = O + ((T_tip[:3, 3] - O) @ z_prev) * z_prev
+            c_b, x_new, z_new = c_a, x_prev, z_prev
+        d = float((c_a - O) @ z_prev)
+        theta = _angle_about(x_prev, x_new, z_prev)
+        a = float((c_b - c_a) @ x_new)
+        alpha = _angle_about(z_prev, z_new, x_new)
+        lo, hi = j.lower, j.upper
+        if j.type == "prismatic":
+            lo, hi = (lo, hi) if lo is not None and lo < hi else (-1000.0, 1000.0)
+            dh.append(Joint(type=PRISMATIC, theta=theta, d=d, a=a, alpha=alpha, min=lo, max=hi, name=j.name))
+        else:
+            if lo is None or not lo < hi:
+                lo, hi = -math.pi, math.pi
+                notes.append(f"joint '{j.name}' has no limits in the URDF: ±180° assumed")
+            dh.append(Joint(type=REVOLUTE, theta=theta, d=d, a=a, alpha=alpha, min=lo, max=hi, name=j.name))
+        frame = tf.make_transform(np.column_stack([x_new, np.cross(z_new, x_new), z_new]), c_b)
+    tool = tf.invert(frame) @ T_tip
+    if not np.allclose(tool, np.eye(4), atol=1e-9):
+        notes.append(f"the tip link '{tip}' is not the last DH frame: the difference is the tool transform")
+    model = RobotModel(name=name, joints=dh, base=base_T, tool=tool)
+    return UrdfImport(model, base, tip, notes)
+
+
+def urdf_forward_kinematics(path: str | Path, q, *, base: str | None = None, tip: str | None = None) -> np.ndarray:
+    """The tip link's pose (4x4, mm) in the base link's frame for joint values q (rad / mm),
+    computed along the URDF chain itself — the reference the DH model is checked against."""
+    path = Path(path)
+    _, joints = _read(path)
+    T = np.eye(4)
+    k = 0
+    for j in _chain(path, joints, base, tip):
+        T = T @ j.origin
+        if j.type in ("revolute", "continuous"):
+            T = T @ tf.make_transform(tf.rot_axis(j.axis, float(q[k])))
+            k += 1
+        elif j.type == "prismatic":
+            T = T @ tf.make_transform(None, j.axis * float(q[k]))
+            k += 1
+    return T
