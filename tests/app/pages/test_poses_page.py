@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from PySide6.QtCore import Qt
 
-from app.pages.poses_page import PosesPage
+from app.pages.poses.page import PosesPage
 from app.pages.registry import PAGES
 from app.pages.steps import Step
 from app.state import WizardState
@@ -140,3 +140,29 @@ def test_autopilot_selects_the_demo_poses(qtbot, page):
     assert ok, message
     assert len(page.result.Q) == 30 and len(page.result.candidates) == 1000
     assert "κ" in message and page.state.project.has("poses")
+
+
+def test_the_selection_runs_in_the_state_lab(qtbot, page):
+    select(qtbot, page, count=10, candidates=200)
+    assert page.state.has_lab and page.result.robot is page.state.lab.nominal_robot
+    assert page.result.depth is not None                 # the lab's cameras constrained the candidates
+
+
+def test_cancel_a_running_selection(qtbot, page):
+    page.state.request_lab(lambda lab: None)
+    qtbot.waitUntil(lambda: page.state.has_lab, timeout=60000)
+    page.count_spin.setValue(12)
+    page.candidates_spin.setValue(2000)
+    assert page.start_selection() and page._task is not None     # the lab exists: the selection itself runs
+    page.cancel()
+    qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+    assert page.result is None and page.status.text().startswith("Cancelled") and page.select_button.isEnabled()
+
+
+def test_robot_change_while_the_lab_is_built_drops_the_selection(qtbot, page):
+    assert page.start_selection() and page.busy and not page.state.has_lab
+    page.state.choose_preset("puma560")
+    assert not page.busy and page.select_button.isEnabled()
+    page.state.request_lab(lambda lab: None)                 # the lab of the new robot
+    qtbot.waitUntil(lambda: page.state.has_lab, timeout=60000)
+    assert page.result is None and not page.busy and "Select poses" in page.status.text()
