@@ -152,7 +152,8 @@ class WizardState(QObject):
     # -- robot connection ----------------------------------------------------------------
     def _update_connection(self) -> None:
         """Virtual lab mode: a simulated robot over the lab's true geometry once the lab
-        exists (over the nominal model before). Hardware drivers arrive with their issue."""
+        exists (over the nominal model before). A hardware project has no connection: RoboCal
+        drives the virtual lab."""
         old = self.robot_connection
         new: RobotDriver | None = None
         if self.robot is not None and self.virtual:

@@ -1,4 +1,4 @@
-"""Identification accuracy, uncertainty and speed on synthetic truth (issue 5).
+"""Identification accuracy, uncertainty and speed on synthetic truth.
 
 Synthetic truth: a preset perturbed by 1 mm / 0.2° per DH value (plus Hayati's β on parallel
 axes, the target offset by 1 mm, the base somewhere in the camera frame); measurements are its

@@ -1,4 +1,4 @@
-"""Pose selection: condition number against random poses, identification accuracy, speed (issue 6).
+"""Pose selection: condition number against random poses, identification accuracy, speed.
 
 For the 6R preset, the PUMA 560 and the UR5, 30 poses are chosen by the condition number from
 2000 candidates, and compared with 100 random selections of 30 from the same candidates.

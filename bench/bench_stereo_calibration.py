@@ -1,4 +1,4 @@
-"""Stereo calibration: real pairs against plain OpenCV, virtual-lab ground truth, speed (issue 3).
+"""Stereo calibration: real pairs against plain OpenCV, virtual-lab ground truth, speed.
 
 Real data (`../shared/data/stereo-checkerboard-640x512`, 25 pairs, 9x6, 24 mm): RoboCal's
 detections and default model (k1 k2 p1 p2 k3, intrinsics refined in the stereo fit, no

@@ -1,4 +1,4 @@
-"""`robocal select-poses`: a pose sequence chosen by observability (issue 6).
+"""`robocal select-poses`: a pose sequence chosen by observability.
 
 With `--stereo S` (or `--virtual-lab`) only configurations that put the marker in view of
 both cameras are candidates; the robot file's base pose must then be given in the left

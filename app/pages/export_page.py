@@ -7,15 +7,15 @@ into the export folder (project/export/ by default). Every file is written atomi
 """
 from __future__ import annotations
 
-import html
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
 from PySide6.QtCore import Qt
-from PySide6.QtWidgets import (QFileDialog, QGridLayout, QGroupBox, QHBoxLayout, QLabel, QLineEdit,
-                               QPushButton, QVBoxLayout, QWidget)
+from PySide6.QtWidgets import QFileDialog, QGridLayout, QGroupBox, QHBoxLayout, QLabel, QLineEdit, QVBoxLayout, QWidget
 
+from app.html import esc
+from app.pages import forms
 from app.pages.base import WizardPage
 from app.pages.steps import Step
 from core.errors import RoboCalError
@@ -25,6 +25,7 @@ from core.identification.solver import write_calibrated_model
 from core.robot.model import RobotModel
 from core.report import calibration_report
 from core.robot.file import read_robot
+from core.stereo import file as stereo_file
 
 EXPORT_FOLDER = "export"
 
@@ -37,15 +38,6 @@ class ExportItem:
     files: tuple[str, ...]
     write: Callable[[Path], list[Path]]          # folder -> written files
     missing: Callable[[], str | None]            # why it is not available (None: available)
-
-
-def stereo_module():
-    """core.stereo.file if this build has it (the Stereo calibration step's file module)."""
-    try:
-        from core.stereo import file as stereo_file
-    except ImportError:
-        return None
-    return stereo_file
 
 
 class ExportPage(WizardPage):
@@ -80,12 +72,9 @@ class ExportPage(WizardPage):
         self.folder_edit = QLineEdit()
         self.folder_edit.setObjectName("exportFolder")
         self.folder_edit.setReadOnly(True)
-        self.folder_button = QPushButton("Choose folder…")
-        self.folder_button.clicked.connect(lambda: self.choose_folder())
-        self.all_button = QPushButton("Export all")
-        self.all_button.setObjectName("exportAllButton")
+        self.folder_button = forms.button("Choose folder…", on_click=self.choose_folder)
+        self.all_button = forms.button("Export all", "exportAllButton", on_click=self.export_all)
         self.all_button.setDefault(True)
-        self.all_button.clicked.connect(lambda: self.export_all())
         folder_box = QGroupBox("Export folder")
         fl = QHBoxLayout(folder_box)
         fl.addWidget(self.folder_edit, 1)
@@ -99,7 +88,7 @@ class ExportPage(WizardPage):
         grid.setVerticalSpacing(10)
         self.rows: dict[str, dict[str, QWidget]] = {}
         for r, item in enumerate(self.items):
-            title = QLabel(f"<b>{html.escape(item.title)}</b>")
+            title = QLabel(f"<b>{esc(item.title)}</b>")
             desc = QLabel(item.description)
             desc.setTextFormat(Qt.TextFormat.PlainText)
             desc.setObjectName("hint")
@@ -111,9 +100,7 @@ class ExportPage(WizardPage):
             status = QLabel()
             status.setTextFormat(Qt.TextFormat.PlainText)
             status.setWordWrap(True)
-            button = QPushButton("Export")
-            button.setObjectName(f"export_{item.key}")
-            button.clicked.connect(lambda _=False, key=item.key: self.export(key))
+            button = forms.button("Export", f"export_{item.key}", on_click=lambda key=item.key: self.export(key))
             text = QVBoxLayout()
             text.setSpacing(2)
             text.addWidget(title)
@@ -197,8 +184,6 @@ class ExportPage(WizardPage):
             return "needs a project (Setup step)"
         if not self.state.project.has("stereo"):
             return "available after the Stereo calibration step"
-        if stereo_module() is None:
-            return "this build cannot read stereo.yaml (core.stereo.file is missing)"
         return None
 
     def _missing_report(self) -> str | None:
@@ -218,11 +203,10 @@ class ExportPage(WizardPage):
         return [export_model(self.calibrated_model(), "urdf", folder / "calibrated.urdf")]
 
     def _write_stereo(self, folder: Path) -> list[Path]:
-        sf_module = stereo_module()
         src = self.state.project.path("stereo")
-        data = sf_module.read_stereo_yaml(src)          # checks the file before copying it
+        data = stereo_file.read_stereo_yaml(src)          # checks the file before copying it
         out = [atomic_write_bytes(folder / "stereo.yaml", src.read_bytes())]
-        out += list(sf_module.write_ros_camera_info(folder, data))
+        out += list(stereo_file.write_ros_camera_info(folder, data))
         return out
 
     def _write_report(self, folder: Path) -> list[Path]:

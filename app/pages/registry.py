@@ -14,7 +14,7 @@ from app.pages.identification_page import IdentificationPage
 from app.pages.load_error_page import PageLoadErrorPage
 from app.pages.marker_page import MarkerPage
 from app.pages.measurement_page import MeasurementPage
-from app.pages.poses_page import PosesPage
+from app.pages.poses.page import PosesPage
 from app.pages.setup_page import SetupPage
 from app.pages.steps import Step
 from app.pages.stereo_page import StereoPage

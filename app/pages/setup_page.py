@@ -1,14 +1,20 @@
-"""Step 1, Setup: project folder, robot model (DH table), robot connection, cameras."""
+"""Step 1, Setup: project folder, robot model (DH table), robot connection, cameras.
+
+RoboCal drives the virtual lab: the simulated robot and its two simulated cameras are the
+connection and the cameras offered here. A project made for real hardware still opens; the
+page then says that it drives the virtual lab only."""
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
 from PySide6.QtCore import Qt
-from PySide6.QtWidgets import (QButtonGroup, QComboBox, QFileDialog, QGroupBox,
-                               QHBoxLayout, QLabel, QPushButton, QRadioButton, QVBoxLayout)
+from PySide6.QtWidgets import (QComboBox, QFileDialog, QGroupBox, QHBoxLayout, QLabel, QRadioButton,
+                               QVBoxLayout)
 
 from app import project_actions
+from app.html import esc
+from app.pages import forms
 from app.pages.base import WizardPage
 from app.pages.steps import Step
 from core import project as projects
@@ -18,7 +24,7 @@ from core.robot.model import RobotModel, preset_names, robot_path
 from widgets.dh_table import DHTable
 
 DEMO_PRESET = "educational_6r"
-HARDWARE_LATER = "arrives with a hardware issue"
+VIRTUAL_ONLY = "RoboCal drives the virtual lab's simulated robot and cameras"
 
 
 def preset_title(name: str) -> str:
@@ -57,10 +63,8 @@ class SetupPage(WizardPage):
         self.project_details = QLabel()
         self.project_details.setObjectName("hint")
         self.project_details.setWordWrap(True)
-        self.new_button = QPushButton("New project…")
-        self.open_button = QPushButton("Open project…")
-        self.new_button.clicked.connect(lambda: self.new_project())
-        self.open_button.clicked.connect(lambda: self.open_project())
+        self.new_button = forms.button("New project…", on_click=self.new_project)
+        self.open_button = forms.button("Open project…", on_click=self.open_project)
         project_box = QGroupBox("Project")
         row = QHBoxLayout()
         text_col = QVBoxLayout()
@@ -79,8 +83,7 @@ class SetupPage(WizardPage):
             self.preset_combo.addItem(preset_title(name), name)
         self.preset_combo.setMinimumContentsLength(18)
         self.preset_combo.currentIndexChanged.connect(self._preset_picked)
-        self.load_button = QPushButton("Load robot.json…")
-        self.load_button.clicked.connect(lambda: self.load_robot_file())
+        self.load_button = forms.button("Load robot.json…", on_click=self.load_robot_file)
         self.robot_name = QLabel()
         self.robot_name.setObjectName("robotName")
         self.robot_summary = QLabel()
@@ -89,11 +92,8 @@ class SetupPage(WizardPage):
         self.dh_table = DHTable()
         robot_box = QGroupBox("Robot model (nominal DH parameters, eq. 1)")
         rl = QVBoxLayout(robot_box)
-        pick = QHBoxLayout()
-        pick.addWidget(QLabel("Preset:"))
-        pick.addWidget(self.preset_combo, 1)
-        pick.addWidget(QLabel("or"))
-        pick.addWidget(self.load_button)
+        pick = forms.row("Preset:", self.preset_combo, "or", self.load_button, stretch=False)
+        pick.setStretchFactor(self.preset_combo, 1)
         rl.addLayout(pick)
         rl.addWidget(self.robot_name)
         rl.addWidget(self.dh_table)
@@ -101,38 +101,27 @@ class SetupPage(WizardPage):
 
         # -- connection and cameras ----------------------------------------------------
         self.virtual_robot = QRadioButton("Virtual lab (simulated robot)")
-        self.serial_robot = QRadioButton("Serial robot (not yet)")
-        self.serial_robot.setToolTip(f"The serial robot driver {HARDWARE_LATER}.")
-        self.serial_robot.setEnabled(False)
         self.connection_status = QLabel()
         self.connection_status.setObjectName("hint")
         self.connection_status.setWordWrap(True)
-        self._robot_group = QButtonGroup(self)
-        for b in (self.virtual_robot, self.serial_robot):
-            self._robot_group.addButton(b)
         connection_box = QGroupBox("Robot connection")
         cl = QVBoxLayout(connection_box)
         cl.addWidget(self.virtual_robot)
-        cl.addWidget(self.serial_robot)
         cl.addWidget(self.connection_status)
 
         self.virtual_cameras = QRadioButton("Virtual lab cameras (simulated stereo pair)")
-        self.real_cameras = QRadioButton("USB / GigE cameras (not yet)")
-        self.real_cameras.setToolTip(f"Support for real cameras {HARDWARE_LATER}.")
-        self.real_cameras.setEnabled(False)
-        self._camera_group = QButtonGroup(self)
-        for b in (self.virtual_cameras, self.real_cameras):
-            self._camera_group.addButton(b)
         self.camera_status = QLabel("Two simulated cameras with parallel optical axes look at "
-                                    "the robot; the marker is rendered where the robot puts it. "
-                                    f"Support for real cameras {HARDWARE_LATER}.")
+                                    "the robot; the marker is rendered where the robot puts it.")
         self.camera_status.setObjectName("hint")
         self.camera_status.setWordWrap(True)
         camera_box = QGroupBox("Cameras")
         kl = QVBoxLayout(camera_box)
         kl.addWidget(self.virtual_cameras)
-        kl.addWidget(self.real_cameras)
         kl.addWidget(self.camera_status)
+
+        for b in (self.virtual_robot, self.virtual_cameras):   # they show the project's mode: a click changes nothing
+            b.setAutoExclusive(False)
+            b.clicked.connect(self._refresh)
 
         hw = QHBoxLayout()
         hw.addWidget(connection_box, 1)
@@ -218,7 +207,7 @@ class SetupPage(WizardPage):
             where = f"{project.folder}"
             if state.is_temporary():
                 where += "  (temporary demo folder, deleted when RoboCal closes)"
-            self.project_folder.setText(f"<b>{_esc(project.name)}</b> — {_esc(where)}")
+            self.project_folder.setText(f"<b>{esc(project.name)}</b> — {esc(where)}")
             mode = "virtual lab" if project.mode == projects.VIRTUAL_LAB else "hardware"
             created = project.created.replace("T", " ").replace("+00:00", " UTC")
             self.project_details.setText(f"Mode: {mode} · created {created or 'unknown'} · "
@@ -244,25 +233,20 @@ class SetupPage(WizardPage):
             self.robot_name.setText("No robot model yet: choose a preset or load a robot.json file.")
             self.robot_summary.setText("")
         else:
-            self.robot_name.setText(f"<b>{_esc(model.name)}</b>")
+            self.robot_name.setText(f"<b>{esc(model.name)}</b>")
             self.robot_summary.setText(robot_summary(model))
 
         hardware = project is not None and project.mode == projects.HARDWARE
         self.virtual_robot.setChecked(not hardware)
-        self.serial_robot.setChecked(hardware)
         self.virtual_cameras.setChecked(not hardware)
-        self.real_cameras.setChecked(hardware)
         conn = state.robot_connection
         if hardware:
-            self.connection_status.setText("This project is for real hardware, which this version "
-                                           f"cannot drive yet (the serial robot {HARDWARE_LATER}).")
+            self.connection_status.setText(f"This project is for real hardware; {VIRTUAL_ONLY} only.")
         elif conn is None:
-            self.connection_status.setText("Choose a robot model to connect the simulated robot. "
-                                           f"The serial robot {HARDWARE_LATER}.")
+            self.connection_status.setText("Choose a robot model to connect the simulated robot.")
         else:
             self.connection_status.setText(f"{conn.name}: {'connected' if conn.connected else 'not connected'}. "
-                                           "Stop: Esc or Ctrl+. at any time. "
-                                           f"The serial robot {HARDWARE_LATER}.")
+                                           "Stop: Esc or Ctrl+. at any time.")
 
         missing = []
         if project is None:
@@ -270,16 +254,7 @@ class SetupPage(WizardPage):
         if model is None:
             missing.append("choose a robot model")
         if missing:
-            self.status.setText("To continue: " + " and ".join(missing) + ".")
-            self.status.setProperty("ok", False)
+            self._set_status("To continue: " + " and ".join(missing) + ".", ok=False)
         else:
-            self.status.setText("✓ Ready: the project and the robot model are set. Press Next.")
-            self.status.setProperty("ok", True)
-        self.status.style().unpolish(self.status)
-        self.status.style().polish(self.status)
+            self._set_status("✓ Ready: the project and the robot model are set. Press Next.", ok=True)
         self.notify_complete()
-
-
-def _esc(text: str) -> str:
-    import html
-    return html.escape(str(text))

@@ -38,7 +38,7 @@ parameters) and m the number of measured points:
     O4 = σ_L² / σ_1                       (Nahvi & Hollerbach: noise amplification index)
     O5 = 1 / Σ 1/σ_i²                      (Sun & Hollerbach: A-optimal)
 Larger is better for all five. The condition number is σ_1/σ_L.
-For comparing pose sets (issue 6), pass the same fixed `scales` to every candidate (e.g.
+For comparing pose sets (core.poses.selection), pass the same fixed `scales` to every candidate (e.g.
 `characteristic_scales`), since scaling each candidate by its own column norms changes the
 yardstick between candidates.
 """

@@ -1,4 +1,4 @@
-"""Candidate robot configurations for pose selection (issue 6), with the reasons others were rejected.
+"""Candidate robot configurations for pose selection, with the reasons others were rejected.
 
 Candidates are drawn uniformly (seeded) inside the joint limits shrunk by a user margin
 (degrees for revolute joints, mm for prismatic ones). Revolute ranges wider than ±180° are

@@ -1,4 +1,4 @@
-"""An order of the selected poses that keeps robot travel short (issue 6).
+"""An order of the selected poses that keeps robot travel short.
 
 Distance between two configurations (file units: degrees for revolute joints, mm for
 prismatic ones), `metric`:

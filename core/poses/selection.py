@@ -1,4 +1,4 @@
-"""Pose selection by observability (issue 6; the chapter's section 2.2, Sun & Hollerbach).
+"""Pose selection by observability (the chapter's section 2.2, Sun & Hollerbach).
 
 Which N of M candidate configurations (core.poses.candidates) make the geometric parameters
 best observable? The measure is an observability index of Φ, the calibration Jacobian stacked

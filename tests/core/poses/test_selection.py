@@ -1,4 +1,4 @@
-"""Pose selection (issue 6): candidates, indices, greedy + exchange, ordering, poses.csv, bad input."""
+"""Pose selection: candidates, indices, greedy + exchange, ordering, poses.csv, bad input."""
 from __future__ import annotations
 
 import json

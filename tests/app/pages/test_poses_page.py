@@ -2,22 +2,17 @@
 output for the Measurement step, cancel, bad input, autopilot."""
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 from PySide6.QtCore import Qt
 
-from app.pages.poses_page import PosesPage
+from app.pages.poses.page import PosesPage
 from app.pages.registry import PAGES
 from app.pages.steps import Step
 from app.state import WizardState
 from app.worker import TaskRunner
 from core.poses.candidates import arm_polyline
 from core.poses.file import read_poses, write_poses
-
-SCREENSHOT = Path("/tmp/robocal-poses-page.png")
-
 
 @pytest.fixture
 def page(qtbot, boxes):
@@ -45,7 +40,7 @@ def test_registered_for_the_pose_step():
     assert PAGES[Step.POSES] is PosesPage
 
 
-def test_select_fills_table_plot_views_and_output(qtbot, page):
+def test_select_fills_table_plot_views_and_output(qtbot, page, tmp_path):
     assert not page.is_complete()
     with qtbot.waitSignal(page.completeChanged, timeout=60000):
         select(qtbot, page)
@@ -89,8 +84,9 @@ def test_select_fills_table_plot_views_and_output(qtbot, page):
     # another index shows its own curve for the same selection (linear axis)
     page.set_index("O3")
     assert not page.curve_plot.log_y and "O3" in page.curve_plot.plot_item.getAxis("left").labelText
-    page.grab().save(str(SCREENSHOT))
-    assert SCREENSHOT.stat().st_size > 10000
+    shot = tmp_path / "poses-page.png"
+    page.grab().save(str(shot))
+    assert shot.stat().st_size > 10000
 
 
 def test_cancel_keeps_nothing(qtbot, page):
@@ -140,3 +136,29 @@ def test_autopilot_selects_the_demo_poses(qtbot, page):
     assert ok, message
     assert len(page.result.Q) == 30 and len(page.result.candidates) == 1000
     assert "κ" in message and page.state.project.has("poses")
+
+
+def test_the_selection_runs_in_the_state_lab(qtbot, page):
+    select(qtbot, page, count=10, candidates=200)
+    assert page.state.has_lab and page.result.robot is page.state.lab.nominal_robot
+    assert page.result.depth is not None                 # the lab's cameras constrained the candidates
+
+
+def test_cancel_a_running_selection(qtbot, page):
+    page.state.request_lab(lambda lab: None)
+    qtbot.waitUntil(lambda: page.state.has_lab, timeout=60000)
+    page.count_spin.setValue(12)
+    page.candidates_spin.setValue(2000)
+    assert page.start_selection() and page._task is not None     # the lab exists: the selection itself runs
+    page.cancel()
+    qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+    assert page.result is None and page.status.text().startswith("Cancelled") and page.select_button.isEnabled()
+
+
+def test_robot_change_while_the_lab_is_built_drops_the_selection(qtbot, page):
+    assert page.start_selection() and page.busy and not page.state.has_lab
+    page.state.choose_preset("puma560")
+    assert not page.busy and page.select_button.isEnabled()
+    page.state.request_lab(lambda lab: None)                 # the lab of the new robot
+    qtbot.waitUntil(lambda: page.state.has_lab, timeout=60000)
+    assert page.result is None and not page.busy and "Select poses" in page.status.text()

@@ -5,10 +5,13 @@ from __future__ import annotations
 import json
 
 import pytest
+from PySide6.QtCore import Qt
+from PySide6.QtWidgets import QAbstractButton, QGroupBox, QLabel, QRadioButton
 
 from app.pages.setup_page import SetupPage
 from app.state import WizardState
 from app.worker import TaskRunner
+from core import project as projects
 from core.robot.model import preset_names
 from core.robot.file import read_robot, write_robot
 
@@ -139,15 +142,32 @@ def test_open_a_bad_project_gives_one_message(page, tmp_path, boxes):
     assert page.state.project is None
 
 
-def test_connection_and_cameras_are_virtual_for_now(page):
-    assert page.virtual_robot.isChecked() and not page.serial_robot.isEnabled()
-    assert page.virtual_cameras.isChecked() and not page.real_cameras.isEnabled()
-    assert "serial robot arrives with a hardware issue" in page.connection_status.text()
-    assert "Support for real cameras arrives with a hardware issue" in page.camera_status.text()
+def screen_words(page) -> str:
+    """Every text and tooltip the page shows."""
+    widgets = page.findChildren(QLabel) + page.findChildren(QAbstractButton) + page.findChildren(QGroupBox)
+    return " ".join(f"{w.title() if isinstance(w, QGroupBox) else w.text()} {w.toolTip()}" for w in widgets)
+
+
+def test_connection_and_cameras_are_the_virtual_lab(page):
+    assert page.virtual_robot.isChecked() and page.virtual_cameras.isChecked()
+    # only what RoboCal drives is offered: no choice that cannot be chosen
+    assert [b.text() for b in page.findChildren(QRadioButton)] == [
+        "Virtual lab (simulated robot)", "Virtual lab cameras (simulated stereo pair)"]
+    assert all(b.isEnabled() for b in page.findChildren(QRadioButton))
+    assert "Choose a robot model to connect the simulated robot" in page.connection_status.text()
     page.choose_preset("ur5")
     assert "connected" in page.connection_status.text()
-    assert "hardware issue" in page.connection_status.text()
     assert page.state.robot_connection.connected
+    words = screen_words(page).lower()
+    assert "not yet" not in words and "issue" not in words and "arrives with" not in words
+
+
+def test_a_hardware_project_says_robocal_drives_the_virtual_lab(page, tmp_path):
+    page.state.new_project(tmp_path, mode=projects.HARDWARE)
+    assert not page.virtual_robot.isChecked() and not page.virtual_cameras.isChecked()
+    assert "This project is for real hardware" in page.connection_status.text()
+    assert "RoboCal drives the virtual lab" in page.connection_status.text()
+    assert "not yet" not in screen_words(page).lower()
 
 
 def test_autopilot_sets_up_a_demo(page):
@@ -159,3 +179,9 @@ def test_autopilot_sets_up_a_demo(page):
     assert (folder / "project.json").is_file()
     page.state.close()
     assert not folder.exists()                       # temporary demo folders are removed
+
+
+def test_the_connection_choice_shows_the_project_mode(page, qtbot):
+    qtbot.mouseClick(page.virtual_robot, Qt.MouseButton.LeftButton)
+    assert page.virtual_robot.isChecked()                # a click does not uncheck the only choice
+    assert page.state.robot_connection is None           # nor connects anything without a robot

@@ -1,0 +1,1 @@
+"""The work the wizard's pages run on a worker thread: plain Python, no Qt, one module per step."""

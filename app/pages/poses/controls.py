@@ -1,0 +1,83 @@
+"""The Pose sequence page's settings: how many poses, by which index, from how many candidates."""
+from __future__ import annotations
+
+from PySide6.QtCore import Signal
+from PySide6.QtWidgets import QComboBox, QGridLayout, QLabel, QWidget
+
+from app.pages import forms
+from app.pages.poses.texts import INDEX_CHOICES
+
+DEMO_COUNT = 30
+DEMO_CANDIDATES = 1000
+
+
+class SelectionControls(QWidget):
+    """N, index, candidates, joint margin (° or mm), seed and the Select button.
+
+    Signals: `selectRequested()` (Select clicked), `indexChanged()` (another index chosen).
+    """
+
+    selectRequested = Signal()
+    indexChanged = Signal()
+
+    def __init__(self, parent: QWidget | None = None):
+        super().__init__(parent)
+        self.count_spin = forms.spin(DEMO_COUNT, 1, 500, name="countSpin",
+                                     tooltip="How many poses the robot will be measured in")
+        self.index_combo = QComboBox()
+        self.index_combo.setObjectName("indexCombo")
+        for key, text in INDEX_CHOICES:
+            self.index_combo.addItem(text, key)
+        self.index_combo.setToolTip("The observability index the selection optimises (see Explain)")
+        self.candidates_spin = forms.spin(DEMO_CANDIDATES, 50, 20000, name="candidatesSpin", step=500,
+                                          tooltip="Feasible random configurations to choose from")
+        self.margin_spin = forms.double_spin(5.0, 0.0, 45.0, decimals=1, step=1.0, name="marginSpin",
+                                             suffix=" °", tooltip="Distance kept from every joint limit "
+                                                                  "(mm for prismatic joints)")
+        self.seed_spin = forms.spin(0, 0, 1_000_000, name="seedSpin",
+                                    tooltip="Seed of the random candidates: the same seed gives the same poses")
+        self.select_button = forms.button("Select poses", "selectButton", on_click=self.selectRequested.emit)
+        self.index_combo.currentIndexChanged.connect(lambda *_: self.indexChanged.emit())
+
+        grid = QGridLayout(self)
+        grid.setContentsMargins(0, 0, 0, 0)
+        grid.setHorizontalSpacing(8)
+        grid.setVerticalSpacing(4)
+        grid.addWidget(QLabel("Poses N:"), 0, 0)
+        grid.addWidget(self.count_spin, 0, 1)
+        grid.addWidget(QLabel("Index:"), 0, 2)
+        grid.addWidget(self.index_combo, 0, 3, 1, 3)
+        grid.addWidget(self.select_button, 0, 6)
+        grid.addWidget(QLabel("Candidates:"), 1, 0)
+        grid.addWidget(self.candidates_spin, 1, 1)
+        grid.addWidget(QLabel("Joint margin:"), 1, 2)
+        grid.addWidget(self.margin_spin, 1, 3)
+        grid.addWidget(QLabel("Seed:"), 1, 4)
+        grid.addWidget(self.seed_spin, 1, 5)
+        grid.setColumnStretch(3, 1)
+
+    def index(self) -> str:
+        return self.index_combo.currentData()
+
+    def set_index(self, key: str) -> None:
+        self.index_combo.setCurrentIndex(self.index_combo.findData(key))
+
+    def count(self) -> int:
+        return self.count_spin.value()
+
+    def options(self) -> dict:
+        """Keyword arguments of app.jobs.poses.run_pose_selection (all but robot, count and lab)."""
+        return dict(index=self.index(), candidates=self.candidates_spin.value(), margin=self.margin_spin.value(),
+                    seed=self.seed_spin.value())
+
+    def set_demo(self) -> None:
+        """The settings of the classroom demo (autopilot): 30 poses by κ from 1000 candidates."""
+        self.count_spin.setValue(DEMO_COUNT)
+        self.candidates_spin.setValue(DEMO_CANDIDATES)
+        self.set_index("cond")
+
+    def set_busy(self, busy: bool) -> None:
+        """Settings and Select are locked while a selection runs."""
+        for w in (self.select_button, self.count_spin, self.index_combo, self.candidates_spin, self.margin_spin,
+                  self.seed_spin):
+            w.setEnabled(not busy)

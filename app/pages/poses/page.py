@@ -1,0 +1,211 @@
+"""Step 4, Pose sequence: robot configurations that make the geometric parameters observable.
+
+The page runs app.jobs.poses.run_pose_selection on a worker thread (progress, Cancel) and
+draws what it returns (results.py). In the virtual lab the candidates are limited to poses
+where both cameras see the marker, above the table: the page asks the state for the lab
+(`request_lab`, built once on a worker) before it starts the selection. The result goes to
+the Measurement step as ``state.poses`` (a PoseSelectionResult: ``.Q`` rad/mm, ``.q_file``
+deg/mm, ``.path``) and as the project's poses.csv.
+"""
+from __future__ import annotations
+
+from PySide6.QtWidgets import QVBoxLayout
+
+from app.jobs.poses import run_pose_selection
+from app.lab import VirtualLab
+from app.pages.base import WizardPage
+from app.pages.poses.controls import SelectionControls
+from app.pages.poses.results import SelectionResults
+from app.pages.poses.texts import SHORT
+from app.pages.steps import Step
+from core.errors import RoboCalError
+from core.poses.file import PoseList, read_poses
+from core.poses.selection import PoseSelectionResult, write_selection
+
+
+class PosesPage(WizardPage):
+    step = Step.POSES
+
+    def __init__(self, state, tasks, **kwargs):
+        super().__init__(state, tasks, **kwargs)
+        self.result: PoseSelectionResult | None = None
+        self.loaded: PoseList | None = None      # a poses.csv found in the project (no selection run)
+        self._lab_request = 0                     # which request_lab the selection waits for (0: none)
+
+        self.controls = SelectionControls()
+        self.results = SelectionResults()
+        # the widgets tests and the autopilot reach by name
+        self.count_spin, self.candidates_spin = self.controls.count_spin, self.controls.candidates_spin
+        self.select_button = self.controls.select_button
+        self.cancel_button = self.progress_row().cancel_button
+        self.curve_plot, self.summary, self.facts = (self.results.curve_plot, self.results.summary,
+                                                     self.results.facts)
+        self.views, self.table = self.results.views, self.results.table
+
+        layout = QVBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.setSpacing(6)
+        layout.addWidget(self.controls)
+        layout.addWidget(self.progress_row())
+        layout.addWidget(self.results, 1)
+        layout.addWidget(self.status)
+
+        self.controls.selectRequested.connect(lambda: self.start_selection())
+        self.controls.indexChanged.connect(lambda: self.results.set_index(self.index()))
+        state.projectChanged.connect(self._context_changed)
+        state.robotChanged.connect(self._context_changed)
+        state.labChanged.connect(lambda *_: self._draw())
+        self._show()
+
+    # -- state -----------------------------------------------------------------------------
+    @property
+    def busy(self) -> bool:
+        """A selection runs, or waits for the virtual lab it needs."""
+        return bool(self._lab_request) or super().busy
+
+    def index(self) -> str:
+        return self.controls.index()
+
+    def set_index(self, key: str) -> None:
+        self.controls.set_index(key)
+
+    def _lab(self) -> VirtualLab | None:
+        return self.state.lab if self.state.has_lab else None
+
+    def _context_changed(self, *_):
+        """Another project or robot: the selection no longer applies."""
+        self._lab_request = 0
+        self.forget_task()
+        self.result = None
+        self.loaded = None
+        self._busy_changed()
+        self._load_existing()
+        self._show()
+        self.notify_complete()
+
+    def _load_existing(self) -> None:
+        """A poses.csv already in the project (an earlier session) counts as the selection."""
+        project, robot = self.state.project, self.state.robot
+        if self.result is not None or project is None or robot is None or not project.has("poses"):
+            return
+        try:
+            self.loaded = read_poses(project.path("poses"), robot)
+        except RoboCalError as exc:
+            self.loaded = None
+            self._set_status(f"The project's poses.csv cannot be used ({exc.message}); select the poses again.",
+                             ok=False)
+
+    # -- WizardPage ------------------------------------------------------------------------
+    def on_enter(self) -> None:
+        if self.result is None and self.loaded is None:
+            self._load_existing()
+            self._show()
+        self.notify_complete()
+
+    def is_complete(self) -> bool:
+        return self.result is not None or self.loaded is not None
+
+    def autopilot(self, done) -> None:
+        if self.state.project is None or self.state.robot is None:
+            done(False, "no project or robot model (Setup step)")
+            return
+        self.controls.set_demo()
+        self._autopilot_done = done
+        if not self.start_selection():
+            self._finish_autopilot(False, self.status.text() or "pose selection could not start")
+
+    def on_busy_changed(self) -> None:
+        self.controls.set_busy(self.busy)
+
+    def on_cancelled(self) -> None:
+        kept = " The previous selection is kept." if self.is_complete() else ""
+        self._set_status("Cancelled." + kept, ok=False)
+        self._finish_autopilot(False, "cancelled")
+
+    def cancel(self) -> None:
+        """Stop the selection, or stop waiting for the virtual lab (its build goes on for the
+        other pages)."""
+        if self._lab_request:
+            self._lab_request = 0
+            self._busy_changed()
+            self.progress_row().reset()
+            self.on_cancelled()
+        else:
+            super().cancel()
+
+    # -- the work ----------------------------------------------------------------------------
+    def start_selection(self) -> bool:
+        """Select poses with the controls' settings: in the virtual lab (asked for first) or, for
+        a hardware project, among every feasible pose of the robot."""
+        if self.busy:
+            return False
+        robot = self.state.robot
+        if robot is None:
+            self._set_status("Choose a robot model in the Setup step first.", ok=False)
+            return False
+        count, options = self.controls.count(), self.controls.options()
+        status = f"Selecting {count} poses by {SHORT[options['index']]}…"
+        if not self.state.virtual:
+            return self.start(run_pose_selection, robot, count, on_done=self._selected, status=status,
+                              label="Selecting poses", **options)
+        self._lab_request += 1
+        request = self._lab_request
+        self._busy_changed()
+
+        def lab_ready(lab: VirtualLab) -> None:
+            if request == self._lab_request:
+                self._lab_request = 0
+                self.start(run_pose_selection, robot, count, lab=lab, on_done=self._selected, status=status,
+                           label="Selecting poses", **options)
+
+        def lab_failed(message: str) -> None:
+            if request == self._lab_request:
+                self._lab_request = 0
+                self._busy_changed()
+                self.on_failed(message)
+
+        self.state.request_lab(lab_ready, on_error=lab_failed)
+        if self._lab_request:                     # the lab is being built
+            self.progress_row().set_progress(0.0, "building the virtual lab")
+            self._set_status(status, ok=None)
+        return True
+
+    def _selected(self, r: PoseSelectionResult) -> None:
+        self.result = r
+        self.loaded = None
+        written = ""
+        if self.state.project is not None:
+            try:
+                path = write_selection(r, self.state.project.path("poses"))
+                written = f" Written to {path.name} for the Measurement step."
+            except RoboCalError as exc:
+                self.show_error(exc.message)
+                written = " (poses.csv could not be written)"
+        self.state.set_poses(r)
+        self._show()
+        self._set_status(f"✓ {r.count} poses selected in {r.seconds:.1f} s.{written}", ok=True)
+        self.notify_complete()
+        if self._autopilot_done is not None:
+            self._finish_autopilot(True, f"{r.count} poses, {SHORT[r.index]} {r.value():.3g} "
+                                         f"(random median {r.random_median():.3g})")
+
+    # -- drawing ---------------------------------------------------------------------------
+    def _draw(self) -> None:
+        self.results.set_selection(self.result, self.loaded, lab=self._lab(), robot=self.state.robot,
+                                   index=self.index())
+
+    def _show(self) -> None:
+        self._draw()
+        if self.result is None and self.loaded is None and not self.busy:
+            if self.state.robot is None:
+                self._set_status("Choose a robot model in the Setup step first.", ok=False)
+            else:
+                where = "the virtual lab's cameras" if self.state.virtual else "the robot (no camera constraint)"
+                self._set_status(f"Choose N and the index, then Select poses (candidates for {where}).", ok=None)
+        elif self.loaded is not None and self.result is None:
+            self._set_status(f"✓ {len(self.loaded)} poses from the project's poses.csv. Select again to see "
+                             "their observability.", ok=True)
+
+    def highlight(self, row: int) -> None:
+        """Select table row `row` (its arm is drawn in the views)."""
+        self.results.highlight(row)
