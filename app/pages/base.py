@@ -46,17 +46,20 @@ class TaskMixin:
     `on_failed(message)` (status line, autopilot told); Cancel to `on_cancelled()`. A result that
     arrives after `forget_task()` (another project or robot) is dropped. `progress_row()` is the
     page's progress bar and Cancel button; `on_busy_changed()` is the hook to enable controls.
-    Needs `run_task`, `_set_status` and `_finish_autopilot` (WizardPage has them).
+    `start_with_lab(...)` first asks the state for the virtual lab (built once, on a worker) and
+    counts as busy while it waits. Needs `state`, `run_task`, `_set_status` and
+    `_finish_autopilot` (WizardPage has them).
     """
 
     _task: TaskHandle | None = None
     _task_token: int = 0
+    _lab_wait: int = 0                 # token of the task waiting for the virtual lab (0: none)
     _progress_row: ProgressRow | None = None
 
     @property
     def busy(self) -> bool:
-        """A task of this page is running."""
-        return self._task is not None
+        """A task of this page is running, or waits for the virtual lab."""
+        return self._task is not None or bool(self._lab_wait)
 
     def progress_row(self) -> ProgressRow:
         """The page's progress bar with its Cancel button (made on first use)."""
@@ -112,17 +115,57 @@ class TaskMixin:
             self._set_status(status, None)
         return True
 
+    def start_with_lab(self, fn: Callable, *args, on_done: Callable[[Any], None], lab_keyword: str = "lab",
+                       status: str = "", **kwargs) -> bool:
+        """`start(fn, *args, lab=<the virtual lab>, ...)` once the state has built the lab (at
+        once when it exists). Busy meanwhile; Cancel stops the wait (the build goes on for the
+        other pages); a failed build goes to `on_failed`."""
+        if self.busy:
+            self._set_status("Busy: wait for the running task or cancel it.", False)
+            return False
+        self._task_token += 1
+        token = self._lab_wait = self._task_token
+        on_failed = kwargs.get("on_failed") or self.on_failed
+
+        def ready(lab) -> None:
+            if token == self._lab_wait:
+                self._lab_wait = 0
+                self.start(fn, *args, on_done=on_done, status=status, **{lab_keyword: lab}, **kwargs)
+
+        def failed(message: str) -> None:
+            if token == self._lab_wait:
+                self._lab_wait = 0
+                self._busy_changed()
+                on_failed(message)
+
+        self._busy_changed()
+        self.state.request_lab(ready, on_error=failed)
+        if self._lab_wait == token:                       # still waiting: the lab is being built
+            self.progress_row().set_progress(0.0, "building the virtual lab")
+            self._set_status(status or "Building the virtual lab…", None)
+        return True
+
     def cancel(self) -> None:
-        """Ask the running task to stop (its `on_cancelled` follows)."""
-        if self._task is not None:
+        """Ask the running task to stop, or stop waiting for the lab (`on_cancelled` follows)."""
+        if self._lab_wait:
+            self._lab_wait = 0
+            self._busy_changed()
+            if self._progress_row is not None:
+                self._progress_row.reset()
+            self.on_cancelled()
+        elif self._task is not None:
             self._task.cancel()
 
     def forget_task(self) -> None:
-        """Cancel the running task and drop whatever it returns (the project or robot changed)."""
+        """Cancel the running task (or the wait for the lab) and drop whatever it returns
+        (the project or robot changed)."""
         self._task_token += 1
+        was_busy = self.busy
+        self._lab_wait = 0
         if self._task is not None:
             self._task.cancel()
             self._task = None
+        if was_busy:
             self._busy_changed()
 
     def on_failed(self, message: str) -> None:

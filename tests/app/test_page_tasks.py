@@ -95,3 +95,33 @@ def test_a_forgotten_task_delivers_nothing(page, qtbot):
     qtbot.waitUntil(lambda: not page.tasks.busy, timeout=5000)
     qtbot.wait(20)
     assert got == []
+
+
+def test_start_with_lab_waits_for_the_one_lab_build(page, qtbot, monkeypatch):
+    built = threading.Event()
+
+    def slow_lab(robot, seed, noise):
+        built.wait(5)
+        return "the lab"
+    monkeypatch.setattr("app.state.build_lab", slow_lab)
+    got = []
+    assert page.start_with_lab(lambda *, lab: f"used {lab}", on_done=got.append)
+    assert page.busy and "building the virtual lab" in page.progress_row().bar.format()
+    assert not page.start(work, 1, on_done=got.append)          # one thing at a time
+    built.set()
+    qtbot.waitUntil(lambda: got == ["used the lab"] and not page.busy, timeout=5000)
+    assert page.busy_seen[0] is True and page.busy_seen[-1] is False
+
+
+def test_cancel_and_forget_while_waiting_for_the_lab(page, qtbot, monkeypatch):
+    gate = threading.Event()
+    monkeypatch.setattr("app.state.build_lab", lambda robot, seed, noise: gate.wait(5) and "lab")
+    page.start_with_lab(lambda *, lab: pytest.fail("started after Cancel"), on_done=lambda _: None)
+    page.cancel()
+    assert not page.busy and page.status.text() == "Cancelled."
+    page.start_with_lab(lambda *, lab: pytest.fail("started after the robot changed"), on_done=lambda _: None)
+    page.forget_task()
+    assert not page.busy
+    gate.set()
+    qtbot.waitUntil(lambda: page.state.has_lab, timeout=5000)       # the build itself goes on for other pages
+    qtbot.wait(20)

@@ -30,7 +30,6 @@ class PosesPage(WizardPage):
         super().__init__(state, tasks, **kwargs)
         self.result: PoseSelectionResult | None = None
         self.loaded: PoseList | None = None      # a poses.csv found in the project (no selection run)
-        self._lab_request = 0                     # which request_lab the selection waits for (0: none)
 
         self.controls = SelectionControls()
         self.results = SelectionResults()
@@ -58,11 +57,6 @@ class PosesPage(WizardPage):
         self._show()
 
     # -- state -----------------------------------------------------------------------------
-    @property
-    def busy(self) -> bool:
-        """A selection runs, or waits for the virtual lab it needs."""
-        return bool(self._lab_request) or super().busy
-
     def index(self) -> str:
         return self.controls.index()
 
@@ -74,11 +68,9 @@ class PosesPage(WizardPage):
 
     def _context_changed(self, *_):
         """Another project or robot: the selection no longer applies."""
-        self._lab_request = 0
         self.forget_task()
         self.result = None
         self.loaded = None
-        self._busy_changed()
         self._load_existing()
         self._show()
         self.notify_complete()
@@ -122,17 +114,6 @@ class PosesPage(WizardPage):
         self._set_status("Cancelled." + kept, ok=False)
         self._finish_autopilot(False, "cancelled")
 
-    def cancel(self) -> None:
-        """Stop the selection, or stop waiting for the virtual lab (its build goes on for the
-        other pages)."""
-        if self._lab_request:
-            self._lab_request = 0
-            self._busy_changed()
-            self.progress_row().reset()
-            self.on_cancelled()
-        else:
-            super().cancel()
-
     # -- the work ----------------------------------------------------------------------------
     def start_selection(self) -> bool:
         """Select poses with the controls' settings: in the virtual lab (asked for first) or, for
@@ -148,27 +129,8 @@ class PosesPage(WizardPage):
         if not self.state.virtual:
             return self.start(run_pose_selection, robot, count, on_done=self._selected, status=status,
                               label="Selecting poses", **options)
-        self._lab_request += 1
-        request = self._lab_request
-        self._busy_changed()
-
-        def lab_ready(lab: VirtualLab) -> None:
-            if request == self._lab_request:
-                self._lab_request = 0
-                self.start(run_pose_selection, robot, count, lab=lab, on_done=self._selected, status=status,
-                           label="Selecting poses", **options)
-
-        def lab_failed(message: str) -> None:
-            if request == self._lab_request:
-                self._lab_request = 0
-                self._busy_changed()
-                self.on_failed(message)
-
-        self.state.request_lab(lab_ready, on_error=lab_failed)
-        if self._lab_request:                     # the lab is being built
-            self.progress_row().set_progress(0.0, "building the virtual lab")
-            self._set_status(status, ok=None)
-        return True
+        return self.start_with_lab(run_pose_selection, robot, count, on_done=self._selected, status=status,
+                                   label="Selecting poses", **options)
 
     def _selected(self, r: PoseSelectionResult) -> None:
         self.result = r
