@@ -26,6 +26,7 @@ COMMANDS = {
     "identify": "identify",
     "evaluate": "evaluate",
     "export": "export",
+    "sim-robot": "sim_robot",
 }
 
 
