@@ -10,8 +10,8 @@ Faults (`FaultPlan.parse`, comma separated; N counts the accepted moves from 1):
   garbage@N     bytes that are not ASCII arrive before the move's first reply
   slow@N:S      the move's replies come S seconds late (default 1 s)
   fault@N       half way the robot halts with ERR FAULT (GRBL: ALARM:1), no done reply
-  disconnect@N  the connection drops once move N is done; a new one opens 0.2 s later
-                (same `link` path when one is given)
+  disconnect@N  move N completes; the connection drops when the next move is sent (before
+                any reply); a new one opens 0.2 s later (same `link` path when one is given)
   short@N:D     the robot stops D (default 1) deg / mm short on every moving joint, and
                 reports done as usual
 `KIND~P[:value]` instead of `@N` applies the fault to each move with probability P
@@ -113,6 +113,8 @@ class ControllerSim:
         self._closing = threading.Event()
         self._thread: threading.Thread | None = None
         self._lock = threading.Lock()
+        self._drop_next_move = False            # a disconnect fault: drop when the next move comes
+        self._drop_now = False
 
     # -- life cycle -----------------------------------------------------------------------
     @property
@@ -192,10 +194,12 @@ class ControllerSim:
                         (self._robocal_line if self.protocol == "robocal" else self._grbl_line)(line, now)
                     else:
                         buf.append(byte)
-                drop = self._advance(now)
+                self._advance(now)
             self._flush(now)
-            if drop:
+            if self._drop_now:
+                self._drop_now = False
                 self._close_fds()
+                reopen_at = time.monotonic() + RECONNECT_DELAY
                 reopen_at = time.monotonic() + RECONNECT_DELAY
 
     def _send(self, text: bytes | str, at: float) -> None:
@@ -219,6 +223,12 @@ class ControllerSim:
         f = 1.0 if duration <= 0 else min(1.0, (now - t0) / duration)
         return start + (target - start) * f
 
+    def _dropping(self) -> bool:
+        """A disconnect fault is due: the move that just came is never answered, the line drops."""
+        if self._drop_next_move:
+            self._drop_next_move, self._drop_now = False, True
+        return self._drop_now
+
     def _start_move(self, target: np.ndarray, now: float) -> dict:
         self.moves += 1
         faults = self.plan.for_move(self.moves, self.rng)
@@ -232,10 +242,10 @@ class ControllerSim:
         self._motion = (start, target, now, duration, faults)
         return faults
 
-    def _advance(self, now: float) -> bool:
-        """Finish or fault the motion in progress; True when the link must drop now."""
+    def _advance(self, now: float) -> None:
+        """Finish or fault the motion in progress."""
         if self._motion is None:
-            return False
+            return
         start, target, t0, duration, faults = self._motion
         delay = faults.get("slow", 0.0)
         if "fault" in faults and now >= t0 + duration / 2:
@@ -246,18 +256,16 @@ class ControllerSim:
             else:
                 self._state = "Alarm"
                 self._send("ALARM:1\r\n", now + delay)
-            return False
+            return
         if now < t0 + duration:
-            return False
+            return
         self._q = target.copy()
         self._motion = None
         self._state = "Idle"
         if self.protocol == "robocal" and self.report_done and "drop" not in faults:
             self._send("DONE\n", now + delay)
         if "disconnect" in faults:
-            self._flush(now + delay + 1e-3)
-            return True
-        return False
+            self._drop_next_move = True
 
     def _halt(self, now: float) -> bool:
         """Stop where the robot is; True if it was moving."""
@@ -287,6 +295,8 @@ class ControllerSim:
             self._send(f"ROBOCAL 1 {self.robot_name} {self.model.dof}\n", now)
         elif cmd == "POS?" and len(words) == 1:
             self._send(f"POS {fmt}\n", now)
+        elif cmd == "MOVE" and self._dropping():
+            return
         elif cmd == "MOVE":
             try:
                 target = np.array([float(w) for w in words[1:]])
@@ -352,7 +362,9 @@ class ControllerSim:
             self._send("ok\r\n", now)
         elif self._state == "Alarm":
             self._send("error:9\r\n", now)
-        elif text.startswith("G90G0") or text.startswith("G0") or text.startswith("G90G1"):
+        elif text.startswith(("G90G0", "G0", "G90G1")):
+            if self._dropping():
+                return
             words = re.findall(r"([A-Z])(-?[0-9.]+)", text)
             target = self._position(now)
             try:

@@ -72,7 +72,14 @@ class SerialRobot(RobotDriver):
     # -- connection ----------------------------------------------------------------------
     @property
     def connected(self) -> bool:
-        return self._link is not None and self._link.is_open
+        """True between connect() and disconnect(), also when the line was lost meanwhile
+        (`lost` says so; the next exchange raises RobotFault)."""
+        return self._link is not None
+
+    @property
+    def lost(self) -> str | None:
+        """Why the connection went away (None while it is up or closed on purpose)."""
+        return self._link.lost if self._link is not None else None
 
     def connect(self) -> None:
         """Open the port, identify the controller, check its joint count, set the speed."""
@@ -206,7 +213,7 @@ class SerialRobot(RobotDriver):
         """Send the stop command(s) at once (from any thread, also during a move) and wait up
         to `reply_timeout` for the controller to confirm. Never raises."""
         self._stopped = True
-        if not self.connected:
+        if not self.connected or self.lost:
             return
         p = self.profile
         self._stop_ack.clear()
@@ -283,8 +290,8 @@ class SerialRobot(RobotDriver):
                 self._stop_ack.set()
                 raise RobotStopped("the robot was stopped during the move", source=self.name,
                                    hint="Check that the way is clear, then resume.")
-            if self._stop_pending and any(t.match(text) for t in p.stop_tolerate):
-                continue
+            if self._stop_pending and (on_timeout is None or any(t.match(text) for t in p.stop_tolerate)):
+                continue                # waiting for the stop's reply: late replies of the interrupted move
             m = p.error.match(text)
             if m:
                 code, detail = m.group("code"), (m.groupdict().get("text") or "").strip()
