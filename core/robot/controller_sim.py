@@ -101,6 +101,7 @@ class ControllerSim:
         self.lo, self.hi = model.q_to_file(lo), model.q_to_file(hi)
         self.speed = 100.0
         self.moves = 0                          # accepted moves
+        self.motion_seconds = 0.0               # total motion time of the accepted moves (s)
         self.fired: list[str] = []              # "drop@3", ... the faults that happened
         self.received: list[str] = []           # every command line, in order
         self._q = np.clip(np.zeros(model.dof), self.lo, self.hi)
@@ -239,6 +240,7 @@ class ControllerSim:
             target = np.where(moving, target - np.sign(target - start) * faults["short"], target)
         speed = self.joint_speed * self.speed / 100.0
         duration = float(np.max(np.abs(target - start))) / speed * self.time_scale
+        self.motion_seconds += duration
         self._motion = (start, target, now, duration, faults)
         return faults
 
