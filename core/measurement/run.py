@@ -4,7 +4,8 @@
 moves the robot there (a `core.robot.driver.RobotDriver`; it refuses joint values outside the
 limits, and such a pose is rejected with the driver's reason, the robot not moved), captures
 a stereo pair (`capture(q) -> (left, right)`, e.g. `lambda q: lab.render_marker_pair(q, rng)`,
-or `capture_pose(pose_id, q)` for images on disk), locates the marker
+`capture_pose(pose_id, q)` for images on disk, or `source`, a core.measurement.capture
+StereoSource / RenderedSource captured once the robot has settled), locates the marker
 (`locate(left, right) -> MarkerLocation`, e.g. a `MarkerLocator`'s or `MarkerTracker`'s), and
 appends the point at once to the measurements file (core.measurement.file.MeasurementWriter:
 flushed and fsynced per row, so nothing taken is lost if the program dies) or the pose, with
@@ -13,6 +14,11 @@ fsynced per row).
 
 Resumable: the poses already in the measurements file (same target) or in the rejects file
 are skipped (their joint values must match, else the file belongs to another pose list).
+Faults: when the robot or its connection fails (core.robot.driver.RobotFault: timeout,
+garbage, disconnect, a controller error, a robot that ended away from its target) the run
+stops the robot, keeps every measurement taken, and returns with `fault` (one line); the
+pose under way is not written. Reconnect and run again with `resume`: it starts at the first
+unmeasured pose. Nothing captured while the robot moved or after a stop is written.
 Pause: while `paused()` is true the run waits between poses. Cancel: `cancelled()` stops the
 run between poses and the result comes back with `cancelled` True (not an exception: all that
 was measured is on disk, and the result says what).
@@ -32,6 +38,7 @@ import numpy as np
 
 from core.errors import RoboCalError
 from core.files import drop_partial_last_line
+from core.robot.driver import RobotFault
 from core.robot.model import RobotModel
 from core.measurement.file import MeasurementWriter
 from core.poses.file import PoseList
@@ -198,6 +205,9 @@ class PoseOutcome:
     sigma: np.ndarray | None = None     # mm
     location: object | None = None      # the MarkerLocation (what to draw), when kept
     seconds: float = 0.0
+    move_seconds: float = 0.0           # of `seconds`: the move until settled and read back
+    capture_seconds: float = 0.0        # of `seconds`: the capture
+    grab_gap: float | None = None       # s between the two cameras' grabs (a capture source)
 
 
 @dataclass
@@ -207,6 +217,7 @@ class MeasurementRunResult:
     total: int
     outcomes: list[PoseOutcome] = field(default_factory=list)
     cancelled: bool = False
+    fault: str | None = None       # why the run stopped early (robot or connection), one line
 
     @property
     def measured(self) -> list[PoseOutcome]:
@@ -230,12 +241,13 @@ class MeasurementRunResult:
             "measurements": str(self.measurements_path), "rejects": str(self.rejects_path),
             "poses": self.total, "measured": len(self.measured), "rejected": len(self.rejected),
             "skipped": len(self.skipped), "remaining": self.remaining, "cancelled": self.cancelled,
+            "fault": self.fault,
             "rejects_list": [{"pose": o.pose, "reason": o.reason} for o in self.rejected],
         }
 
 
 def run_measurements(poses: PoseList, out: str | Path, *, locate: Callable, capture: Callable | None = None,
-                     capture_pose: Callable | None = None, driver=None, target: str = "marker",
+                     capture_pose: Callable | None = None, source=None, driver=None, target: str = "marker",
                      rejects: str | Path | None = None, resume: bool = True, retry_rejected: bool = False,
                      keep_locations: bool = True, on_pose: Callable[[PoseOutcome], None] | None = None,
                      progress=None, cancelled=None, paused=None, pause_poll: float = 0.05) -> MeasurementRunResult:
@@ -243,13 +255,14 @@ def run_measurements(poses: PoseList, out: str | Path, *, locate: Callable, capt
     `out` (measurements.csv) and its rejects file.
 
     `locate(left, right)` returns a MarkerLocation (ok, reason, point, covariance).
-    `capture(q)` (internal units) or `capture_pose(pose_id, q)` returns the (left, right) pair.
+    `capture(q)` (internal units) or `capture_pose(pose_id, q)` returns the (left, right) pair;
+    or `source.capture()` returns StereoFrames (core.measurement.capture).
     `driver`: a connected RobotDriver moved to each pose first (optional: without one, the
     images are taken as given). `resume`: skip the poses already in the files (else an
     existing non-empty measurements file is refused). `retry_rejected`: measure previously
     rejected poses again. `on_pose(outcome)` is called after each pose, once its row is on disk."""
-    if (capture is None) == (capture_pose is None):
-        raise ValueError("give exactly one of capture and capture_pose")
+    if sum(c is not None for c in (capture, capture_pose, source)) != 1:
+        raise ValueError("give exactly one of capture, capture_pose and source")
     out = Path(out)
     rejects = Path(rejects) if rejects is not None else rejects_path_for(out)
     ids = np.asarray(poses.pose, dtype=int).reshape(-1)
@@ -321,10 +334,19 @@ def run_measurements(poses: PoseList, out: str | Path, *, locate: Callable, capt
                     q_record = driver.model.q_to_file(q_now)   # what the robot reports it reached
                 else:
                     q_now, q_record = q, q_file
+                t_moved = time.perf_counter()
+                outcome.move_seconds = t_moved - t0
                 try:
-                    pair = capture(q_now) if capture is not None else capture_pose(pid, q_now)
+                    if source is not None:
+                        frames = source.capture()
+                        pair, outcome.grab_gap = (frames.left, frames.right), frames.grab_gap_s
+                    else:
+                        pair = capture(q_now) if capture is not None else capture_pose(pid, q_now)
+                except RobotFault:
+                    raise
                 except RoboCalError as exc:
                     raise _PoseRejected(f"capture failed: {exc.message}") from None
+                outcome.capture_seconds = time.perf_counter() - t_moved
                 if pair is None or len(pair) != 2 or pair[0] is None or pair[1] is None:
                     raise _PoseRejected("capture failed: no image pair")
                 if driver is not None and driver.stopped:
@@ -344,6 +366,11 @@ def run_measurements(poses: PoseList, out: str | Path, *, locate: Callable, capt
                     rej_writer = RejectsWriter(rejects, dof)
                 rej_writer.append(pid, target, q_file, reason)
                 outcome.reason = reason
+            except RobotFault as exc:
+                if driver is not None:
+                    driver.stop()              # never raises; the robot stays stopped until resumed
+                result.fault = exc.message
+                break
             outcome.location = location if keep_locations else None
             outcome.seconds = time.perf_counter() - t0
             result.outcomes.append(outcome)
@@ -351,6 +378,8 @@ def run_measurements(poses: PoseList, out: str | Path, *, locate: Callable, capt
                 on_pose(outcome)
         else:
             report(len(poses), "done")
+        if result.fault:
+            report(len(result.outcomes), result.fault)
     finally:
         writer.close()
         if rej_writer is not None:

@@ -1,7 +1,14 @@
-"""The one interface every robot connection implements (simulated now, serial later).
+"""The one interface every robot connection implements: the virtual lab's robot
+(core.robot.simulated) and serial controllers (core.robot.serial_robot: RoboCal protocol v1
+and protocol profiles).
 
 Joint values are in internal units: radians for revolute joints, mm for prismatic ones
 (`RobotModel.q_from_file` converts from the degrees of files and screens).
+
+`move_to` returns once the robot has settled at the target (the controller reported done,
+or its joints stopped changing); it blocks, so the app calls it on a worker thread, and
+`stop()` may come from any thread meanwhile. A connection or controller failure during a
+move raises `RobotFault` (the measurement run stops the robot and keeps what it measured).
 
 Safety rules shared by every driver:
 - `move_to` refuses a configuration outside the model's joint limits (RoboCalError),
@@ -13,11 +20,29 @@ Safety rules shared by every driver:
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from dataclasses import dataclass
 
 import numpy as np
 
 from core.errors import RoboCalError
 from core.robot.model import RobotModel
+
+
+class RobotFault(RoboCalError):
+    """The robot or its connection failed (timeout, garbage on the line, disconnect, a
+    controller error, a move that ended away from its target). The message is one line."""
+
+
+@dataclass(frozen=True)
+class DriverInfo:
+    """What a connected robot says about itself."""
+
+    name: str
+    dof: int
+    units: str                     # joint units on the controller side: "deg", "rad" or "ticks"
+    can_move: bool = True
+    reports_motion_state: bool = True   # done reply or status poll; else joints watched until still
+    has_stop: bool = True
 
 
 class RobotDriver(ABC):
@@ -28,6 +53,30 @@ class RobotDriver(ABC):
 
     def __init__(self, model: RobotModel):
         self.model = model
+        self._speed = 100.0
+
+    @property
+    def info(self) -> DriverInfo:
+        """Name, joint count, controller units and capabilities."""
+        return DriverInfo(self.name, self.model.dof, "deg")
+
+    # -- speed ---------------------------------------------------------------------------
+    @property
+    def speed(self) -> float:
+        """Motion speed, percent of the robot's maximum."""
+        return self._speed
+
+    def set_speed(self, percent: float) -> None:
+        """Set the motion speed (percent, 0 < p <= 100) for the next moves."""
+        p = float(percent)
+        if not 0 < p <= 100:
+            raise RoboCalError(f"speed {percent} % is outside (0, 100]", source=self.name,
+                               hint="Give a percentage between 1 and 100.")
+        self._apply_speed(p)
+        self._speed = p
+
+    def _apply_speed(self, percent: float) -> None:
+        """Send the speed to the robot (nothing to send for a robot without one)."""
 
     # -- connection ----------------------------------------------------------------------
     @property

@@ -1,6 +1,6 @@
 """A simulated robot: the robot connection of the virtual lab.
 
-It moves instantly to any configuration inside the joint limits of its `RobotModel` (for the
+It is one driver among the others (core.robot.driver): it moves instantly to any configuration inside the joint limits of its `RobotModel` (for the
 virtual lab, the robot's *true* geometry; the nominal model is what the user calibrates).
 """
 from __future__ import annotations
@@ -10,7 +10,7 @@ import threading
 import numpy as np
 
 from core.robot.model import RobotModel
-from core.robot.driver import RobotDriver
+from core.robot.driver import DriverInfo, RobotDriver
 
 
 class SimulatedRobot(RobotDriver):
@@ -26,6 +26,10 @@ class SimulatedRobot(RobotDriver):
         self._lock = threading.Lock()   # stop() may come from the GUI thread during a move
         self.stop_count = 0
         self.move_count = 0
+
+    @property
+    def info(self) -> DriverInfo:
+        return DriverInfo(self.name, self.model.dof, "rad")
 
     @property
     def connected(self) -> bool:
