@@ -57,7 +57,8 @@ class ExportPage(WizardPage):
                        "One row per joint: θ, d, a, α, β (mm, °), limits and standard deviations.",
                        ("calibrated_dh.csv",), self._write_dh, self._missing_model),
             ExportItem("urdf", "URDF (ROS, robot viewers)",
-                       "Kinematic URDF in metres and radians; world = the measurement (left camera) frame.",
+                       "Kinematic URDF in metres and radians with the robot file's joint names; "
+                       "world = the measurement (left camera) frame.",
                        ("calibrated.urdf",), self._write_urdf, self._missing_model),
             ExportItem("stereo", "Stereo camera files (OpenCV + ROS camera_info)",
                        "stereo.yaml (OpenCV FileStorage) and left.yaml / right.yaml (ROS camera_info, metres).",

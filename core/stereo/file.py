@@ -8,6 +8,7 @@
     R, T                                 X_right = R·X_left + T; T (3x1) in mm
     E, F                                 essential and fundamental matrices (3x3)
     R1, R2, P1, P2, Q                    cv2.stereoRectify output (3x3, 3x4, 3x4, 4x4; mm)
+    rectify_alpha                        cv2.stereoRectify's free scaling, 0..1 (absent: 0)
     rms_left, rms_right, rms_stereo      px
     board_cols, board_rows, board_square inner corners and square size (mm)
     epipolar_rms, cross_validation_px    optional, px
@@ -21,7 +22,8 @@ ROS export (`write_ros_camera_info`): one camera_info YAML per camera in the for
 camera_calibration_parsers (image_width, image_height, camera_name, camera_matrix,
 distortion_model plumb_bob or rational_polynomial, distortion_coefficients,
 rectification_matrix, projection_matrix). ROS works in metres: the projection matrix'
-translation column (P2[0,3] = −f'·B) is converted from mm to m.
+translation column (P2[0,3] = −f'·B) is converted from mm to m. Every matrix entry is written
+as a YAML float (`0.0`, `1.0e-05`), as ROS's calibrator writes them.
 """
 from __future__ import annotations
 
@@ -71,6 +73,7 @@ class StereoFile:
     rms_stereo: float
     board: Board
     extras: dict = field(default_factory=dict)    # epipolar_rms, cross_validation_px (optional)
+    rectify_alpha: float = 0.0    # stereoRectify alpha: 0 only valid pixels, 1 every source pixel
 
     @property
     def rig(self) -> StereoRig:
@@ -93,13 +96,14 @@ class StereoFile:
         return cls(tuple(int(v) for v in result.image_size), result.K1, result.D1, result.K2, result.D2,
                    result.R, result.T, result.E, result.F, rect.R1, rect.R2, rect.P1, rect.P2, rect.Q,
                    float(result.rms_left), float(result.rms_right), float(result.rms_stereo), result.board,
-                   extras)
+                   extras, float(result.options.rectify_alpha))
 
     def to_dict(self) -> dict:
         """Plain lists and numbers (the JSON export)."""
         d = {"format": FORMAT, "image_width": self.image_size[0], "image_height": self.image_size[1]}
         for key in ("K1", "D1", "K2", "D2", "R", "T", "E", "F", "R1", "R2", "P1", "P2", "Q"):
             d[key] = np.asarray(getattr(self, key), dtype=float).tolist()
+        d["rectify_alpha"] = float(self.rectify_alpha)
         d.update(rms_left=self.rms_left, rms_right=self.rms_right, rms_stereo=self.rms_stereo,
                  board_cols=self.board.cols, board_rows=self.board.rows, board_square=self.board.square,
                  baseline_mm=self.baseline_mm, units={"length": "mm", "image": "px"})
@@ -130,6 +134,7 @@ def write_stereo_yaml(path: str | Path, data) -> Path:
         elif key == "T":
             value = value.reshape(3, 1)
         fs.write(key, value)
+    fs.write("rectify_alpha", float(sf.rectify_alpha))
     for key in ("rms_left", "rms_right", "rms_stereo"):
         fs.write(key, float(getattr(sf, key)))
     fs.write("board_cols", int(sf.board.cols))
@@ -184,6 +189,7 @@ def read_stereo_yaml(path: str | Path) -> StereoFile:
         w = _int(fs, "image_width", path)
         h = _int(fs, "image_height", path)
         mats = {key: _matrix(fs, key, shape, path) for key, shape in _MATRICES.items()}
+        alpha = 0.0 if fs.getNode("rectify_alpha").empty() else _real(fs, "rectify_alpha", path)
         d1 = _dist(fs, "D1", path)
         d2 = _dist(fs, "D2", path)
         rms = {key: _real(fs, key, path) for key in ("rms_left", "rms_right", "rms_stereo")}
@@ -199,6 +205,8 @@ def read_stereo_yaml(path: str | Path) -> StereoFile:
         raise RoboCalError(f"malformed OpenCV YAML ({str(exc).strip().splitlines()[-1]})", source=path) from exc
     finally:
         fs.release()
+    if not 0.0 <= alpha <= 1.0:
+        raise RoboCalError(f"expected a value from 0 to 1, got {alpha}", source=path, field="rectify_alpha")
     if w <= 0 or h <= 0:
         raise RoboCalError(f"image size must be positive, got {w}x{h}", source=path, field="image_width")
     if cols < 2 or rows < 2 or not square > 0:
@@ -212,7 +220,8 @@ def read_stereo_yaml(path: str | Path) -> StereoFile:
         raise RoboCalError("not a rotation matrix", source=path, field="R")
     return StereoFile((w, h), mats["K1"], d1, mats["K2"], d2, R, mats["T"].reshape(3), mats["E"], mats["F"],
                       mats["R1"], mats["R2"], mats["P1"], mats["P2"], mats["Q"],
-                      rms["rms_left"], rms["rms_right"], rms["rms_stereo"], Board(cols, rows, square), extras)
+                      rms["rms_left"], rms["rms_right"], rms["rms_stereo"], Board(cols, rows, square), extras,
+                      alpha)
 
 
 def _node(fs, key, path):
@@ -310,8 +319,12 @@ def camera_info_yaml(data, side: str, camera_name: str | None = None) -> str:
 
 
 def _num(v: float) -> str:
-    text = repr(float(v))
-    return "0" if text in ("0.0", "-0.0") else text
+    """A YAML float that reads back exactly, always with a point: YAML 1.1 readers (pyyaml)
+    take `0` for an integer and `1e-05` for text."""
+    mantissa, e, exponent = repr(float(v) + 0.0).partition("e")      # + 0.0: no "-0.0"
+    if "." not in mantissa:
+        mantissa += ".0"
+    return mantissa + e + exponent
 
 
 def write_ros_camera_info(folder: str | Path, data, names: tuple[str, str] = ("left", "right")

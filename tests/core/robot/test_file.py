@@ -120,3 +120,17 @@ def test_a_folder_or_a_binary_file_is_refused_clearly(tmp_path):
     (tmp_path / "robot.json").write_bytes(b"\x89PNG\r\n\x1a\n\xff\xfe")
     with pytest.raises(RoboCalError, match="not a text file. Give a JSON file"):
         read_robot(tmp_path / "robot.json")
+
+
+def test_joint_names_default_and_round_trip(tmp_path):
+    ur5 = read_robot(robot_path("ur5"))
+    assert [j.name for j in ur5.joints] == ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",
+                                             "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"]
+    assert [j.name for j in read_robot(write_robot(ur5, tmp_path / "ur5.json")).joints] == [j.name for j in ur5.joints]
+    data = _preset_dict()
+    for jd in data["joints"]:
+        jd.pop("name", None)
+    assert [j.name for j in robot_from_dict(data).joints] == [f"J{i}" for i in range(1, 7)]
+    data["joints"][0]["name"] = 7
+    with pytest.raises(RoboCalError, match=r"field 'joints\[0\]\.name': expected text"):
+        robot_from_dict(data)

@@ -7,6 +7,7 @@ import re
 import cv2
 import numpy as np
 import pytest
+import yaml
 
 from core.errors import RoboCalError
 from core.stereo.calibration import CalibrationOptions, calibrate_points
@@ -38,6 +39,7 @@ def test_round_trip(tmp_path, result):
     np.testing.assert_allclose(sf.T, result.T)
     assert sf.rms_stereo == pytest.approx(result.rms_stereo)
     assert sf.extras["epipolar_rms"] == pytest.approx(result.epipolar_rms)
+    assert sf.rectify_alpha == 0.0
     assert sf.rig.baseline == pytest.approx(result.baseline_mm)
     again = tmp_path / "again.yaml"
     write_stereo_yaml(again, sf)
@@ -108,6 +110,21 @@ def test_read_errors_name_the_field(tmp_path, result):
         read_stereo_yaml(_write_text(tmp_path, text_width))
 
 
+def test_rectify_alpha_is_stored(tmp_path):
+    _, left, right = synthetic_views(8, noise=0.03, seed=5)
+    half = calibrate_points(left, right, BOARD, SIZE, CalibrationOptions(rectify_alpha=0.5, cross_validate=False))
+    path = write_stereo_yaml(tmp_path / "stereo.yaml", half)
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    assert fs.getNode("rectify_alpha").real() == 0.5
+    fs.release()
+    assert read_stereo_yaml(path).rectify_alpha == 0.5 and stereo_json(half)["rectify_alpha"] == 0.5
+    text = path.read_text()
+    older = re.sub(r"rectify_alpha: .*\n", "", text)                  # files written before alpha was stored
+    assert older != text and read_stereo_yaml(_write_text(tmp_path, older)).rectify_alpha == 0.0
+    with pytest.raises(RoboCalError, match="field 'rectify_alpha': expected a value from 0 to 1, got 2"):
+        read_stereo_yaml(_write_text(tmp_path, text.replace("rectify_alpha: 0.5", "rectify_alpha: 2.")))
+
+
 def test_read_errors_for_bad_files(tmp_path):
     with pytest.raises(RoboCalError, match="file not found"):
         read_stereo_yaml(tmp_path / "none.yaml")
@@ -129,28 +146,18 @@ def test_rotation_checked(tmp_path, result):
         read_stereo_yaml(path)
 
 
-def _ros_fields(text):
-    """A tiny reader of the camera_info YAML layout (no PyYAML needed)."""
-    out, current = {}, None
-    for line in text.splitlines():
-        if not line.startswith(" "):
-            key, _, value = line.partition(":")
-            current = key
-            out[key] = value.strip() if value.strip() else {}
-        else:
-            k, _, v = line.strip().partition(":")
-            v = v.strip()
-            out[current][k] = [float(x) for x in v.strip("[]").split(",")] if v.startswith("[") else int(v)
-    return out
+def _ros(text):
+    """camera_info YAML read by an independent reader (pyyaml)."""
+    return yaml.safe_load(text)
 
 
 def test_ros_camera_info_export(tmp_path, result, rational):
     left, right = write_ros_camera_info(tmp_path / "ros", result)
     assert left.name == "left.yaml" and right.name == "right.yaml"
-    f = _ros_fields(right.read_text())
+    f = _ros(right.read_text())
     assert list(f) == ["image_width", "image_height", "camera_name", "camera_matrix", "distortion_model",
                        "distortion_coefficients", "rectification_matrix", "projection_matrix"]
-    assert f["image_width"] == "1280" and f["camera_name"] == "right"
+    assert f["image_width"] == 1280 and f["camera_name"] == "right"
     assert f["distortion_model"] == "plumb_bob" and f["distortion_coefficients"]["cols"] == 5
     np.testing.assert_allclose(np.reshape(f["camera_matrix"]["data"], (3, 3)), result.K2)
     P = np.reshape(f["projection_matrix"]["data"], (3, 4))
@@ -158,8 +165,69 @@ def test_ros_camera_info_export(tmp_path, result, rational):
     np.testing.assert_allclose(P[:, :3], P2[:, :3])
     assert P[0, 3] == pytest.approx(P2[0, 3] / 1000.0)          # ROS: metres
     assert P[0, 3] / P[0, 0] == pytest.approx(-result.baseline_mm / 1000, rel=0.01)
-    g = _ros_fields(camera_info_yaml(rational, "left"))
+    g = _ros(camera_info_yaml(rational, "left"))
     assert g["distortion_model"] == "rational_polynomial" and len(g["distortion_coefficients"]["data"]) == 8
+
+
+MATRICES = ("camera_matrix", "distortion_coefficients", "rectification_matrix", "projection_matrix")
+
+
+@pytest.mark.parametrize("fixture", ["result", "rational"])
+def test_ros_camera_info_entries_are_floats(tmp_path, request, fixture):
+    for path in write_ros_camera_info(tmp_path, request.getfixturevalue(fixture)):
+        f = _ros(path.read_text())
+        for key in MATRICES:
+            data = f[key]["data"]
+            assert len(data) == f[key]["rows"] * f[key]["cols"]
+            assert all(type(v) is float for v in data), (path.name, key, data)   # ROS 2 setters take floats
+        assert type(f["image_width"]) is int and type(f["image_height"]) is int
+
+
+def test_ros_number_text_reads_back_exactly():
+    values = [0.0, -0.0, 1.0, -2.5, 1e-05, -3e-12, 1.5e-07, 1e16, 123456789.123, 1 / 3]
+    eye = np.eye(3)
+    sf = StereoFile((4, 4), K1=eye, D1=np.array(values[:5]), K2=eye, D2=np.array(values[5:]), R=eye,
+                    T=np.zeros(3), E=eye, F=eye, R1=eye, R2=eye, P1=np.eye(3, 4), P2=np.eye(3, 4), Q=np.eye(4),
+                    rms_left=0.0, rms_right=0.0, rms_stereo=0.0, board=BOARD)
+    for side, expected in (("left", values[:5]), ("right", values[5:])):
+        text = camera_info_yaml(sf, side)
+        got = _ros(text)["distortion_coefficients"]["data"]
+        assert got == expected and all(type(v) is float for v in got)
+        assert "-0.0" not in text                 # pyyaml would read "1e-05" as text, "0" as an int
+
+
+def _opencv_file(path):
+    """stereo.yaml read by plain cv2.FileStorage."""
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    out = {k: fs.getNode(k).mat() for k in ("K1", "D1", "K2", "D2", "R", "T", "R1", "R2", "P1", "P2")}
+    fs.release()
+    return out
+
+
+@pytest.mark.parametrize("fixture", ["result", "rational"])
+def test_ros_files_reproject_like_stereo_yaml(tmp_path, request, fixture):
+    data = request.getfixturevalue(fixture)
+    cv = _opencv_file(write_stereo_yaml(tmp_path / "stereo.yaml", data))
+    ros = {side: _ros(p.read_text()) for side, p in zip(("left", "right"), write_ros_camera_info(tmp_path, data))}
+    rng = np.random.default_rng(3)
+    X = np.column_stack([rng.uniform(-300, 300, 50), rng.uniform(-250, 250, 50), rng.uniform(900, 1600, 50)])
+    criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 200, 1e-15)
+    rect_left = np.reshape(ros["left"]["rectification_matrix"]["data"], (3, 3))
+    for side, (K, D, R, P) in {"left": ("K1", "D1", "R1", "P1"), "right": ("K2", "D2", "R2", "P2")}.items():
+        m = {k: np.reshape(ros[side][k]["data"], (ros[side][k]["rows"], ros[side][k]["cols"])) for k in MATRICES}
+        # the camera's own pixels of X (X in the left camera frame, mm)
+        rvec = np.zeros(3) if side == "left" else cv2.Rodrigues(cv["R"])[0]
+        tvec = np.zeros(3) if side == "left" else cv["T"]
+        pixels = cv2.projectPoints(X, rvec, tvec, cv[K], cv[D])[0]
+        # rectified with the ROS file and with stereo.yaml
+        by_ros = cv2.undistortPoints(pixels, m["camera_matrix"], m["distortion_coefficients"],
+                                     R=m["rectification_matrix"], P=m["projection_matrix"],
+                                     criteria=criteria).reshape(-1, 2)
+        by_yaml = cv2.undistortPoints(pixels, cv[K], cv[D], R=cv[R], P=cv[P], criteria=criteria).reshape(-1, 2)
+        np.testing.assert_array_equal(by_ros, by_yaml)                   # the same numbers, read back exactly
+        # ROS's projection of X: metres, in the rectified left frame (both cameras), translation included
+        h = m["projection_matrix"] @ np.vstack([rect_left @ X.T / 1000.0, np.ones(len(X))])
+        np.testing.assert_allclose((h[:2] / h[2]).T, by_yaml, rtol=0, atol=2e-11)    # px; seen: 3e-12
 
 
 def test_json_export(tmp_path, result):
