@@ -103,7 +103,7 @@ def test_virtual_lab_pairs_calibrate_drop_outlier_and_export(page, qtbot, tmp_pa
     qtbot.mouseClick(page.calibrate_button, Qt.MouseButton.LeftButton)
     wait(qtbot, page)
     r = page.result
-    assert r is not None and r.pairs_used == accepted and r.rms_stereo < 0.2
+    assert r is not None and r.pairs_used == accepted and r.file.rms_stereo < 0.2
     series = page.errors_chart.series()
     assert len(series["pairs"]) == accepted
     assert page.errors_chart.selected() == []                    # the line starts above every bar
@@ -111,7 +111,7 @@ def test_virtual_lab_pairs_calibrate_drop_outlier_and_export(page, qtbot, tmp_pa
     assert page.table.find("stereo", "baseline") >= 0
     summary = page.summary_view.toPlainText()
     assert "Cross-validation" in summary and "Epipolar" in summary and "the model" in summary
-    h, w = r.image_size[1], r.image_size[0]
+    h, w = r.file.image_size[1], r.file.image_size[0]
     qtbot.waitUntil(lambda: len(page.preview.image_shape()) > 0, timeout=WAIT_MS)   # rectified on a worker
     assert page.preview.image_shape()[:2] == (h, 2 * w + stereo_page.PREVIEW_GAP)
     assert "Epipolar error of this pair" in page.preview_caption.text()
@@ -139,8 +139,8 @@ def test_virtual_lab_pairs_calibrate_drop_outlier_and_export(page, qtbot, tmp_pa
         qtbot.mouseClick(page.save_button, Qt.MouseButton.LeftButton)
     path = page.state.project.path("stereo")
     sf = read_stereo_yaml(path)
-    assert sf.image_size == r.image_size and sf.board == page.board
-    assert abs(sf.rms_stereo - page.result.rms_stereo) < 1e-9
+    assert sf.image_size == r.file.image_size and sf.board == page.board
+    assert abs(sf.rms_stereo - page.result.file.rms_stereo) < 1e-9
     assert page.is_complete() and page.state.stereo is page.result
 
     patch_dirs(monkeypatch, tmp_path / "ros")
@@ -235,7 +235,7 @@ def test_real_pairs_flagged_outlier_dropped(qtbot, tmp_path, monkeypatch):
         assert page.drop_selected()
         wait(qtbot, page)
         assert page.result.pairs_used == 25 - n
-        assert abs(page.result.K1[0, 0] / 518.05 - 1) < 0.02
+        assert abs(page.result.file.K1[0, 0] / 518.05 - 1) < 0.02
     finally:
         page.tasks.shutdown()
         page.state.close()
