@@ -1,0 +1,1 @@
+"""The pages' long work, plain Python (no Qt) run on a worker thread: one module per step."""
