@@ -6,10 +6,10 @@ import time
 import numpy as np
 
 from core import transforms as tf
-from core.marker.correspondence import StereoRectification
+from core.stereo.rectification import StereoRectification
 from core.virtual_lab.marker_comparison import random_marker_pose, view_tilt
 from core.marker.detection import detect_marker
-from core.marker.geometry import PixelMap
+from core.camera import PixelMap
 from core.marker.location import MarkerLocator, MarkerTracker
 from core.marker.training import train_marker
 from core.marker.triangulation import triangulate_general, triangulate_rectified

@@ -29,7 +29,8 @@ import numpy as np
 
 from core.stereo.board import Board
 from core.stereo.checkerboard import detect_folders, detect_pair, detect_pairs
-from core.stereo.calibration import CalibrationOptions, calibrate_stereo
+from core.stereo.calibration import calibrate_stereo
+from core.stereo.fit import CalibrationOptions
 from core.stereo.file import read_stereo_yaml, write_stereo_yaml
 
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
@@ -60,7 +61,7 @@ def _real(report) -> None:
     obj = [result.object_points.astype(np.float32)] * result.pairs_used
     left = [p.astype(np.float32) for p in result.left_points]
     right = [p.astype(np.float32) for p in result.right_points]
-    size = result.image_size
+    size = result.file.image_size
     scratch = cv2.stereoCalibrate(obj, left, right, None, None, None, None, size, flags=0)[0]
     _, K1, D1, _, _ = cv2.calibrateCamera(obj, left, size, None, None)
     _, K2, D2, _, _ = cv2.calibrateCamera(obj, right, size, None, None)
@@ -69,10 +70,10 @@ def _real(report) -> None:
     report.info("real: pairs used / rejected", f"{result.pairs_used} / {len(result.rejected)}")
     report.info("real: plain cv2.stereoCalibrate RMS, flags 0 / after calibrateCamera",
                 f"{scratch:.4f} / {fixed:.4f}", "px")
-    report.add("real: RoboCal stereo RMS (<= plain OpenCV + 1e-6 px)", result.rms_stereo, "<=",
+    report.add("real: RoboCal stereo RMS (<= plain OpenCV + 1e-6 px)", result.file.rms_stereo, "<=",
                baseline + 1e-6, "px", note=f"baseline {baseline:.6f} px")
-    for name, value in (("left fx", result.K1[0, 0]), ("left fy", result.K1[1, 1]),
-                        ("right fx", result.K2[0, 0]), ("right fy", result.K2[1, 1])):
+    for name, value in (("left fx", result.file.K1[0, 0]), ("left fy", result.file.K1[1, 1]),
+                        ("right fx", result.file.K2[0, 0]), ("right fy", result.file.K2[1, 1])):
         report.add(f"real: {name} {value:.2f} px vs 518.05 (|error|)", abs(value / REFERENCE_FOCAL - 1) * 100,
                    "<", 1.0, "%")
     report.info("real: epipolar error after rectification, RMS / max",
@@ -110,24 +111,24 @@ def _ground_truth(report, pairs, truth, board) -> None:
     det = detect_pairs(pairs, board)
     result = calibrate_stereo(det, CalibrationOptions())
     report.info("lab: pairs used / rejected", f"{result.pairs_used} / {len(result.rejected)}")
-    f_err = max(abs(result.K1[0, 0] / truth.left.fx - 1), abs(result.K1[1, 1] / truth.left.fy - 1),
-                abs(result.K2[0, 0] / truth.right.fx - 1), abs(result.K2[1, 1] / truth.right.fy - 1)) * 100
-    pp_err = max(abs(result.K1[0, 2] - truth.left.cx), abs(result.K1[1, 2] - truth.left.cy),
-                 abs(result.K2[0, 2] - truth.right.cx), abs(result.K2[1, 2] - truth.right.cy))
+    f_err = max(abs(result.file.K1[0, 0] / truth.left.fx - 1), abs(result.file.K1[1, 1] / truth.left.fy - 1),
+                abs(result.file.K2[0, 0] / truth.right.fx - 1), abs(result.file.K2[1, 1] / truth.right.fy - 1)) * 100
+    pp_err = max(abs(result.file.K1[0, 2] - truth.left.cx), abs(result.file.K1[1, 2] - truth.left.cy),
+                 abs(result.file.K2[0, 2] - truth.right.cx), abs(result.file.K2[1, 2] - truth.right.cy))
     b_err = abs(result.baseline_mm / truth.baseline - 1) * 100
-    dR = result.R @ truth.R.T
+    dR = result.file.R @ truth.R.T
     rot = math.degrees(math.acos(min(1.0, max(-1.0, (np.trace(dR) - 1) / 2))))
     report.add("lab: focal length error (worst of fx, fy, both cameras)", f_err, "<", 0.1, "%")
     report.add("lab: principal point error (worst coordinate)", pp_err, "<", 1.0, "px")
-    z = max(abs(result.K1[0, 2] - truth.left.cx) / result.std["cx_left"],
-            abs(result.K1[1, 2] - truth.left.cy) / result.std["cy_left"],
-            abs(result.K2[0, 2] - truth.right.cx) / result.std["cx_right"],
-            abs(result.K2[1, 2] - truth.right.cy) / result.std["cy_right"])
+    z = max(abs(result.file.K1[0, 2] - truth.left.cx) / result.std["cx_left"],
+            abs(result.file.K1[1, 2] - truth.left.cy) / result.std["cy_left"],
+            abs(result.file.K2[0, 2] - truth.right.cx) / result.std["cx_right"],
+            abs(result.file.K2[1, 2] - truth.right.cy) / result.std["cy_right"])
     report.info("lab: principal point, worst |error| / reported std", z, "sigma")
     report.add("lab: baseline length error", b_err, "<", 0.1, "%")
     report.add("lab: rotation error", rot, "<", 0.05, "deg")
     report.info("lab: stereo RMS / epipolar RMS",
-                f"{result.rms_stereo:.4f} / {result.epipolar_rms:.4f}", "px")
+                f"{result.file.rms_stereo:.4f} / {result.epipolar_rms:.4f}", "px")
     report.info("lab: cross-validation, observed area RMS", result.cross_validation.rms_observed_px, "px")
     report.info("lab: baseline std (reported) / actual error",
                 f"{result.std['baseline']:.4f} / {abs(result.baseline_mm - truth.baseline):.4f}", "mm")

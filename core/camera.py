@@ -102,3 +102,51 @@ class CameraModel:
         K[0, 2] = factor * K[0, 2] + (factor - 1) / 2.0
         K[1, 2] = factor * K[1, 2] + (factor - 1) / 2.0
         return CameraModel(K, self.dist.copy(), int(round(self.width * factor)), int(round(self.height * factor)))
+
+
+@dataclass(eq=False)
+class PixelMap:
+    """Maps raw image pixels to *ideal* pixels, where the image of a straight 3D line is
+    straight: lens distortion removed and, for a stereo pair, rectified. Edge lines are fitted
+    and intersected in ideal pixels; results are mapped back to raw pixels for display.
+
+    `camera` None: the identity (no lens model known). Otherwise ideal = P · R · undistort(raw)
+    with R (3x3, default identity) and P (3x3 or 3x4, default the camera's K)."""
+
+    camera: CameraModel | None = None
+    R: np.ndarray = field(default_factory=lambda: np.eye(3))
+    P: np.ndarray | None = None
+
+    def __post_init__(self):
+        self.R = np.asarray(self.R, dtype=float).reshape(3, 3)
+        if self.camera is not None and self.P is None:
+            self.P = self.camera.K.copy()
+        if self.P is not None:
+            self.P = np.asarray(self.P, dtype=float)[:3, :3].copy()
+
+    @property
+    def identity(self) -> bool:
+        return self.camera is None
+
+    def to_ideal(self, pts: np.ndarray) -> np.ndarray:
+        pts = np.asarray(pts, dtype=np.float64)
+        if self.identity or pts.size == 0:
+            return pts.copy()
+        out = cv2.undistortPoints(pts.reshape(-1, 1, 2), self.camera.K, self.camera.dist, R=self.R, P=self.P)
+        return out.reshape(pts.shape)
+
+    def to_raw(self, pts: np.ndarray) -> np.ndarray:
+        pts = np.asarray(pts, dtype=np.float64)
+        if self.identity or pts.size == 0:
+            return pts.copy()
+        flat = pts.reshape(-1, 2)
+        h = np.hstack([flat, np.ones((len(flat), 1))]) @ np.linalg.inv(self.P).T   # rectified normalised
+        ray = h @ self.R      # R^T applied to row vectors: back to the camera frame
+        xy = ray[:, :2] / ray[:, 2:3]
+        return self.camera.normalized_to_pixels(xy).reshape(pts.shape)
+
+    def jacobian_scale(self) -> float:
+        """Approximate ideal-pixels-per-raw-pixel near the image centre (for noise scaling)."""
+        if self.identity:
+            return 1.0
+        return float(0.5 * (self.P[0, 0] + self.P[1, 1]) / (0.5 * (self.camera.fx + self.camera.fy)))

@@ -1,9 +1,8 @@
 """A horizontal strip of image thumbnails, each with a caption, a tool tip and an optional
 badge (a coloured band with a short text, e.g. why a checkerboard pair was rejected).
 
-`compose_pair_thumbnail` makes the picture of a stereo pair (left | right, reduced, with the
-detected checkerboard corners drawn): plain numpy/OpenCV, safe to call on a worker thread.
-The strip itself takes row-major RGB (or grey) uint8 arrays and knows nothing of where
+The pictures of stereo pairs come from widgets.pair_thumbnail (plain numpy/OpenCV, made on
+a worker thread). The strip takes row-major RGB (or grey) uint8 arrays and knows nothing of where
 they come from. Items are addressed by a key of the caller's choice.
 """
 from __future__ import annotations
@@ -11,7 +10,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Hashable
 
-import cv2
 import numpy as np
 from PySide6.QtCore import QRect, QSize, Qt, Signal
 from PySide6.QtGui import QColor, QFont, QIcon, QImage, QPainter, QPixmap
@@ -21,53 +19,6 @@ KEY_ROLE = Qt.ItemDataRole.UserRole + 1
 BAD = "#c5221f"       # rejected
 MUTED = "#5f6368"     # excluded by the user, or other neutral states
 WARN = "#b06000"      # flagged
-
-
-def _side(gray: np.ndarray | None, corners: np.ndarray | None, pattern_size: tuple[int, int],
-          found: bool, width: int, height: int) -> np.ndarray:
-    if gray is None:
-        out = np.full((height, width, 3), 235, np.uint8)
-        cv2.line(out, (0, 0), (width - 1, height - 1), (200, 200, 200), 1, cv2.LINE_AA)
-        cv2.line(out, (0, height - 1), (width - 1, 0), (200, 200, 200), 1, cv2.LINE_AA)
-        return out
-    img = gray if gray.ndim == 2 else cv2.cvtColor(gray, cv2.COLOR_BGR2GRAY)
-    h, w = img.shape[:2]
-    scale = min(width / w, height / h)
-    # draw at 3x the thumbnail size, then reduce: OpenCV's corner circles and lines become fine
-    big = 3.0 * scale if 3.0 * scale < 1.0 else 1.0
-    bw, bh = max(1, int(round(w * big))), max(1, int(round(h * big)))
-    work = cv2.resize(img, (bw, bh), interpolation=cv2.INTER_AREA) if big < 1.0 else img
-    bgr = cv2.cvtColor(work, cv2.COLOR_GRAY2BGR)
-    if corners is not None and len(corners):
-        pts = (np.asarray(corners, np.float32).reshape(-1, 1, 2) * big).astype(np.float32)
-        if found and len(pts) == pattern_size[0] * pattern_size[1]:
-            cv2.drawChessboardCorners(bgr, pattern_size, pts, True)
-        else:
-            for x, y in pts.reshape(-1, 2):
-                cv2.circle(bgr, (int(round(x)), int(round(y))), 4, (0, 0, 255), -1, cv2.LINE_AA)
-    nw, nh = max(1, int(round(w * scale))), max(1, int(round(h * scale)))
-    bgr = cv2.resize(bgr, (nw, nh), interpolation=cv2.INTER_AREA)
-    out = np.full((height, width, 3), 235, np.uint8)
-    y0, x0 = (height - nh) // 2, (width - nw) // 2
-    out[y0:y0 + nh, x0:x0 + nw] = bgr
-    return out
-
-
-def compose_pair_thumbnail(left: np.ndarray | None, right: np.ndarray | None,
-                           left_corners: np.ndarray | None = None, right_corners: np.ndarray | None = None,
-                           pattern_size: tuple[int, int] = (9, 6), *, found: tuple[bool, bool] = (True, True),
-                           width: int = 120, gap: int = 4) -> np.ndarray:
-    """Left | right reduced to `width` px each (aspect kept), detected corners drawn
-    (cv2.drawChessboardCorners when the whole grid was found, red dots otherwise).
-    Returns a row-major RGB uint8 array. `left`/`right` are grey or BGR images or None."""
-    ref = left if left is not None else right
-    aspect = (ref.shape[0] / ref.shape[1]) if ref is not None else 0.8
-    height = max(1, int(round(width * aspect)))
-    a = _side(left, left_corners, pattern_size, found[0], width, height)
-    b = _side(right, right_corners, pattern_size, found[1], width, height)
-    sep = np.full((height, gap, 3), 255, np.uint8)
-    bgr = np.concatenate([a, sep, b], axis=1)
-    return np.ascontiguousarray(bgr[:, :, ::-1])
 
 
 def to_qimage(image: np.ndarray) -> QImage:

@@ -2,7 +2,7 @@
 (e.g. "left", "right", "stereo"): group | parameter | value | ± σ | unit.
 
 `set_rows(rows)` takes objects with `group`, `name`, `value`, `std`, `unit`, `fixed`
-(such as core.stereo.calibration.ParameterRow). Fixed values are greyed and marked
+(such as core.stereo.uncertainty.CameraParameterRow). Fixed values are greyed and marked
 "fixed"; names can be shown differently through `display_names`."""
 from __future__ import annotations
 

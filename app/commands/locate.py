@@ -35,16 +35,14 @@ def add_arguments(parser) -> None:
 
 def setup_locator(args):
     """(MarkerLocator, size known) from --stereo, --marker and --marker-size."""
-    from core.marker.correspondence import StereoRectification
     from core.errors import UsageError
     from core.marker import load_marker
     from core.marker.location import LocatorOptions, MarkerLocator
-    from core.stereo.file import read_stereo_yaml
+    from core.stereo.rectification import load_rectification
 
     if args.marker_size is not None and not args.marker_size > 0:
         raise UsageError("--marker-size must be positive (mm)")
-    stereo = read_stereo_yaml(args.stereo)
-    rect = StereoRectification.from_stereo_file(stereo)
+    rect = load_rectification(args.stereo)
     trained, known = load_marker(args.marker, args.marker_size)
     options = LocatorOptions(max_size_error=0.2 if known else None)
     return MarkerLocator(trained, rect, options), known

@@ -15,7 +15,8 @@ from core.stereo.board import Board
 from core.stereo.checkerboard import detect_folders
 from core.errors import UsageError
 from core.task import Monitor
-from core.stereo.calibration import CalibrationOptions, StereoCalibrationResult, calibrate_stereo
+from core.stereo.calibration import StereoCalibrationResult, calibrate_stereo
+from core.stereo.fit import CalibrationOptions
 from core.stereo.file import write_ros_camera_info, write_stereo_json, write_stereo_yaml
 
 HELP = "Stereo calibration from checkerboard image pairs (matched by sorted file name)"
@@ -104,18 +105,18 @@ def _text(r: StereoCalibrationResult, written: list[str], ignored: list[str]) ->
     s = r.std
     lines = [f"stereo calibration: {r.pairs_used} pairs used, {len(r.rejected)} rejected, "
              f"{len(r.excluded)} excluded ({r.options.describe()})",
-             f"  reprojection RMS: left {r.rms_left:.3f} px, right {r.rms_right:.3f} px, "
-             f"stereo {r.rms_stereo:.3f} px",
+             f"  reprojection RMS: left {r.file.rms_left:.3f} px, right {r.file.rms_right:.3f} px, "
+             f"stereo {r.file.rms_stereo:.3f} px",
              f"  epipolar error after rectification: RMS {r.epipolar_rms:.3f} px, max {r.epipolar_max:.3f} px"]
     cv = r.cross_validation
     if cv is not None:
         lines.append(f"  cross-validation (two halves): {cv.rms_observed_px:.3f} px RMS where the boards were, "
                      f"{cv.rms_px:.3f} px RMS / {cv.max_px:.2f} px max over the whole image")
-    for side, K in (("left", r.K1), ("right", r.K2)):
+    for side, K in (("left", r.file.K1), ("right", r.file.K2)):
         lines.append(f"  {side + ' camera:':<14}fx {K[0, 0]:.2f} ± {s.get('fx_' + side, 0):.2f}  "
                      f"fy {K[1, 1]:.2f} ± {s.get('fy_' + side, 0):.2f}  cx {K[0, 2]:.2f} ± {s.get('cx_' + side, 0):.2f}  "
                      f"cy {K[1, 2]:.2f} ± {s.get('cy_' + side, 0):.2f} px")
-    T = r.T
+    T = r.file.T
     lines.append(f"  baseline {r.baseline_mm:.2f} ± {s.get('baseline', 0):.2f} mm, "
                  f"T = ({T[0]:.2f}, {T[1]:.2f}, {T[2]:.2f}) mm")
     if r.coverage is not None:

@@ -12,10 +12,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from core.marker.correspondence import StereoRectification
 from core.errors import RoboCalError
 from core.marker.training import TrainedMarker
-from core.stereo.file import StereoFile, read_stereo_yaml
+from core.stereo.rectification import StereoRectification, load_rectification
 
 MARKER_FILE = "marker.npz"
 TRAINING_FILE = "marker_training.png"
@@ -60,19 +59,19 @@ def stereo_source(state) -> StereoSource:
     if project is not None and project.has("stereo"):
         path = project.path("stereo")
         try:
-            sf = read_stereo_yaml(path)
-            rect = StereoRectification.from_stereo_file(sf)
+            rect = load_rectification(path)
         except RoboCalError as exc:
             problem = f"the project's stereo.yaml cannot be used: {exc.message}"
         else:
+            sf = rect.calibration
             w, h = sf.image_size
             return StereoSource(rect, "file", f"stereo.yaml: {w}x{h} px, stereo RMS {sf.rms_stereo:.3f} px, "
                                               f"baseline {sf.baseline_mm:.1f} mm")
     result = state.stereo
     if result is not None:
         try:
-            sf = StereoFile.from_result(result)
-            rect = StereoRectification.from_stereo_file(sf)
+            sf = result.file
+            rect = StereoRectification.from_calibration(sf)
         except (RoboCalError, AttributeError) as exc:
             problem = problem or f"the stereo calibration cannot be used: {exc}"
         else:

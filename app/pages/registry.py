@@ -17,7 +17,7 @@ from app.pages.measurement_page import MeasurementPage
 from app.pages.poses.page import PosesPage
 from app.pages.setup_page import SetupPage
 from app.pages.steps import Step
-from app.pages.stereo_page import StereoPage
+from app.pages.stereo.page import StereoPage
 from app.worker import error_message
 
 log = logging.getLogger(__name__)

@@ -46,6 +46,7 @@ from core import transforms as tf
 from core.identification.jacobian import (Parameter, all_parameters, apply_step, calibration_jacobian,
                                        predict_points, resolve_names)
 from core.errors import RoboCalError, UsageError
+from core.files import strict_json
 from core.identification.identifiability import (FIXED_BY_USER, Identifiability, ObservabilityIndices, analyse,
                                   check_data, column_scales, observability_indices,
                                   practical_identifiability, qr_r, small_factor)
@@ -260,8 +261,8 @@ class IdentificationResult:
             "sigma_hat": self.sigma_hat, "sigma_hat_unit": "1" if self.weighted else "mm", "dof": self.dof,
             "iterations": self.n_iterations, "converged": self.converged,
             "rank": self.rank, "n_parameters": len(self.estimated),
-            "condition_number": _finite(self.condition_number),
-            "observability": {k: _finite(v) for k, v in self.observability.as_dict().items()},
+            "condition_number": strict_json(self.condition_number),
+            "observability": {k: strict_json(v) for k, v in self.observability.as_dict().items()},
             "outliers": len(self.outliers), "huber": self.huber,
         }
         if self.validation is not None:
@@ -286,8 +287,8 @@ class IdentificationResult:
             "iterations": self.n_iterations, "converged": self.converged,
             "cost_per_iteration": self.costs,
             "rank": self.rank, "n_parameters": len(self.estimated),
-            "condition_number": _finite(self.condition_number),
-            "observability": {k: _finite(v) for k, v in self.observability.as_dict().items()},
+            "condition_number": strict_json(self.condition_number),
+            "observability": {k: strict_json(v) for k, v in self.observability.as_dict().items()},
             "sigma_hat": self.sigma_hat,
             "unidentifiable": [{"name": r.name, "status": r.status, "reason": r.explanation}
                                for r in self.unidentifiable],
@@ -305,10 +306,6 @@ class IdentificationResult:
             out["holdout_rms_before_mm"] = v.before.rms_mm
             out["holdout_rms_after_mm"] = v.after.rms_mm
         return out
-
-
-def _finite(v):
-    return v if not isinstance(v, float) or math.isfinite(v) else None
 
 
 # -- helpers -------------------------------------------------------------------------------

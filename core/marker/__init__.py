@@ -14,11 +14,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from core.marker.correspondence import Correspondence, StereoRectification, WindowSweep, find_disparity, window_sweep
+from core.marker.correspondence import Correspondence, WindowSweep, find_disparity, window_sweep
 from core.errors import RoboCalError
 from core.marker.detection import AreaDetection, DetectionOptions, MarkerDetection, detect_marker, find_marker_area
 from core.marker.edges import EdgeOptions, OutlineFit, fit_outline
-from core.marker.geometry import PixelMap
 from core.marker.location import LocatorOptions, MarkerLocation, MarkerLocator, MarkerTracker
 from core.marker.training import (DEFAULT_OUTER_SIZE, TrainedMarker, find_outline, train_from_description,
                                   train_marker)
@@ -26,7 +25,7 @@ from core.marker.training import (DEFAULT_OUTER_SIZE, TrainedMarker, find_outlin
 __all__ = [
     "AreaDetection", "Correspondence", "DetectionOptions", "EdgeOptions", "LocatorOptions",
     "MarkerDetection", "MarkerLocation", "MarkerLocator", "MarkerTracker", "OutlineFit",
-    "PixelMap", "StereoRectification", "TrainedMarker", "WindowSweep",
+    "TrainedMarker", "WindowSweep",
     "detect_marker", "find_disparity", "find_marker_area", "find_outline", "fit_outline", "load_marker",
     "train_from_description", "train_marker", "window_sweep",
 ]

@@ -23,140 +23,10 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from core.camera import CameraModel
-from core.errors import RoboCalError
-from core.marker.geometry import PixelMap
-from core.stereo.rig import StereoRig
+from core.stereo.rectification import StereoRectification, remap_region
 
 DEFAULT_MAX_RELIABILITY = 0.6
 DEFAULT_MAX_MISMATCH = 0.5
-
-
-@dataclass(eq=False)
-class StereoRectification:
-    """A stereo rig with its rectification (cv2.stereoRectify: R1, R2, P1, P2, Q)."""
-
-    rig: StereoRig
-    R1: np.ndarray
-    R2: np.ndarray
-    P1: np.ndarray
-    P2: np.ndarray
-    Q: np.ndarray | None = None
-
-    def __post_init__(self):
-        for name in ("R1", "R2"):
-            setattr(self, name, np.asarray(getattr(self, name), dtype=float).reshape(3, 3))
-        for name in ("P1", "P2"):
-            setattr(self, name, np.asarray(getattr(self, name), dtype=float).reshape(3, 4))
-        if abs(self.P2[1, 3]) > abs(self.P2[0, 3]):
-            raise RoboCalError("the cameras are one above the other (vertical stereo); the correspondence "
-                               "search works along rows and needs them side by side",
-                               hint="Mount the cameras side by side, or calibrate with the left camera on the left.")
-        if self.P2[0, 3] >= 0:
-            raise RoboCalError("the 'right' camera is on the left of the 'left' camera (T_x > 0)",
-                               hint="Swap the left and right images (and calibrate again).")
-        self.left_map = PixelMap(self.rig.left, self.R1, self.P1)
-        self.right_map = PixelMap(self.rig.right, self.R2, self.P2)
-
-    @classmethod
-    def from_rig(cls, rig: StereoRig, alpha: float = 0.0) -> "StereoRectification":
-        """cv2.stereoRectify(flags=CALIB_ZERO_DISPARITY, alpha) of the rig."""
-        R1, R2, P1, P2, Q, _, _ = cv2.stereoRectify(rig.left.K, rig.left.dist, rig.right.K, rig.right.dist,
-                                                    rig.left.size, rig.R, rig.T.reshape(3, 1),
-                                                    flags=cv2.CALIB_ZERO_DISPARITY, alpha=alpha)
-        return cls(rig, R1, R2, P1, P2, Q)
-
-    @classmethod
-    def from_stereo_file(cls, stereo) -> "StereoRectification":
-        """From a core.stereo.file.StereoFile (its rig and rectification)."""
-        for key in ("D1", "D2"):
-            d = np.asarray(getattr(stereo, key), dtype=float).ravel()
-            if d.size > 5 and np.any(d[5:] != 0):
-                raise RoboCalError("the calibration uses the rational distortion model (k4..k6), which the "
-                                   "marker location does not support yet", field=key,
-                                   hint="Calibrate with 2 or 3 radial coefficients (robocal stereo-calibrate "
-                                        "--radial 3).")
-        return cls(stereo.rig, stereo.R1, stereo.R2, stereo.P1, stereo.P2, stereo.Q)
-
-    @property
-    def image_size(self) -> tuple[int, int]:
-        return self.rig.left.size
-
-    @property
-    def focal(self) -> float:
-        return float(self.P1[0, 0])
-
-    @property
-    def baseline(self) -> float:
-        return -float(self.P2[0, 3]) / float(self.P2[0, 0])
-
-    @property
-    def disparity_offset(self) -> float:
-        """cx_left − cx_right of the rectified cameras (0 with CALIB_ZERO_DISPARITY)."""
-        return float(self.P1[0, 2] - self.P2[0, 2])
-
-    def disparity_of_depth(self, z: float) -> float:
-        return self.focal * self.baseline / z + self.disparity_offset
-
-    def pixel_map(self, side: str) -> PixelMap:
-        return self.left_map if side == "left" else self.right_map
-
-    def raw_positions(self, side: str, xs: np.ndarray, ys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Raw pixel positions (map_x, map_y) float32 (len(ys), len(xs)) of the rectified grid."""
-        X, Y = np.meshgrid(np.asarray(xs, float), np.asarray(ys, float))
-        return self.raw_of(side, X, Y)
-
-    def raw_of(self, side: str, X: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Raw pixel positions (float32 arrays shaped like X) of rectified positions (X, Y)."""
-        cam: CameraModel = self.rig.left if side == "left" else self.rig.right
-        R = self.R1 if side == "left" else self.R2
-        P = (self.P1 if side == "left" else self.P2)[:3, :3]
-        h = np.stack([X, Y, np.ones_like(X)], axis=-1) @ np.linalg.inv(P).T
-        ray = h @ R            # back to the camera frame (R^T for row vectors)
-        xy = ray[..., :2] / ray[..., 2:3]
-        uv = cam.normalized_to_pixels(xy)
-        return uv[..., 0].astype(np.float32), uv[..., 1].astype(np.float32)
-
-    def rectify_strip(self, image: np.ndarray, side: str, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
-        """The rectified image sampled at the grid xs × ys (float32, bilinear; NaN outside)."""
-        mx, my = self.raw_positions(side, xs, ys)
-        return _remap_region(image, mx, my)
-
-    def sample(self, image: np.ndarray, side: str, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
-        """The rectified image at arbitrary rectified positions (X, Y) (float32, bilinear, NaN outside)."""
-        mx, my = self.raw_of(side, np.asarray(X, float), np.asarray(Y, float))
-        return _remap_region(image, mx, my)
-
-    def rectify(self, left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Both whole images rectified (uint8), for display."""
-        w, h = self.image_size
-        out = []
-        for side, img in (("left", left), ("right", right)):
-            cam = self.rig.left if side == "left" else self.rig.right
-            R, P = (self.R1, self.P1) if side == "left" else (self.R2, self.P2)
-            mx, my = cv2.initUndistortRectifyMap(cam.K, cam.dist, R, P, (w, h), cv2.CV_32FC1)
-            out.append(cv2.remap(img, mx, my, cv2.INTER_LINEAR))
-        return out[0], out[1]
-
-
-def _remap_region(image: np.ndarray, mx: np.ndarray, my: np.ndarray) -> np.ndarray:
-    """cv2.remap (bilinear, float32, NaN outside the image) converting only the region used."""
-    img = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-    H, W = img.shape
-    fin = np.isfinite(mx) & np.isfinite(my)
-    if not fin.any():
-        return np.full(mx.shape, np.nan, np.float32)
-    x0 = int(np.clip(np.floor(mx[fin].min()) - 2, 0, W - 1))
-    x1 = int(np.clip(np.ceil(mx[fin].max()) + 3, x0 + 1, W))
-    y0 = int(np.clip(np.floor(my[fin].min()) - 2, 0, H - 1))
-    y1 = int(np.clip(np.ceil(my[fin].max()) + 3, y0 + 1, H))
-    sub = img[y0:y1, x0:x1].astype(np.float32)
-    out = cv2.remap(sub, (mx - x0).astype(np.float32), (my - y0).astype(np.float32), cv2.INTER_LINEAR,
-                    borderMode=cv2.BORDER_CONSTANT, borderValue=np.nan)
-    # pixels whose 2x2 neighbourhood leaves the image are unknown
-    outside = ~fin | (mx < -0.5) | (my < -0.5) | (mx > W - 0.5) | (my > H - 0.5)
-    out[outside] = np.nan
-    return out
 
 
 @dataclass
@@ -312,7 +182,7 @@ class _Warped:
                 mx, my, patch = mx[::stride, ::stride], my[::stride, ::stride], self.patch[::stride, ::stride]
             else:
                 patch = self.patch
-            samples = _remap_region(self.right, mx, my)
+            samples = remap_region(self.right, mx, my)
             diff = patch - samples
             bad = ~np.isfinite(diff)
             if bad.mean() > 0.02:

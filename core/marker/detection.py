@@ -24,9 +24,10 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from core.camera import PixelMap
 from core.images import to_gray8
 from core.marker.edges import EdgeOptions, OutlineFit, fit_outline
-from core.marker.geometry import (PixelMap, bounding_box, expand_quad, inside_image, is_convex, line_through,
+from core.marker.geometry import (bounding_box, expand_quad, inside_image, is_convex, line_through,
                                   map_points, side_lengths, signed_area)
 from core.marker.training import TrainedMarker, sift_detector
 

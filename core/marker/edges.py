@@ -30,7 +30,8 @@ import cv2
 import numpy as np
 from scipy.special import ndtr
 
-from core.marker.geometry import (PixelMap, bounding_box, corners_from_lines, diagonal_intersection,
+from core.camera import PixelMap
+from core.marker.geometry import (bounding_box, corners_from_lines, diagonal_intersection,
                                   line_through, side_lengths)
 
 _SQRT_2PI = np.sqrt(2.0 * np.pi)

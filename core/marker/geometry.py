@@ -1,5 +1,5 @@
-"""Small plane-geometry helpers of the marker pipeline: quadrilaterals, lines, homographies,
-and the map between raw image pixels and "ideal" pixels where straight lines are straight.
+"""Small plane-geometry helpers of the marker pipeline: quadrilaterals, lines, homographies
+(the map between raw and "ideal" pixels is core.camera.PixelMap).
 
 Pixel convention everywhere: (0, 0) is the centre of the top-left pixel, x right, y down.
 A quadrilateral is (4, 2) corners in the order top-left, top-right, bottom-right, bottom-left
@@ -8,12 +8,7 @@ A quadrilateral is (4, 2) corners in the order top-left, top-right, bottom-right
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
-import cv2
 import numpy as np
-
-from core.camera import CameraModel
 
 
 # -- quadrilaterals ------------------------------------------------------------------------------
@@ -116,53 +111,3 @@ def inside_image(pts: np.ndarray, size: tuple[int, int], margin: float = 0.0) ->
     w, h = size
     return bool(np.all((pts[:, 0] >= margin - 0.5) & (pts[:, 0] <= w - 0.5 - margin)
                        & (pts[:, 1] >= margin - 0.5) & (pts[:, 1] <= h - 0.5 - margin)))
-
-
-# -- raw <-> ideal pixels -------------------------------------------------------------------------
-
-@dataclass(eq=False)
-class PixelMap:
-    """Maps raw image pixels to *ideal* pixels, where the image of a straight 3D line is
-    straight: lens distortion removed and, for a stereo pair, rectified. Edge lines are fitted
-    and intersected in ideal pixels; results are mapped back to raw pixels for display.
-
-    `camera` None: the identity (no lens model known). Otherwise ideal = P · R · undistort(raw)
-    with R (3x3, default identity) and P (3x3 or 3x4, default the camera's K)."""
-
-    camera: CameraModel | None = None
-    R: np.ndarray = field(default_factory=lambda: np.eye(3))
-    P: np.ndarray | None = None
-
-    def __post_init__(self):
-        self.R = np.asarray(self.R, dtype=float).reshape(3, 3)
-        if self.camera is not None and self.P is None:
-            self.P = self.camera.K.copy()
-        if self.P is not None:
-            self.P = np.asarray(self.P, dtype=float)[:3, :3].copy()
-
-    @property
-    def identity(self) -> bool:
-        return self.camera is None
-
-    def to_ideal(self, pts: np.ndarray) -> np.ndarray:
-        pts = np.asarray(pts, dtype=np.float64)
-        if self.identity or pts.size == 0:
-            return pts.copy()
-        out = cv2.undistortPoints(pts.reshape(-1, 1, 2), self.camera.K, self.camera.dist, R=self.R, P=self.P)
-        return out.reshape(pts.shape)
-
-    def to_raw(self, pts: np.ndarray) -> np.ndarray:
-        pts = np.asarray(pts, dtype=np.float64)
-        if self.identity or pts.size == 0:
-            return pts.copy()
-        flat = pts.reshape(-1, 2)
-        h = np.hstack([flat, np.ones((len(flat), 1))]) @ np.linalg.inv(self.P).T   # rectified normalised
-        ray = h @ self.R      # R^T applied to row vectors: back to the camera frame
-        xy = ray[:, :2] / ray[:, 2:3]
-        return self.camera.normalized_to_pixels(xy).reshape(pts.shape)
-
-    def jacobian_scale(self) -> float:
-        """Approximate ideal-pixels-per-raw-pixel near the image centre (for noise scaling)."""
-        if self.identity:
-            return 1.0
-        return float(0.5 * (self.P[0, 0] + self.P[1, 1]) / (0.5 * (self.camera.fx + self.camera.fy)))

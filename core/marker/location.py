@@ -53,12 +53,13 @@ import numpy as np
 
 from core import transforms as tf
 from core.marker.correspondence import (DEFAULT_MAX_MISMATCH, DEFAULT_MAX_RELIABILITY, Correspondence,
-                                 StereoRectification, WindowSweep, find_disparity, odd, window_sweep)
+                                        WindowSweep, find_disparity, odd, window_sweep)
 from core.errors import RoboCalError
 from core.images import require_gray8
 from core.marker.detection import DetectionOptions, MarkerDetection, detect_marker
 from core.marker.geometry import bounding_box, expand_quad, map_points
 from core.marker.training import TrainedMarker
+from core.stereo.rectification import StereoRectification
 from core.task import Monitor
 from core.marker.triangulation import triangulate_general, triangulate_rectified
 

@@ -406,13 +406,13 @@ class PoseSelectionResult:
 
     def as_dict(self) -> dict:
         """The CLI's --json object (finite numbers; infinities as null)."""
-        sel = {k: _finite(v) for k, v in self.indices.as_dict().items()}
+        sel = {k: _float_or_none(v) for k, v in self.indices.as_dict().items()}
         return {
             "count": self.count, "index": self.index, "seed": self.seed,
             "indices": sel,
-            "random_median": {INDEX_KEYS[k]: _finite(v) for k, v in self.random.median.items()},
+            "random_median": {INDEX_KEYS[k]: _float_or_none(v) for k, v in self.random.median.items()},
             "random_trials": self.random.trials,
-            "ratio_to_random": _finite(self.ratio()),
+            "ratio_to_random": _float_or_none(self.ratio()),
             "parameters": list(self.parameters), "n_parameters": len(self.parameters),
             "targets": list(self.targets), "min_poses": self.n_min, "recommended_poses": self.recommended,
             "candidates": len(self.candidates), "candidates_wanted": self.candidates.wanted,
@@ -422,8 +422,8 @@ class PoseSelectionResult:
             "travel_unit": travel_unit(self.travel_metric), "travel_metric": self.travel_metric,
             "exchanges": self.exchanges, "seconds": self.seconds,
             "curve": {"n": self.curve.n.tolist(),
-                      "selected": [_finite(v) for v in self.curve.selected[self.index]],
-                      "random_median": [_finite(v) for v in self.curve.random_median[self.index]]},
+                      "selected": [_float_or_none(v) for v in self.curve.selected[self.index]],
+                      "random_median": [_float_or_none(v) for v in self.curve.random_median[self.index]]},
             "poses": [[float(v) for v in row] for row in self.q_file],
             "depth_mm": None if self.depth is None else [float(v) for v in self.depth],
             "warnings": list(self.warnings),
@@ -435,7 +435,8 @@ def travel_unit(metric: str) -> str:
     return "deg (largest joint move, summed)" if metric == "max" else "deg (joint-space distance, summed)"
 
 
-def _finite(v):
+def _float_or_none(v):
+    """v as a float, or None when it is NaN or infinite (strict JSON)."""
     v = float(v)
     return v if math.isfinite(v) else None
 

@@ -1,7 +1,7 @@
 """Checkerboard detection for stereo calibration: corners, per-pair acceptance, coverage.
 
 Detection (`detect_corners`): `cv2.findChessboardCornersSB` on the image reduced by an
-integer factor so that its long side is at most `DetectionOptions.detect_max_side` px
+integer factor so that its long side is at most `BoardDetectionOptions.detect_max_side` px
 (speed: ~20 ms instead of ~110 ms for 1280x1024), then `cv2.cornerSubPix` at full
 resolution with a window of 0.35 x the smallest corner spacing. Measured on the real
 640x512 pairs (`../shared/data/stereo-checkerboard-640x512`): the sector-based detector
@@ -66,7 +66,7 @@ _SUBPIX_CRITERIA = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 50, 1e-3)
 
 
 @dataclass(frozen=True)
-class DetectionOptions:
+class BoardDetectionOptions:
     detect_max_side: int = 960          # detect on the image reduced to at most this long side
     subpix_fraction: float = 0.35       # cornerSubPix half-window / smallest corner spacing
     border_px: float = 4.0              # corners closer to the image edge: board partly outside
@@ -236,7 +236,7 @@ def _shown_source(src) -> str:
 # --------------------------------------------------------------------------- detection
 
 
-def detect_corners(gray: np.ndarray, board: Board, options: DetectionOptions = DetectionOptions()
+def detect_corners(gray: np.ndarray, board: Board, options: BoardDetectionOptions = BoardDetectionOptions()
                    ) -> Detection:
     """Find the board's inner corners in one 8-bit image (see the module notes)."""
     gray = to_gray8(gray)
@@ -314,7 +314,7 @@ def detect_corners(gray: np.ndarray, board: Board, options: DetectionOptions = D
     return det
 
 
-def _refine(gray: np.ndarray, raw: np.ndarray, scale: int, board: Board, options: DetectionOptions
+def _refine(gray: np.ndarray, raw: np.ndarray, scale: int, board: Board, options: BoardDetectionOptions
             ) -> tuple[np.ndarray | None, float]:
     """cornerSubPix at full resolution of corners found at 1/scale, then the grid check.
 
@@ -577,7 +577,7 @@ def coverage(pairs: Sequence[PairDetection]) -> Coverage:
 # --------------------------------------------------------------------------- pairs
 
 
-def detect_pair(left, right, board: Board, options: DetectionOptions = DetectionOptions(), *,
+def detect_pair(left, right, board: Board, options: BoardDetectionOptions = BoardDetectionOptions(), *,
                 index: int = 0, name: str | None = None) -> PairDetection:
     """Detect and check one pair. `left`/`right` are image paths or arrays.
 
@@ -631,7 +631,7 @@ def _verdict(pair: PairDetection) -> PairDetection:
     return pair
 
 
-def detect_pairs(pairs: Sequence[tuple], board: Board, options: DetectionOptions = DetectionOptions(), *,
+def detect_pairs(pairs: Sequence[tuple], board: Board, options: BoardDetectionOptions = BoardDetectionOptions(), *,
                  names: Sequence[str] | None = None, ignored_files: Sequence[str] = (),
                  progress=None, cancelled=None) -> DetectionResult:
     """Detect every pair (paths or arrays), then check sizes and similarity across pairs.
@@ -669,7 +669,7 @@ def detect_pairs(pairs: Sequence[tuple], board: Board, options: DetectionOptions
     return screen_pairs([p for p in results if p is not None], board, options, ignored_files=ignored_files)
 
 
-def screen_pairs(pairs: Sequence[PairDetection], board: Board, options: DetectionOptions = DetectionOptions(),
+def screen_pairs(pairs: Sequence[PairDetection], board: Board, options: BoardDetectionOptions = BoardDetectionOptions(),
                  *, ignored_files: Sequence[str] = ()) -> DetectionResult:
     """The checks across pairs, redone from each pair's own verdict (`detect_pair`).
 
@@ -705,7 +705,7 @@ def screen_pairs(pairs: Sequence[PairDetection], board: Board, options: Detectio
     return DetectionResult(board, found, image_size, coverage(found), list(ignored_files))
 
 
-def detect_folders(left, right, board: Board, options: DetectionOptions = DetectionOptions(), *,
+def detect_folders(left, right, board: Board, options: BoardDetectionOptions = BoardDetectionOptions(), *,
                    progress=None, cancelled=None) -> DetectionResult:
     """Pair the images of two folders (or patterns, or file lists) by sorted name and detect."""
     pairs, ignored = pair_images(left, right)

@@ -37,7 +37,7 @@ import numpy as np
 from core.stereo.board import Board
 from core.camera import CameraModel
 from core.errors import RoboCalError
-from core.files import atomic_write_json, atomic_write_text, ensure_writable_dir, json_default
+from core.files import atomic_write_json, atomic_write_text, ensure_writable_dir, json_default, strict_json
 from core.stereo.rig import StereoRig
 from core.validate import check_format
 
@@ -52,7 +52,8 @@ _DIST_LENGTHS = (4, 5, 8, 12, 14)
 
 @dataclass
 class StereoFile:
-    """The content of stereo.yaml."""
+    """A calibrated stereo pair as stereo.yaml holds it: the one home of K1, D1, K2, D2, R, T,
+    E, F and the rectification matrices (a calibration result holds one)."""
 
     image_size: tuple[int, int]
     K1: np.ndarray
@@ -86,18 +87,6 @@ class StereoFile:
     def baseline_mm(self) -> float:
         return float(np.linalg.norm(self.T))
 
-    @classmethod
-    def from_result(cls, result) -> "StereoFile":
-        """From a core.stereo.calibration.StereoCalibrationResult."""
-        rect = result.rectification
-        extras = {"epipolar_rms": float(result.epipolar_rms)}
-        if result.cross_validation is not None:
-            extras["cross_validation_px"] = float(result.cross_validation.rms_observed_px)
-        return cls(tuple(int(v) for v in result.image_size), result.K1, result.D1, result.K2, result.D2,
-                   result.R, result.T, result.E, result.F, rect.R1, rect.R2, rect.P1, rect.P2, rect.Q,
-                   float(result.rms_left), float(result.rms_right), float(result.rms_stereo), result.board,
-                   extras, float(result.options.rectify_alpha))
-
     def to_dict(self) -> dict:
         """Plain lists and numbers (the JSON export)."""
         d = {"format": FORMAT, "image_width": self.image_size[0], "image_height": self.image_size[1]}
@@ -112,7 +101,8 @@ class StereoFile:
 
 
 def _as_file(data) -> StereoFile:
-    return data if isinstance(data, StereoFile) else StereoFile.from_result(data)
+    """A StereoFile, or the file of a core.stereo.calibration.StereoCalibrationResult."""
+    return data if isinstance(data, StereoFile) else data.file
 
 
 # --------------------------------------------------------------------------- stereo.yaml
@@ -352,18 +342,7 @@ def stereo_json(data, result=None) -> dict:
                        "rms_right": float(result.per_view_rms_right[k]), "rms": float(result.per_view_rms[k]),
                        "outlier": int(i) in result.outliers}
                       for k, (i, name) in enumerate(zip(result.view_indices, result.view_names))]
-    return _clean(json.loads(json.dumps(d, default=json_default)))
-
-
-def _clean(value):
-    """Non-finite numbers become null (strict JSON)."""
-    if isinstance(value, float):
-        return value if np.isfinite(value) else None
-    if isinstance(value, dict):
-        return {k: _clean(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [_clean(v) for v in value]
-    return value
+    return strict_json(json.loads(json.dumps(d, default=json_default)))
 
 
 def write_stereo_json(path: str | Path, data, result=None) -> Path:

@@ -29,7 +29,7 @@ from core import transforms as tf
 from core.errors import RoboCalError
 from core.marker.description import MarkerDescription
 from core.marker.detection import DetectionOptions, detect_marker
-from core.marker.geometry import PixelMap
+from core.camera import PixelMap
 from core.marker.training import train_marker
 from core.task import Monitor
 

@@ -15,7 +15,7 @@ from app.cli import main
 def dataset(tmp_path_factory):
     from core.stereo.board import Board
     from core.camera import CameraModel
-    from core.marker.correspondence import StereoRectification
+    from core.stereo.rectification import StereoRectification
     from core.stereo.file import StereoFile, write_stereo_yaml
     from core.stereo.rig import StereoRig
     from core.virtual_lab.dataset import simulate_dataset

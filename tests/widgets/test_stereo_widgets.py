@@ -11,7 +11,8 @@ from widgets.coverage_bars import GOOD, LOW, CoverageBars
 from widgets.error_bar_chart import ErrorBarChart
 from widgets.image_view import ImageView
 from widgets.residual_scatter import ResidualScatter
-from widgets.thumbnail_strip import ThumbnailStrip, compose_pair_thumbnail, to_qimage
+from widgets.pair_thumbnail import compose_pair_thumbnail
+from widgets.thumbnail_strip import ThumbnailStrip, to_qimage
 from widgets.value_table import ValueTable, format_std, format_value
 
 

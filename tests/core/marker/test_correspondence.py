@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from core.camera import CameraModel
-from core.marker.correspondence import StereoRectification, find_disparity, plane_disparity_ratio, window_sweep
-from core.errors import RoboCalError
+from core.marker.correspondence import find_disparity, plane_disparity_ratio, window_sweep
+from core.stereo.rectification import StereoRectification
 from core.stereo.rig import StereoRig
 
 W, H = 640, 480
@@ -125,33 +125,3 @@ def test_window_sweep_sizes_5_to_37(rect):
     assert np.all(np.isfinite(sweep.minima)) and np.all(sweep.minima >= 0)
     assert np.all(np.abs(sweep.disparities - 40.0) < 0.3)
     assert sweep.reliabilities.shape == sweep.sizes.shape
-
-
-def test_rig_orientation_checks(rect):
-    rig = rect.rig
-    P1 = rect.P1
-    vertical = P1.copy()
-    vertical[1, 3] = -F * B
-    with pytest.raises(RoboCalError, match="one above the other"):
-        StereoRectification(rig, np.eye(3), np.eye(3), P1, vertical)
-    swapped = P1.copy()
-    swapped[0, 3] = F * B
-    with pytest.raises(RoboCalError, match="on the left"):
-        StereoRectification(rig, np.eye(3), np.eye(3), P1, swapped)
-
-
-def test_from_rig_and_rectified_images():
-    from core.virtual_lab.rig import default_rig
-    rig = default_rig(0)
-    rect = StereoRectification.from_rig(rig)
-    assert rect.baseline == pytest.approx(rig.baseline, rel=1e-6)
-    assert rect.disparity_offset == pytest.approx(0.0, abs=1e-9)
-    P = np.array([[30.0, -20.0, 700.0]])
-    ul = rect.left_map.to_ideal(rig.left.project(P))[0]
-    ur = rect.right_map.to_ideal(rig.right.project(rig.to_right(P)))[0]
-    assert ul[1] == pytest.approx(ur[1], abs=1e-6)                       # same row
-    assert rect.disparity_of_depth(700.0) == pytest.approx(ul[0] - ur[0], rel=1e-3)
-    np.testing.assert_allclose(rect.left_map.to_raw(ul[None])[0], rig.left.project(P)[0], atol=1e-6)
-    img = np.zeros((rig.left.height, rig.left.width), np.uint8)
-    a, b = rect.rectify(img, img)
-    assert a.shape == img.shape and b.shape == img.shape

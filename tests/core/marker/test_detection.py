@@ -8,7 +8,8 @@ import pytest
 from core import transforms as tf
 from core.marker.detection import detect_marker, find_marker_area
 from core.marker.edges import fit_outline
-from core.marker.geometry import PixelMap, diagonal_intersection, map_points
+from core.camera import PixelMap
+from core.marker.geometry import diagonal_intersection, map_points
 
 from tests.core import marker_scenes as scenes
 

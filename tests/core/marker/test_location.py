@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from core import transforms as tf
-from core.marker.correspondence import StereoRectification
+from core.stereo.rectification import StereoRectification
 from core.errors import RoboCalError
 from core.marker.location import LocatorOptions, MarkerLocator, MarkerTracker, square_pose
 from core.stereo.rig import StereoRig

@@ -208,7 +208,7 @@ def test_the_reported_joint_values_are_recorded_and_a_stop_during_capture_record
 
 
 def test_virtual_lab_run_with_the_real_pipeline(tmp_path):
-    from core.marker.correspondence import StereoRectification
+    from core.stereo.rectification import StereoRectification
     from core.marker.location import MarkerLocator
 
     lab = scenes.lab()

@@ -8,7 +8,8 @@ import pytest
 
 from core.stereo.checkerboard import detect_pairs
 from core.errors import Cancelled, RoboCalError, UsageError
-from core.stereo.calibration import CalibrationOptions, calibrate_points, calibrate_stereo
+from core.stereo.calibration import calibrate_points, calibrate_stereo
+from core.stereo.fit import CalibrationOptions
 from tests.core.stereo_synth import (BOARD, REAL_DATA, REAL_REFERENCE_FOCAL, SIZE, real_pairs,
                                      rotation_error_deg, synthetic_views)
 
@@ -22,21 +23,21 @@ def synthetic():
 
 def test_ground_truth_recovered_from_noisy_corners(synthetic):
     rig, _, _, r = synthetic
-    for K, cam in ((r.K1, rig.left), (r.K2, rig.right)):
+    for K, cam in ((r.file.K1, rig.left), (r.file.K2, rig.right)):
         assert abs(K[0, 0] / cam.fx - 1) < 1e-3
         assert abs(K[1, 1] / cam.fy - 1) < 1e-3
         assert abs(K[0, 2] - cam.cx) < 1.0 and abs(K[1, 2] - cam.cy) < 1.0
     assert abs(r.baseline_mm / rig.baseline - 1) < 1e-3
-    assert rotation_error_deg(r.R, rig.R) < 0.05
-    assert 0.02 < r.rms_stereo < 0.035          # sqrt(2) x the 0.02 px noise per coordinate
-    assert r.rig.baseline == pytest.approx(r.baseline_mm)
+    assert rotation_error_deg(r.file.R, rig.R) < 0.05
+    assert 0.02 < r.file.rms_stereo < 0.035          # sqrt(2) x the 0.02 px noise per coordinate
+    assert r.file.rig.baseline == pytest.approx(r.baseline_mm)
     assert r.rig_exact and r.pairs_used == 16 and not r.rejected
 
 
 def test_standard_deviations_match_the_actual_errors(synthetic):
     rig, _, _, r = synthetic
-    errors = {"fx_left": r.K1[0, 0] - rig.left.fx, "cx_left": r.K1[0, 2] - rig.left.cx,
-              "fy_right": r.K2[1, 1] - rig.right.fy, "tx": r.T[0] - rig.T[0],
+    errors = {"fx_left": r.file.K1[0, 0] - rig.left.fx, "cx_left": r.file.K1[0, 2] - rig.left.cx,
+              "fy_right": r.file.K2[1, 1] - rig.right.fy, "tx": r.file.T[0] - rig.T[0],
               "baseline": r.baseline_mm - rig.baseline}
     for name, err in errors.items():
         assert 0 < r.std[name] < 1.0
@@ -50,12 +51,12 @@ def test_standard_deviations_match_the_actual_errors(synthetic):
 def test_residuals_per_view_and_per_corner(synthetic):
     _, left, _, r = synthetic
     V, N = len(left), BOARD.corner_count
-    assert r.residuals_left.shape == (V, N, 2) and r.residuals_right.shape == (V, N, 2)
+    assert r.fit.residuals_left.shape == (V, N, 2) and r.fit.residuals_right.shape == (V, N, 2)
     assert r.per_view_rms.shape == (V,)
-    np.testing.assert_allclose(r.rms_left, np.sqrt((r.residuals_left ** 2).sum(2).mean()))
+    np.testing.assert_allclose(r.file.rms_left, np.sqrt((r.fit.residuals_left ** 2).sum(2).mean()))
     # OpenCV's stereo RMS is the RMS over the corners of both images
-    both = np.concatenate([r.residuals_left, r.residuals_right])
-    assert r.rms_stereo == pytest.approx(np.sqrt((both ** 2).sum(2).mean()), rel=1e-5)   # float32 corners
+    both = np.concatenate([r.fit.residuals_left, r.fit.residuals_right])
+    assert r.file.rms_stereo == pytest.approx(np.sqrt((both ** 2).sum(2).mean()), rel=1e-5)   # float32 corners
     assert r.outliers == []
 
 
@@ -63,8 +64,8 @@ def test_rectification_epipolar_error_and_maps(synthetic):
     _, _, _, r = synthetic
     rect = r.rectification
     assert not rect.vertical
-    assert rect.epipolar_errors.shape == (16, BOARD.corner_count)
-    assert rect.epipolar_rms < 0.05 and rect.epipolar_max < 0.2
+    assert r.epipolar.errors.shape == (16, BOARD.corner_count)
+    assert r.epipolar.rms < 0.05 and r.epipolar.max < 0.2
     (m1, m2), (m3, m4) = rect.maps(cv2.CV_32FC1)
     assert m1.shape == (SIZE[1], SIZE[0])
     a, b = rect.rectify(np.zeros((SIZE[1], SIZE[0]), np.uint8), np.zeros((SIZE[1], SIZE[0]), np.uint8))
@@ -96,7 +97,7 @@ def test_reversed_right_corners_are_relabelled_by_stereo_consensus(synthetic):
     right[7] = right[7][::-1].copy()
     r = calibrate_points(left, right, BOARD, SIZE, CalibrationOptions(cross_validate=False))
     assert [i for i, _ in r.reordered] == [2, 7]
-    assert r.rms_stereo == pytest.approx(ref.rms_stereo, rel=1e-6)
+    assert r.file.rms_stereo == pytest.approx(ref.file.rms_stereo, rel=1e-6)
 
 
 def test_upside_down_right_camera_order_found_for_every_pair(synthetic):
@@ -105,7 +106,7 @@ def test_upside_down_right_camera_order_found_for_every_pair(synthetic):
     right = [c[::-1].copy() for c in right]
     r = calibrate_points(left, right, BOARD, SIZE, CalibrationOptions(cross_validate=False))
     assert not r.rejected and len(r.reordered) == 16
-    assert rotation_error_deg(r.R, ref.R) < 1e-6
+    assert rotation_error_deg(r.file.R, ref.file.R) < 1e-6
 
 
 def test_wrongly_paired_view_is_rejected_with_reason(synthetic):
@@ -147,25 +148,25 @@ def test_outlier_flagged_then_excluded_by_the_user():
     assert any("large error" in w for w in r.warnings)
     again = calibrate_stereo(det, CalibrationOptions(cross_validate=False), exclude=[6])
     assert again.excluded == [6] and 6 not in again.view_indices
-    assert again.rms_stereo < r.rms_stereo and again.outliers == []
+    assert again.file.rms_stereo < r.file.rms_stereo and again.outliers == []
     with pytest.raises(UsageError):
         calibrate_stereo(det, exclude=[40])
 
 
 @pytest.mark.parametrize("options, check", [
-    (CalibrationOptions(radial=2), lambda r: r.D1[4] == 0 and r.D2[4] == 0 and len(r.D1) == 5),
-    (CalibrationOptions(tangential=False), lambda r: np.all(r.D1[2:4] == 0) and np.all(r.D2[2:4] == 0)),
-    (CalibrationOptions(fix_aspect=True), lambda r: abs(r.K1[0, 0] - r.K1[1, 1]) < 1e-9),
+    (CalibrationOptions(radial=2), lambda r: r.file.D1[4] == 0 and r.file.D2[4] == 0 and len(r.file.D1) == 5),
+    (CalibrationOptions(tangential=False), lambda r: np.all(r.file.D1[2:4] == 0) and np.all(r.file.D2[2:4] == 0)),
+    (CalibrationOptions(fix_aspect=True), lambda r: abs(r.file.K1[0, 0] - r.file.K1[1, 1]) < 1e-9),
     (CalibrationOptions(fix_principal=True),
-     lambda r: abs(r.K1[0, 2] - (SIZE[0] - 1) / 2) < 1 and abs(r.K2[1, 2] - (SIZE[1] - 1) / 2) < 1),
-    (CalibrationOptions(radial=6), lambda r: len(r.D1) == 8 and len(r.D2) == 8),
-    (CalibrationOptions(refine_intrinsics=False), lambda r: np.allclose(r.K1, r.mono_left.K)),
+     lambda r: abs(r.file.K1[0, 2] - (SIZE[0] - 1) / 2) < 1 and abs(r.file.K2[1, 2] - (SIZE[1] - 1) / 2) < 1),
+    (CalibrationOptions(radial=6), lambda r: len(r.file.D1) == 8 and len(r.file.D2) == 8),
+    (CalibrationOptions(refine_intrinsics=False), lambda r: np.allclose(r.file.K1, r.fit.mono_left.K)),
 ])
 def test_model_options(synthetic, options, check):
     _, left, right, _ = synthetic
     r = calibrate_points(left, right, BOARD, SIZE, options.__class__(**{**options.__dict__, "cross_validate": False}))
     assert check(r)
-    assert r.rms_stereo < 2.0
+    assert r.file.rms_stereo < 2.0
     fixed = {p.name for p in r.parameters if p.group == "left" and p.fixed}
     if options.radial == 2:
         assert "k3" in fixed
@@ -224,10 +225,10 @@ def real_result():
 def test_real_pairs_focal_lengths_near_reference(real_result):
     det, r = real_result
     assert r.pairs_used == 25
-    for K in (r.K1, r.K2):
+    for K in (r.file.K1, r.file.K2):
         assert abs(K[0, 0] / REAL_REFERENCE_FOCAL - 1) < 0.01
         assert abs(K[1, 1] / REAL_REFERENCE_FOCAL - 1) < 0.01
-    assert r.rms_stereo < 0.25 and r.epipolar_rms < 0.3
+    assert r.file.rms_stereo < 0.25 and r.epipolar_rms < 0.3
     assert r.baseline_mm == pytest.approx(92.0, abs=1.5)     # README: T = (91.20, -2.65, 12.20)
 
 
@@ -236,5 +237,5 @@ def test_real_pairs_no_worse_than_plain_opencv(real_result):
     obj = [r.object_points.astype(np.float32)] * r.pairs_used
     L = [p.astype(np.float32) for p in r.left_points]
     R = [p.astype(np.float32) for p in r.right_points]
-    base = cv2.stereoCalibrate(obj, L, R, None, None, None, None, r.image_size, flags=0)[0]
-    assert r.rms_stereo <= base + 1e-6
+    base = cv2.stereoCalibrate(obj, L, R, None, None, None, None, r.file.image_size, flags=0)[0]
+    assert r.file.rms_stereo <= base + 1e-6

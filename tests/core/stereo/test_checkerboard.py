@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from core.stereo.board import Board
-from core.stereo.checkerboard import (Coverage, DetectionOptions, board_symmetries, coverage,
+from core.stereo.checkerboard import (Coverage, BoardDetectionOptions, board_symmetries, coverage,
                                detect_corners, detect_folders, detect_pair, detect_pairs, grid_deviation,
                                match_order, pair_images, param_distance, screen_pairs, summarize_rejections,
                                view_params)
@@ -220,7 +220,7 @@ def test_pairs_with_a_different_image_size_rejected():
     d, _ = _render(K, R0, T0 + np.array([-70.0, 40, 100]), size=(1200, 1000))
     e, _ = _render(K, cv2.Rodrigues(np.array([-0.3, 0.3, 0.0]))[0], T0 + np.array([100.0, 80, 0]))
     f, _ = _render(K, cv2.Rodrigues(np.array([-0.3, 0.3, 0.0]))[0], T0 + np.array([-30.0, 80, 0]))
-    res = detect_pairs([(a, b), (c, d), (e, f)], BOARD, DetectionOptions(workers=1))
+    res = detect_pairs([(a, b), (c, d), (e, f)], BOARD, BoardDetectionOptions(workers=1))
     assert res.image_size == (1280, 1024)
     assert [p.accepted for p in res.pairs] == [True, False, True]
     assert "differs from the other pairs' 1280x1024" in res.pairs[1].reason
@@ -229,7 +229,7 @@ def test_pairs_with_a_different_image_size_rejected():
 def test_detect_pairs_progress_and_cancel():
     img, _ = _render(K, R0, T0, size=(320, 256))
     seen = []
-    detect_pairs([(img, img)] * 3, BOARD, DetectionOptions(workers=1), progress=lambda f, m: seen.append(f))
+    detect_pairs([(img, img)] * 3, BOARD, BoardDetectionOptions(workers=1), progress=lambda f, m: seen.append(f))
     assert seen[-1] == 1.0
     with pytest.raises(Cancelled):
         detect_pairs([(img, img)] * 3, BOARD, cancelled=lambda: True)

@@ -1,5 +1,6 @@
 """stereo.yaml: round trip, readable by cv2.FileStorage, atomic write, clear read errors;
 ROS camera_info and JSON exports."""
+import copy
 import json
 import os
 import re
@@ -10,7 +11,8 @@ import pytest
 import yaml
 
 from core.errors import RoboCalError
-from core.stereo.calibration import CalibrationOptions, calibrate_points
+from core.stereo.calibration import calibrate_points
+from core.stereo.fit import CalibrationOptions
 from core.stereo.file import (FORMAT, StereoFile, camera_info_yaml, read_stereo_yaml, stereo_json,
                               write_ros_camera_info, write_stereo_json, write_stereo_yaml)
 from tests.core.stereo_synth import BOARD, SIZE, synthetic_views
@@ -33,11 +35,11 @@ def test_round_trip(tmp_path, result):
     sf = read_stereo_yaml(path)
     assert sf.image_size == SIZE and sf.board == BOARD
     for key in ("K1", "D1", "K2", "D2", "R", "E", "F", "R1", "R2", "P1", "P2", "Q"):
-        expected = getattr(result, key) if hasattr(result, key) else getattr(result.rectification, key)
+        expected = getattr(result.file, key)
         np.testing.assert_allclose(getattr(sf, key), np.asarray(expected).reshape(getattr(sf, key).shape),
                                    rtol=1e-12, atol=1e-12)
-    np.testing.assert_allclose(sf.T, result.T)
-    assert sf.rms_stereo == pytest.approx(result.rms_stereo)
+    np.testing.assert_allclose(sf.T, result.file.T)
+    assert sf.rms_stereo == pytest.approx(result.file.rms_stereo)
     assert sf.extras["epipolar_rms"] == pytest.approx(result.epipolar_rms)
     assert sf.rectify_alpha == 0.0
     assert sf.rig.baseline == pytest.approx(result.baseline_mm)
@@ -139,7 +141,7 @@ def test_read_errors_for_bad_files(tmp_path):
 
 
 def test_rotation_checked(tmp_path, result):
-    sf = StereoFile.from_result(result)
+    sf = copy.deepcopy(result.file)
     sf.R = sf.R * 1.1
     path = write_stereo_yaml(tmp_path / "bad.yaml", sf)
     with pytest.raises(RoboCalError, match="field 'R': not a rotation matrix"):
@@ -159,7 +161,7 @@ def test_ros_camera_info_export(tmp_path, result, rational):
                        "distortion_coefficients", "rectification_matrix", "projection_matrix"]
     assert f["image_width"] == 1280 and f["camera_name"] == "right"
     assert f["distortion_model"] == "plumb_bob" and f["distortion_coefficients"]["cols"] == 5
-    np.testing.assert_allclose(np.reshape(f["camera_matrix"]["data"], (3, 3)), result.K2)
+    np.testing.assert_allclose(np.reshape(f["camera_matrix"]["data"], (3, 3)), result.file.K2)
     P = np.reshape(f["projection_matrix"]["data"], (3, 4))
     P2 = result.rectification.P2
     np.testing.assert_allclose(P[:, :3], P2[:, :3])
@@ -234,9 +236,9 @@ def test_json_export(tmp_path, result):
     path = write_stereo_json(tmp_path / "stereo.json", result)
     data = json.loads(path.read_text())
     assert data["format"] == FORMAT and data["board_cols"] == 9
-    assert np.allclose(data["K1"], result.K1)
+    assert np.allclose(data["K1"], result.file.K1)
     assert data["calibration"]["pairs_used"] == 10
     assert len(data["views"]) == 10 and {"rms_left", "rms_right", "outlier"} <= set(data["views"][0])
     assert any(p["name"] == "baseline" and p["std"] > 0 for p in data["parameters"])
-    plain = stereo_json(StereoFile.from_result(result))
+    plain = stereo_json(result.file)
     assert "calibration" not in plain

@@ -12,8 +12,9 @@ import pytest
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QFileDialog
 
-from app.pages import stereo_page
-from app.pages.stereo_page import StereoPage
+from app.pages.stereo import page as stereo_page
+from app.pages.stereo.page import StereoPage
+from app.pages.stereo.results_panel import PREVIEW_GAP
 from app.state import WizardState
 from app.worker import TaskRunner
 from core.stereo.board import Board
@@ -85,62 +86,62 @@ def patch_dirs(monkeypatch, *answers):
 # -- the whole walk ------------------------------------------------------------------------
 def test_virtual_lab_pairs_calibrate_drop_outlier_and_export(page, qtbot, tmp_path, monkeypatch):
     assert page.board == Board(9, 6, 25.0)                      # prefilled from the lab
-    assert not page.calibrate_button.isEnabled() and not page.save_button.isEnabled()
-    page.virtual_count.setValue(12)
-    qtbot.mouseClick(page.virtual_button, Qt.MouseButton.LeftButton)
-    assert page.busy and page.cancel_button.isEnabled()
+    assert not page.model.calibrate_button.isEnabled() and not page.save_button.isEnabled()
+    page.pairs.virtual_count.setValue(12)
+    qtbot.mouseClick(page.pairs.virtual_button, Qt.MouseButton.LeftButton)
+    assert page.busy and page.progress_row().cancel_button.isEnabled()
     wait(qtbot, page)
-    assert len(page.items) == 12 and page.strip.count() == 12
+    assert len(page.items) == 12 and page.pairs.strip.count() == 12
     folder = page.state.project.folder / "checkerboard"
     assert len(list((folder / "left").glob("pair_*.png"))) == 12
     assert len(list((folder / "right").glob("pair_*.png"))) == 12
     accepted = len(page.usable_pairs())
     assert accepted >= 10
-    assert all(v > 0 for v in page.coverage_bars.values().values())
-    assert "12 pairs" in page.count_label.text()
-    assert page.calibrate_button.isEnabled()
+    assert all(v > 0 for v in page.pairs.coverage_bars.values().values())
+    assert "12 pairs" in page.pairs.count_label.text()
+    assert page.model.calibrate_button.isEnabled()
 
-    qtbot.mouseClick(page.calibrate_button, Qt.MouseButton.LeftButton)
+    qtbot.mouseClick(page.model.calibrate_button, Qt.MouseButton.LeftButton)
     wait(qtbot, page)
     r = page.result
-    assert r is not None and r.pairs_used == accepted and r.rms_stereo < 0.2
-    series = page.errors_chart.series()
+    assert r is not None and r.pairs_used == accepted and r.file.rms_stereo < 0.2
+    series = page.results.errors_chart.series()
     assert len(series["pairs"]) == accepted
-    assert page.errors_chart.selected() == []                    # the line starts above every bar
-    assert page.table.find("left", "fx") >= 0 and "±" in page.table.cell_text(page.table.find("left", "fx"), 3)
-    assert page.table.find("stereo", "baseline") >= 0
-    summary = page.summary_view.toPlainText()
+    assert page.results.errors_chart.selected() == []                    # the line starts above every bar
+    assert page.results.table.find("left", "fx") >= 0 and "±" in page.results.table.cell_text(page.results.table.find("left", "fx"), 3)
+    assert page.results.table.find("stereo", "baseline") >= 0
+    summary = page.results.summary_view.toPlainText()
     assert "Cross-validation" in summary and "Epipolar" in summary and "the model" in summary
-    h, w = r.image_size[1], r.image_size[0]
-    qtbot.waitUntil(lambda: len(page.preview.image_shape()) > 0, timeout=WAIT_MS)   # rectified on a worker
-    assert page.preview.image_shape()[:2] == (h, 2 * w + stereo_page.PREVIEW_GAP)
-    assert "Epipolar error of this pair" in page.preview_caption.text()
-    assert page.scatter.counts() == (accepted * 54, accepted * 54)
-    assert "✓" in page.strip.caption(page.items[0].key) and "px" in page.strip.caption(page.items[0].key)
+    h, w = r.file.image_size[1], r.file.image_size[0]
+    qtbot.waitUntil(lambda: len(page.results.preview.image_shape()) > 0, timeout=WAIT_MS)   # rectified on a worker
+    assert page.results.preview.image_shape()[:2] == (h, 2 * w + PREVIEW_GAP)
+    assert "Epipolar error of this pair" in page.results.preview_caption.text()
+    assert page.results.scatter.counts() == (accepted * 54, accepted * 54)
+    assert "✓" in page.pairs.strip.caption(page.items[0].key) and "px" in page.pairs.strip.caption(page.items[0].key)
 
     # drag the threshold just below the highest bar: that pair is selected, then dropped
     worst = np.maximum(series["left"], series["right"])
     order = np.argsort(worst)
-    page.errors_chart.set_threshold((worst[order[-1]] + worst[order[-2]]) / 2)
-    assert page.errors_chart.selected() == [int(order[-1])]
+    page.results.errors_chart.set_threshold((worst[order[-1]] + worst[order[-2]]) / 2)
+    assert page.results.errors_chart.selected() == [int(order[-1])]
     dropped_pair = int(series["pairs"][order[-1]]) - 1
     assert page.selected_pairs() == [dropped_pair]
-    assert page.drop_button.isEnabled()
-    qtbot.mouseClick(page.drop_button, Qt.MouseButton.LeftButton)
+    assert page.results.drop_button.isEnabled()
+    qtbot.mouseClick(page.results.drop_button, Qt.MouseButton.LeftButton)
     wait(qtbot, page)
     assert page.result is not r and page.result.pairs_used == accepted - 1
     assert page.result.excluded == [dropped_pair]
     dropped = next(a for a in page.items if a.detection.index == dropped_pair)
-    assert page.strip.badge(dropped.key) == "dropped by you"
-    assert page.restore_button.isEnabled()
+    assert page.pairs.strip.badge(dropped.key) == "dropped by you"
+    assert page.results.restore_button.isEnabled()
 
     assert not page.is_complete()
     with qtbot.waitSignal(page.completeChanged):
         qtbot.mouseClick(page.save_button, Qt.MouseButton.LeftButton)
     path = page.state.project.path("stereo")
     sf = read_stereo_yaml(path)
-    assert sf.image_size == r.image_size and sf.board == page.board
-    assert abs(sf.rms_stereo - page.result.rms_stereo) < 1e-9
+    assert sf.image_size == r.file.image_size and sf.board == page.board
+    assert abs(sf.rms_stereo - page.result.file.rms_stereo) < 1e-9
     assert page.is_complete() and page.state.stereo is page.result
 
     patch_dirs(monkeypatch, tmp_path / "ros")
@@ -154,11 +155,11 @@ def test_virtual_lab_pairs_calibrate_drop_outlier_and_export(page, qtbot, tmp_pa
 
 
 def test_capture_takes_one_virtual_pair(page, qtbot):
-    assert page.capture_button.isEnabled()
-    assert "virtual lab" in page.capture_button.toolTip().lower()
-    qtbot.mouseClick(page.capture_button, Qt.MouseButton.LeftButton)
+    assert page.pairs.capture_button.isEnabled()
+    assert "virtual lab" in page.pairs.capture_button.toolTip().lower()
+    qtbot.mouseClick(page.pairs.capture_button, Qt.MouseButton.LeftButton)
     wait(qtbot, page)
-    qtbot.mouseClick(page.capture_button, Qt.MouseButton.LeftButton)
+    qtbot.mouseClick(page.pairs.capture_button, Qt.MouseButton.LeftButton)
     wait(qtbot, page)
     assert len(page.items) == 2
     assert {a.source for a in page.items} == {"virtual camera"}
@@ -169,9 +170,9 @@ def test_capture_takes_one_virtual_pair(page, qtbot):
 def test_capture_is_disabled_for_hardware_until_the_hardware_issue(qtbot, tmp_path):
     page = make_page(qtbot, tmp_path, mode=HARDWARE)
     try:
-        assert not page.capture_button.isEnabled() and not page.virtual_button.isEnabled()
-        assert "hardware issue" in page.capture_button.toolTip()
-        assert page.folders_button.isEnabled()
+        assert not page.pairs.capture_button.isEnabled() and not page.pairs.virtual_button.isEnabled()
+        assert "hardware issue" in page.pairs.capture_button.toolTip()
+        assert page.pairs.folders_button.isEnabled()
         assert page.board == Board(9, 6, 24.0)
     finally:
         page.tasks.shutdown()
@@ -181,32 +182,32 @@ def test_capture_is_disabled_for_hardware_until_the_hardware_issue(qtbot, tmp_pa
 # -- folders ----------------------------------------------------------------------------------
 def test_add_folders_then_change_the_board(page, qtbot, monkeypatch, rendered_folders):
     patch_dirs(monkeypatch, rendered_folders / "left", rendered_folders / "right")
-    qtbot.mouseClick(page.folders_button, Qt.MouseButton.LeftButton)
+    qtbot.mouseClick(page.pairs.folders_button, Qt.MouseButton.LeftButton)
     wait(qtbot, page)
     assert len(page.items) == 8 and len(page.usable_pairs()) == 8
     assert page.items[0].detection.name == "img_00.png | img_00.png"
-    assert page.calibrate_button.isEnabled()
+    assert page.model.calibrate_button.isEnabled()
 
     # a wrong board size: every pair is detected again and rejected with the reason shown
-    page.cols_spin.setValue(8)
+    page.pairs.cols_spin.setValue(8)
     page.apply_board()
     wait(qtbot, page)
     assert len(page.items) == 8 and page.usable_pairs() == []
-    assert page.strip.badge(page.items[0].key) == "board not found"
-    assert "8x6" in page.strip.tooltip(page.items[0].key)
-    assert not page.calibrate_button.isEnabled()
+    assert page.pairs.strip.badge(page.items[0].key) == "board not found"
+    assert "8x6" in page.pairs.strip.tooltip(page.items[0].key)
+    assert not page.model.calibrate_button.isEnabled()
     assert "rejected" in page.status.text()
 
-    page.cols_spin.setValue(9)
+    page.pairs.cols_spin.setValue(9)
     page.apply_board()
     wait(qtbot, page)
-    assert len(page.usable_pairs()) == 8 and page.strip.badge(page.items[0].key) is None
+    assert len(page.usable_pairs()) == 8 and page.pairs.strip.badge(page.items[0].key) is None
     assert {a.source for a in page.items} == {"folders"}
     assert page.calibrate()
     wait(qtbot, page)
     assert page.result is not None and page.result.pairs_used == 8
     # 8 pairs are not enough views: calibrated, with the warning in the summary
-    assert "not enough views" in page.summary_view.toPlainText()
+    assert "not enough views" in page.results.summary_view.toPlainText()
 
 
 @pytest.mark.skipif(not REAL_DATA.is_dir(), reason=f"real checkerboard pairs not found at {REAL_DATA}")
@@ -227,15 +228,15 @@ def test_real_pairs_flagged_outlier_dropped(qtbot, tmp_path, monkeypatch):
         wait(qtbot, page)
         r = page.result
         assert r.outliers, "the real data set has a flagged pair"
-        assert page.flagged_button.isEnabled()
-        assert any(page.errors_chart.series()["flagged"])
+        assert page.results.flagged_button.isEnabled()
+        assert any(page.results.errors_chart.series()["flagged"])
         page.select_flagged()
         assert set(r.outliers) <= set(page.selected_pairs())
         n = len(page.selected_pairs())
         assert page.drop_selected()
         wait(qtbot, page)
         assert page.result.pairs_used == 25 - n
-        assert abs(page.result.K1[0, 0] / 518.05 - 1) < 0.02
+        assert abs(page.result.file.K1[0, 0] / 518.05 - 1) < 0.02
     finally:
         page.tasks.shutdown()
         page.state.close()
@@ -264,8 +265,8 @@ def test_bad_folders_give_a_clear_message(page, qtbot, tmp_path, rendered_folder
     assert len(page.items) == 2
     assert "notes.txt" in page.status.text()
     bad = page.items[1]
-    assert not bad.detection.accepted and page.strip.badge(bad.key) == "unreadable"
-    assert "truncated PNG" in page.strip.tooltip(bad.key)
+    assert not bad.detection.accepted and page.pairs.strip.badge(bad.key) == "unreadable"
+    assert "truncated PNG" in page.pairs.strip.tooltip(bad.key)
     assert "rejected" in page.status.text()
 
 
@@ -289,7 +290,7 @@ def test_cancel_calibration(page, qtbot, monkeypatch, rendered_folders):
     page.cancel()
     wait(qtbot, page)
     assert page.result is None and "Cancelled" in page.status.text()
-    assert page.calibrate_button.isEnabled() and not page.save_button.isEnabled()
+    assert page.model.calibrate_button.isEnabled() and not page.save_button.isEnabled()
 
 
 # -- autopilot and a project that has a calibration -------------------------------------------------

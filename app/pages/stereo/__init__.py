@@ -1,0 +1,1 @@
+"""Step 2, Stereo calibration: the page (page.py) and its panels."""

@@ -1,0 +1,355 @@
+"""Step 2, Stereo calibration: checkerboard pairs → a trusted stereo model and stereo.yaml.
+
+Pairs come from two folders (left, right; matched by sorted file name), from the virtual
+lab (N pairs at well-spread board poses, rendered and saved as PNGs into the project's
+checkerboard/left|right), or from the cameras (live cameras arrive with the hardware issue;
+in the virtual lab, one pair from the lab's cameras at a random board pose). Detection runs
+on the worker thread in small batches (app/jobs/stereo.py), so thumbnails and the ROS-style
+coverage bars fill while pairs are added. Calibration (core.stereo.calibration.calibrate_stereo)
+runs on the worker thread too; the page then draws what it returns (results_panel.py).
+
+The step is complete once a calibration is saved as the project's stereo.yaml (or the
+project already has a readable one). The result also goes to ``state.stereo``.
+"""
+from __future__ import annotations
+
+from functools import partial
+from itertools import count
+from pathlib import Path
+from typing import Callable
+
+from PySide6.QtCore import Qt, QTimer
+from PySide6.QtWidgets import QFileDialog, QSplitter, QVBoxLayout, QWidget
+
+from app.jobs.stereo import AddedPair
+from app.lab import DEFAULT_BOARD
+from app.pages.base import WizardPage
+from app.pages.forms import button, row
+from app.pages.steps import Step
+from app.pages.stereo.options_panel import OptionsPanel
+from app.pages.stereo.pairs_panel import VIRTUAL_PAIRS, PairsActions, PairsPanel
+from app.pages.stereo.job_queue import Job, JobQueueMixin
+from app.pages.stereo.results_panel import ResultsActions, ResultsPanel
+from app.pages.stereo.texts import CAMERA_TOOLTIP_HARDWARE, CAMERA_TOOLTIP_VIRTUAL, VIRTUAL_TOOLTIP
+from core.errors import RoboCalError
+from core.stereo.board import Board
+from core.stereo.calibration import StereoCalibrationResult, calibrate_stereo
+from core.stereo.checkerboard import MIN_PAIRS_TO_CALIBRATE, screen_pairs
+from core.stereo.file import read_stereo_yaml, write_ros_camera_info, write_stereo_json, write_stereo_yaml
+
+
+class StereoPage(JobQueueMixin, PairsActions, ResultsActions, WizardPage):
+    step = Step.STEREO
+
+    def __init__(self, state, tasks, **kwargs):
+        super().__init__(state, tasks, **kwargs)
+        self.items: list[AddedPair] = []
+        self.detections = None                     # DetectionResult of self.items (screened)
+        self.result: StereoCalibrationResult | None = None
+        self.result_stale = False                  # pairs changed since the calibration
+        self.saved_path: Path | None = None        # stereo.yaml of this session or found in the project
+        self.ignored_files: list[str] = []
+        self._keys = count()
+        self._queue: list[Job] = []                # jobs still to run, one after the other
+        self._queue_total = 0
+        self._queue_done = 0
+        self._queue_then: Callable[[], None] | None = None
+        self._waiting_for_lab = False              # asked state.request_lab, not called back yet
+        self._lab_token = 0
+        self._preview_token = 0                    # the latest rectified preview asked for
+        self._after_adding_note = ""
+        self._board = self._default_board()
+        self._build()
+        state.projectChanged.connect(self._context_changed)
+        self._context_changed()
+
+    def _build(self) -> None:
+        self.pairs = PairsPanel()
+        self.pairs.set_board(self._board)
+        self.model = OptionsPanel(self.progress_row())
+        self.results = ResultsPanel()
+        self._connect_panels()
+        self.save_button = button("Save stereo.yaml", "saveButton", on_click=self.save_stereo,
+                                  tooltip="Accept this calibration: write stereo.yaml into the project folder "
+                                          "(atomically: a failure leaves the previous file as it was)")
+        self.ros_button = button("ROS camera_info…", on_click=self.export_ros,
+                                 tooltip="Write left.yaml and right.yaml (ROS camera_info) into a folder")
+        self.json_button = button("JSON…", on_click=self.export_json, tooltip="Write the calibration, its "
+                                  "parameter table and per-pair errors as JSON")
+        self.status.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
+        top = QWidget()
+        tl = QVBoxLayout(top)
+        tl.setContentsMargins(0, 0, 0, 0)
+        tl.setSpacing(6)
+        tl.addWidget(self.pairs)
+        tl.addWidget(self.model)
+        self.splitter = QSplitter(Qt.Orientation.Vertical)
+        self.splitter.addWidget(top)
+        self.splitter.addWidget(self.results)
+        self.splitter.setStretchFactor(0, 0)
+        self.splitter.setStretchFactor(1, 1)
+        self.splitter.setChildrenCollapsible(False)
+        layout = QVBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.setSpacing(6)
+        layout.addWidget(self.splitter, 1)
+        layout.addWidget(self.status)
+        exports = row(self.save_button, "Export:", self.ros_button, self.json_button, stretch=False)
+        exports.insertStretch(0, 1)
+        layout.addLayout(exports)
+
+    def _connect_panels(self) -> None:
+        p, r = self.pairs, self.results
+        p.folders_button.clicked.connect(lambda: self.add_folders_dialog())
+        p.virtual_button.clicked.connect(lambda: self.add_virtual_pairs(p.virtual_count.value()))
+        p.capture_button.clicked.connect(lambda: self.capture_pair())
+        p.remove_button.clicked.connect(lambda: self.remove_pairs(p.strip.selected_keys()))
+        p.clear_button.clicked.connect(lambda: self.clear_pairs())
+        p.strip.currentKeyChanged.connect(self._thumbnail_picked)
+        p.strip.itemSelectionChanged.connect(self.on_busy_changed)
+        self._board_timer = QTimer(self)
+        self._board_timer.setSingleShot(True)
+        self._board_timer.setInterval(600)
+        self._board_timer.timeout.connect(self.apply_board)
+        for w in (p.cols_spin, p.rows_spin, p.square_spin):
+            w.valueChanged.connect(lambda *_: self._board_timer.start())
+        self.model.calibrate_button.clicked.connect(lambda: self.calibrate())
+        r.errors_chart.selectionChanged.connect(self._threshold_selection)
+        r.drop_button.clicked.connect(lambda: self.drop_selected())
+        r.flagged_button.clicked.connect(self.select_flagged)
+        r.restore_button.clicked.connect(self.restore_excluded)
+        r.preview_combo.currentIndexChanged.connect(self._preview_changed)
+
+    # -- state ------------------------------------------------------------------------------
+    @property
+    def board(self) -> Board:
+        return self._board
+
+    def usable_pairs(self) -> list[AddedPair]:
+        return [a for a in self.items if a.detection.accepted and not a.excluded]
+
+    def _default_board(self) -> Board:
+        if self.state.virtual:
+            return self.state.lab.board if self.state.has_lab else DEFAULT_BOARD
+        return Board(9, 6, 24.0)
+
+    def _context_changed(self, *_) -> None:
+        """Another project: pairs and result no longer apply."""
+        self._stop_jobs()
+        self.items.clear()
+        self.pairs.strip.clear_all()
+        self.detections = None
+        self.result = None
+        self.result_stale = False
+        self.saved_path = None
+        self.ignored_files = []
+        self._board = self._default_board()
+        self.pairs.set_board(self._board)
+        message, ok = self._read_saved()
+        self._refresh_pairs()
+        self._show_result()
+        self._set_status(message, ok=ok)
+        self.notify_complete()
+        project = self.state.project
+        saved = project.folder / "checkerboard" if project is not None else None
+        if saved is not None and any((saved / "left").glob("*.png")) and any((saved / "right").glob("*.png")):
+            # pairs rendered or captured into this project earlier: back on the page
+            self.add_folders(saved / "left", saved / "right",
+                             then=lambda: self._set_status(message + " The project's saved pairs are back.", ok=ok))
+
+    def _read_saved(self) -> tuple[str, bool]:
+        """The project's stereo.yaml, if any: the step is done and its board is the page's."""
+        project = self.state.project
+        if project is None:
+            return "No project yet: create or open one in the Setup step (1).", False
+        if not project.has("stereo"):
+            return "", False
+        path = project.path("stereo")
+        try:
+            sf = read_stereo_yaml(path)
+        except RoboCalError as exc:
+            return f"The project's stereo.yaml cannot be used ({exc.message}). Calibrate again.", False
+        self.saved_path = path
+        self._board = sf.board                   # the board those pairs show
+        self.pairs.set_board(self._board)
+        return (f"This project already has {path.name} (stereo RMS {sf.rms_stereo:.3f} px, baseline "
+                f"{sf.baseline_mm:.1f} mm, {sf.image_size[0]}x{sf.image_size[1]}): the step is done. "
+                "Add pairs and calibrate to replace it."), True
+
+    # -- WizardPage ---------------------------------------------------------------------------
+    def on_enter(self) -> None:
+        self.on_busy_changed()
+
+    def on_leave(self) -> None:
+        if self._board_timer.isActive():
+            self.apply_board()
+
+    def is_complete(self) -> bool:
+        return self.saved_path is not None and self.saved_path.is_file()
+
+    def autopilot(self, done) -> None:
+        if self.state.project is None:
+            done(False, "no project (Setup step)")
+            return
+        if self.busy:
+            done(False, "the page is busy")
+            return
+        self._autopilot_done = done
+        if self.result is not None and not self.result_stale:
+            self._autopilot_save()
+            return
+        if len(self.usable_pairs()) >= MIN_PAIRS_TO_CALIBRATE and (
+                self.detections is not None and self.detections.coverage.enough):
+            if not self.calibrate():
+                self._finish_autopilot(False, self.status.text() or "calibration could not start")
+            return
+        if not self.state.virtual:
+            self._finish_autopilot(False, "no checkerboard pairs: add pairs from folders first")
+            return
+        lab_board = self._default_board()
+        if lab_board != self._board:          # the lab's board: pairs of another board cannot join
+            self.clear_pairs()
+            self.set_board(lab_board)
+        if not self.add_virtual_pairs(VIRTUAL_PAIRS, then=self._autopilot_calibrate):
+            self._finish_autopilot(False, self.status.text() or "could not render the virtual-lab pairs")
+
+    def _autopilot_calibrate(self) -> None:
+        if self._autopilot_done is None:
+            return
+        if len(self.usable_pairs()) < MIN_PAIRS_TO_CALIBRATE or not self.calibrate():
+            self._finish_autopilot(False, self.status.text() or "too few usable pairs")
+
+    def _autopilot_save(self) -> None:
+        if self._autopilot_done is None:
+            return
+        path = self.save_stereo()
+        if path is None:
+            self._finish_autopilot(False, self.status.text() or "stereo.yaml could not be written")
+        else:
+            r = self.result
+            self._finish_autopilot(True, f"{r.pairs_used} pairs, stereo RMS {r.file.rms_stereo:.3f} px, "
+                                         f"baseline {r.baseline_mm:.1f} mm")
+
+    def on_busy_changed(self) -> None:
+        busy, has_project, virtual = self.busy, self.state.project is not None, self.state.virtual
+        p, r = self.pairs, self.results
+        self.progress_row().bar.setVisible(busy)
+        for w in (p.folders_button, p.cols_spin, p.rows_spin, p.square_spin):
+            w.setEnabled(not busy and has_project)
+        for w in (p.virtual_button, p.virtual_count, p.capture_button):
+            w.setEnabled(not busy and has_project and virtual)
+        p.virtual_button.setToolTip(VIRTUAL_TOOLTIP if virtual else "Only in a virtual-lab project")
+        p.capture_button.setToolTip(CAMERA_TOOLTIP_VIRTUAL if virtual else CAMERA_TOOLTIP_HARDWARE)
+        p.remove_button.setEnabled(not busy and bool(p.strip.selectedItems()))
+        p.clear_button.setEnabled(not busy and bool(self.items))
+        self._calibrate_button_state(busy)
+        has_result = self.result is not None
+        self.model.set_enabled(not busy)
+        self.save_button.setEnabled(not busy and has_result and has_project)
+        self.ros_button.setEnabled(not busy and has_result)
+        self.json_button.setEnabled(not busy and has_result)
+        r.drop_button.setEnabled(not busy and has_result and bool(r.errors_chart.selected()))
+        r.flagged_button.setEnabled(not busy and has_result and bool(self.result.outliers if has_result else []))
+        r.restore_button.setEnabled(not busy and any(a.excluded for a in self.items))
+
+    def _calibrate_button_state(self, busy: bool) -> None:
+        b = self.model.calibrate_button
+        usable = len(self.usable_pairs())
+        b.setEnabled(not busy and usable >= MIN_PAIRS_TO_CALIBRATE)
+        enough = self.detections is not None and self._coverage().enough
+        b.setText("Calibrate" if enough or usable < MIN_PAIRS_TO_CALIBRATE else "Calibrate (low coverage)")
+        b.setToolTip(f"Needs at least {MIN_PAIRS_TO_CALIBRATE} accepted pairs" if usable < MIN_PAIRS_TO_CALIBRATE
+                     else ("Enough views: calibrate" if enough else
+                           "Possible, but coverage is not enough yet: the result may be poorly determined"))
+
+    # -- calibration -----------------------------------------------------------------------------
+    def calibrate(self) -> bool:
+        if self._board_timer.isActive():
+            self.apply_board()             # a board edit not applied yet
+        if self.busy:
+            self._set_status("Busy: wait for the running task or cancel it.", ok=False)
+            return False
+        usable = self.usable_pairs()
+        if len(usable) < MIN_PAIRS_TO_CALIBRATE or self.detections is None:
+            self._set_status(f"Calibration needs at least {MIN_PAIRS_TO_CALIBRATE} accepted pairs "
+                             f"({len(usable)} now).", ok=False)
+            return False
+        self.detections = screen_pairs([a.detection for a in self.items], self._board)
+        exclude = [a.detection.index for a in self.items if a.excluded]
+        options = self.model.options()
+        self._set_status(f"Calibrating from {len(self.usable_pairs())} pairs ({options.describe()})…")
+        self._run_queue([(partial(calibrate_stereo, self.detections, options, exclude=exclude), "Calibrating",
+                          self._calibrated)])
+        return True
+
+    def _calibrated(self, result: StereoCalibrationResult) -> None:
+        self.result = result
+        self.result_stale = False
+        self._show_result()
+        self._refresh_pairs()
+        cv = result.cross_validation
+        text = (f"Calibrated: {result.pairs_used} pairs, stereo RMS {result.file.rms_stereo:.3f} px, epipolar "
+                f"{result.epipolar_rms:.3f} px" + (f", cross-validation {cv.rms_observed_px:.3f} px" if cv else "")
+                + f", baseline {result.baseline_mm:.2f} mm"
+                + (f" ({len(result.warnings)} warning{'s' if len(result.warnings) > 1 else ''}: see Summary)"
+                   if result.warnings else "")
+                + ". Drop outliers if needed, then Save stereo.yaml.")
+        self._set_status(text, ok=True)
+        if self._autopilot_done is not None:
+            QTimer.singleShot(0, self._autopilot_save)
+
+    # -- save and exports ---------------------------------------------------------------------------
+    def save_stereo(self) -> Path | None:
+        """Accept the calibration: stereo.yaml into the project (atomic) and the result into
+        the wizard's state."""
+        r, project = self.result, self.state.project
+        if r is None or project is None:
+            self._set_status("Nothing to save: calibrate first." if project is not None
+                             else "No project: create or open one in the Setup step (1).", ok=False)
+            return None
+        path = project.path("stereo")
+        try:
+            write_stereo_yaml(path, r)
+        except RoboCalError as exc:
+            self._set_status(f"stereo.yaml was not written: {exc.message}", ok=False)
+            return None
+        self.saved_path = path
+        self.state.set_stereo(r)
+        self._set_status(f"Saved {path} ({r.pairs_used} pairs, stereo RMS {r.file.rms_stereo:.3f} px). "
+                         "This step is done.", ok=True)
+        self.notify_complete()
+        return path
+
+    def export_ros(self, folder: str | None = None) -> tuple[Path, Path] | None:
+        if self.result is None:
+            return None
+        if folder is None:
+            start = str(self.state.project.folder) if self.state.project is not None else ""
+            folder = QFileDialog.getExistingDirectory(self, "Folder for left.yaml and right.yaml (ROS camera_info)",
+                                                      start)
+            if not folder:
+                return None
+        try:
+            paths = write_ros_camera_info(folder, self.result)
+        except RoboCalError as exc:
+            self._set_status(f"ROS camera_info not written: {exc.message}", ok=False)
+            return None
+        self._set_status(f"Wrote {paths[0]} and {paths[1].name} (ROS camera_info).", ok=True)
+        return paths
+
+    def export_json(self, path: str | None = None) -> Path | None:
+        if self.result is None:
+            return None
+        if path is None:
+            start = self.state.project.folder / "stereo.json" if self.state.project is not None else Path("stereo.json")
+            path, _ = QFileDialog.getSaveFileName(self, "Export the stereo calibration as JSON", str(start),
+                                                  "JSON (*.json)")
+            if not path:
+                return None
+        try:
+            out = write_stereo_json(path, self.result)
+        except RoboCalError as exc:
+            self._set_status(f"JSON not written: {exc.message}", ok=False)
+            return None
+        self._set_status(f"Wrote {out}.", ok=True)
+        return Path(out)
