@@ -1,28 +1,7 @@
-"""Step 3, Marker: train the end-effector marker, then check its 3D location on stereo pairs.
-
-The chapter's chain, each stage drawn from what the work in app/jobs/marker.py returns:
-
-1. **Training** (core.marker.training.train_marker, worker thread): a training image loaded
-   from a file or taken with the virtual lab's camera; the outer black square is found
-   automatically (drawn dashed) or inside a crop rectangle the user drags; SIFT keypoints,
-   the fitted outline and its reference point (the intersection of the diagonals) are drawn.
-   The marker goes into the project (marker.npz, marker_training.png) and to
-   ``state.marker``.
-2. **Live pair** (virtual lab: the robot at a random visible pose, "Next pose"): in both
-   images the SIFT matches (agreeing / not), the homography's outline, the region of
-   interest, the Canny edge pixels and the fitted outline, the reference point; the 3D point
-   (mm, left camera frame) with its σ and, in the virtual lab, its error against the truth.
-3. **SSD correlation**: the criteria curve along the epipolar line (Fig. 16) and the
-   window-size sweep (Fig. 17).
-4. **Verification** over N random robot poses (worker, progress, Cancel): detection rate,
-   median and RMS 3D error against the truth, rejection reasons counted.
-5. **Compare markers** (the virtual lab's marker comparison, Fig. 11).
-
-The stereo rectification comes from the project's stereo.yaml (else the Stereo step's
-result); in the virtual lab without one, the page offers a clearly labelled preview with the
-lab's true cameras. The step is complete once a marker is trained, saved and located at
-least once (marker_verification.json records the last verification).
-"""
+"""The Marker step's page (step 3): the training controls and the stereo line above five tabs
+(Training, Live pair, SSD correlation, Verification, Compare markers); the chain is described
+in the package's docstring. Long work goes through `TaskMixin.start` with the virtual lab from
+`state.request_lab`; the page keeps the step's state and draws what the work returns."""
 from __future__ import annotations
 
 import math
@@ -30,17 +9,17 @@ from pathlib import Path
 from typing import Callable
 
 import numpy as np
-from PySide6.QtWidgets import QFileDialog, QHBoxLayout, QLabel, QTabWidget, QVBoxLayout
+from PySide6.QtWidgets import QFileDialog, QTabWidget, QVBoxLayout
 
-from app.html import esc, number
+from app.html import number
 from app.jobs.marker import (Comparison, LiveResult, Training, TrainingImage, VerificationResult,
                              capture_training_image, live_pair, load_training_image, recorded_verification,
                              run_comparison, run_verification, save_trained, train_job, write_verification)
 from app.lab import VirtualLab
 from app.pages.base import WizardPage
-from app.pages.forms import button
 from app.pages.marker.compare_panel import ComparePanel
 from app.pages.marker.live_panel import LivePanel
+from app.pages.marker.stereo_bar import StereoBar
 from app.pages.marker.ssd_panel import SsdPanel
 from app.pages.marker.training_panel import TrainingPanel
 from app.pages.marker.verification_panel import VerificationPanel
@@ -93,22 +72,13 @@ class MarkerPage(WizardPage):
         self.verification_panel.verify_button.clicked.connect(lambda: self.verify())
         self.compare_panel = ComparePanel()
         self.compare_panel.compare_button.clicked.connect(lambda: self.compare())
-        self.stereo_label = QLabel()
-        self.stereo_label.setObjectName("hint")
-        self.stereo_label.setWordWrap(True)
-        self.preview_button = button(
-            "Preview with the lab's true cameras", "previewButton", on_click=self.use_preview,
-            tooltip="No stereo calibration yet: locate with the virtual lab's true cameras, clearly labelled as "
-                    "a preview. Measurements need stereo.yaml.")
-        stereo_row = QHBoxLayout()
-        stereo_row.setSpacing(8)
-        stereo_row.addWidget(self.stereo_label, 1)
-        stereo_row.addWidget(self.preview_button)
+        self.stereo_bar = StereoBar()
+        self.stereo_bar.preview_button.clicked.connect(lambda: self.use_preview())
         top = QVBoxLayout()
         top.setContentsMargins(0, 0, 0, 0)
         top.setSpacing(3)
         top.addLayout(self.training_panel.controls)
-        top.addLayout(stereo_row)
+        top.addWidget(self.stereo_bar)
         self.tabs = QTabWidget()
         self.tabs.setObjectName("markerTabs")
         for panel, name in ((self.training_panel, "Training"), (self.live_panel, "Live pair"),
@@ -139,22 +109,23 @@ class MarkerPage(WizardPage):
         self._lab_wait += 1
         self._lab_pending = False
         self._preview = False
-        self.trained = None
-        self.trained_offset = np.zeros(2)
-        self.saved_path = None
-        self.verified = False
-        self.live = None
-        self.verification = None
-        self._locator = None
+        self._set_trained(None, np.zeros(2), None)
         self.training_panel.clear()
-        self._draw_live()
-        self.verification_panel.draw(None)
+        self._clear_results()
         message, ok = self._load_saved_marker()
         self._refresh_stereo()
         self._update_buttons()
         if message:
             self._set_status(message, ok)
         self.notify_complete()
+
+    def _clear_results(self) -> None:
+        """Forget (and undraw) the live pair and the verification: another marker or project."""
+        self.verified = False
+        self.live = None
+        self.verification = None
+        self._draw_live()
+        self.verification_panel.draw(None)
 
     def _load_saved_marker(self) -> tuple[str, bool | None]:
         """Take the project's marker.npz, if any; returns what to say about it."""
@@ -180,7 +151,7 @@ class MarkerPage(WizardPage):
 
     def _refresh_stereo(self) -> None:
         lab = self.state.lab if self.state.has_lab else None
-        if self._preview and lab is not None and not self._has_calibration():
+        if self._preview and lab is not None and stereo_source(self.state).rect is None:
             src = preview_source(lab)
         else:
             self._preview = False
@@ -189,19 +160,8 @@ class MarkerPage(WizardPage):
         self.stereo = src
         if changed:
             self._locator = None
-        if src.rect is None:
-            hint = (" In the virtual lab you can preview the location with the lab's true cameras."
-                    if self.state.virtual else " Calibrate the cameras in step 2 first.")
-            self.stereo_label.setText(f"<span style='color:#b06000'><b>Stereo:</b> {esc(src.problem)}.</span>{hint}")
-        elif src.kind == "preview":
-            self.stereo_label.setText(f"<b style='color:#b06000'>{esc(src.label)}</b>")
-        else:
-            self.stereo_label.setText(f"<b>Stereo:</b> {esc(src.label)}")
-        self.preview_button.setVisible(self.state.virtual and src.rect is None)
+        self.stereo_bar.draw(src, self.state.virtual)
         self._update_buttons()
-
-    def _has_calibration(self) -> bool:
-        return stereo_source(self.state).rect is not None
 
     # -- WizardPage -------------------------------------------------------------------------
     def on_enter(self) -> None:
@@ -228,26 +188,11 @@ class MarkerPage(WizardPage):
         """One step of the demo: stereo (or preview) → training image → train → live pair → verify."""
         if self._autopilot_done is None:
             return
-        if self.stereo.rect is None:
-            if not self.use_preview(then=self._autopilot_next):
-                self._finish_autopilot(False, self.status.text() or "no stereo calibration")
-            return
-        if self.trained is None or self.saved_path is None:
-            if self.training_image is None or self.training_image.source != "virtual lab camera":
-                if not self.capture_training(then=self._autopilot_next):
-                    self._finish_autopilot(False, self.status.text() or "no training image")
-                return
-            if not self.train(then=self._autopilot_next):
-                self._finish_autopilot(False, self.status.text() or "training could not start")
-            return
-        if self.live is None:
-            if not self.next_pose(then=self._autopilot_next):
-                self._finish_autopilot(False, self.status.text() or "no live pair")
-            return
-        if self.verification is None:
-            self.verification_panel.verify_spin.setValue(DEMO_VERIFY)
-            if not self.verify(then=self._autopilot_next):
-                self._finish_autopilot(False, self.status.text() or "verification could not start")
+        step = self._autopilot_step()
+        if step is not None:
+            action, why = step
+            if not action(then=self._autopilot_next):
+                self._finish_autopilot(False, self.status.text() or why)
             return
         v = self.verification
         if self.is_complete():
@@ -255,6 +200,21 @@ class MarkerPage(WizardPage):
                                          f"located, median 3D error {number(v.median_error, 3, 'mm')}")
         else:
             self._finish_autopilot(False, "the marker was not located in any verification pose")
+
+    def _autopilot_step(self) -> tuple[Callable[..., bool], str] | None:
+        """The demo's next action and what to say if it cannot start; None once it has verified."""
+        if self.stereo.rect is None:
+            return self.use_preview, "no stereo calibration"
+        if self.trained is None or self.saved_path is None:
+            if self.training_image is None or self.training_image.source != "virtual lab camera":
+                return self.capture_training, "no training image"
+            return self.train, "training could not start"
+        if self.live is None:
+            return self.next_pose, "no live pair"
+        if self.verification is None:
+            self.verification_panel.verify_spin.setValue(DEMO_VERIFY)
+            return self.verify, "verification could not start"
+        return None
 
     # -- tasks --------------------------------------------------------------------------------
     def on_busy_changed(self) -> None:
@@ -269,7 +229,7 @@ class MarkerPage(WizardPage):
         tp.capture_button.setEnabled(not busy and has_project and virtual)
         tp.crop_check.setEnabled(not busy and tp.image is not None)
         tp.train_button.setEnabled(not busy and has_project and tp.image is not None)
-        self.preview_button.setEnabled(not busy)
+        self.stereo_bar.preview_button.setEnabled(not busy)
         ready = self.trained is not None and self.stereo.rect is not None and virtual
         self.live_panel.next_button.setEnabled(not busy and ready)
         self.verification_panel.verify_button.setEnabled(not busy and ready)
@@ -289,20 +249,20 @@ class MarkerPage(WizardPage):
         self._update_buttons()
         self._set_status("Building the virtual lab…", None)
 
-        def arrived(lab: VirtualLab) -> None:
+        def settled() -> bool:
             if token != self._lab_wait:
-                return
+                return False                      # another project or robot meanwhile
             self._lab_pending = False
             self._update_buttons()
-            if not go(lab):
+            return True
+
+        def arrived(lab: VirtualLab) -> None:
+            if settled() and not go(lab):
                 self._finish_autopilot(False, self.status.text() or "the task could not start")
 
         def failed(message: str) -> None:
-            if token != self._lab_wait:
-                return
-            self._lab_pending = False
-            self._update_buttons()
-            self.on_failed(message)
+            if settled():
+                self.on_failed(message)
 
         self.state.request_lab(arrived, on_error=failed)
         return True
@@ -353,13 +313,6 @@ class MarkerPage(WizardPage):
 
     def _set_training_image(self, image: TrainingImage) -> None:
         self.training_panel.set_image(image)
-        h, w = image.image.shape[:2]
-        if image.outline is not None:
-            self._set_status(f"Training image {w}x{h} px from {image.source}: the outer square was found "
-                             "(dashed orange). Train, or crop to a rectangle first.", None)
-        else:
-            self._set_status(f"Training image {w}x{h} px: {image.outline_problem} Drag a crop rectangle around "
-                             "the marker, or load another image.", False)
         self._update_buttons()
 
     def train(self, then=None) -> bool:
@@ -380,12 +333,8 @@ class MarkerPage(WizardPage):
         trained = training.trained
         path = save_trained(self.state.project, trained)
         self._set_trained(trained, training.offset, path)
-        self.verified = False
-        self.live = None
-        self.verification = None
+        self._clear_results()
         self._draw_training()
-        self._draw_live()
-        self.verification_panel.draw(None)
         self.state.set_marker(trained)
         self._set_status(f"✓ Trained: {trained.n_image_features} SIFT features on the marker "
                          f"({trained.n_features} with the simulated tilted views), saved as {path.name}. "
@@ -393,7 +342,7 @@ class MarkerPage(WizardPage):
         self.tabs.setCurrentIndex(TAB_TRAINING)
         self.notify_complete()
 
-    def _set_trained(self, trained: TrainedMarker, offset, path: Path | None) -> None:
+    def _set_trained(self, trained: TrainedMarker | None, offset, path: Path | None) -> None:
         self.trained = trained
         self.trained_offset = np.asarray(offset, dtype=float)
         self.saved_path = path
@@ -405,10 +354,14 @@ class MarkerPage(WizardPage):
                                           self.saved_path.name if self.saved_path else "")
 
     # -- live pair ------------------------------------------------------------------------------
-    def next_pose(self, then=None) -> bool:
-        locator = self.locator
-        if locator is None:
+    def _ready_locator(self) -> MarkerLocator | None:
+        if self.locator is None:
             self._set_status("Train the marker and provide a stereo calibration first.", False)
+        return self.locator
+
+    def next_pose(self, then=None) -> bool:
+        locator = self._ready_locator()
+        if locator is None:
             return False
 
         def go(lab: VirtualLab) -> bool:
@@ -438,9 +391,8 @@ class MarkerPage(WizardPage):
 
     # -- verification ---------------------------------------------------------------------------
     def verify(self, then=None) -> bool:
-        locator = self.locator
+        locator = self._ready_locator()
         if locator is None:
-            self._set_status("Train the marker and provide a stereo calibration first.", False)
             return False
 
         def go(lab: VirtualLab) -> bool:

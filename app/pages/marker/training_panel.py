@@ -91,7 +91,7 @@ class TrainingPanel(QWidget):
 
     def set_image(self, image: TrainingImage) -> None:
         """A new training image, not trained yet: crop off, the crop box around the found outline
-        (else the middle half of the image)."""
+        (else the middle half of the image); what was found goes to `statusChanged`."""
         self.image = image
         if image.outer_size:
             self.size_spin.setValue(image.outer_size)
@@ -103,8 +103,12 @@ class TrainingPanel(QWidget):
         h, w = image.image.shape[:2]
         if image.outline is not None:
             self.training_view.set_crop_box(crop_around(image.outline, w, h))
+            self.statusChanged.emit(f"Training image {w}x{h} px from {image.source}: the outer square was found "
+                                    "(dashed orange). Train, or crop to a rectangle first.", None)
         else:
             self.training_view.set_crop_box((w // 4, h // 4, 3 * w // 4, 3 * h // 4))
+            self.statusChanged.emit(f"Training image {w}x{h} px: {image.outline_problem} Drag a crop rectangle "
+                                    "around the marker, or load another image.", False)
 
     def show_training(self, trained: TrainedMarker | None = None, offset=(0.0, 0.0), saved_name: str = "") -> None:
         """The image with its found outline; with `trained` (trained on the crop at `offset` px),

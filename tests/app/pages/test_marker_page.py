@@ -56,8 +56,8 @@ def test_registered_for_the_marker_step():
 def test_train_locate_plot_and_verify(qtbot, page, boxes):
     state = page.state
     assert not page.is_complete()
-    assert "stereo.yaml" in page.stereo_label.text() and page.stereo.kind == "file"
-    assert not page.preview_button.isVisible()
+    assert "stereo.yaml" in page.stereo_bar.stereo_label.text() and page.stereo.kind == "file"
+    assert not page.stereo_bar.preview_button.isVisible()
     # a training image from the virtual lab's camera: the outline is found automatically
     qtbot.mouseClick(page.training_panel.capture_button, Qt.MouseButton.LeftButton)
     wait(qtbot, page)
@@ -172,11 +172,11 @@ def test_crop_rectangle_trains_what_is_inside(qtbot, page):
 def test_preview_with_the_true_cameras_without_stereo(qtbot, lab, boxes):
     page = make_page(qtbot, lab, stereo=False)
     try:
-        assert page.stereo.rect is None and page.preview_button.isVisibleTo(page)
-        assert "no stereo calibration" in page.stereo_label.text()
+        assert page.stereo.rect is None and page.stereo_bar.preview_button.isVisibleTo(page)
+        assert "no stereo calibration" in page.stereo_bar.stereo_label.text()
         assert page.use_preview()
-        assert page.stereo.kind == "preview" and "PREVIEW" in page.stereo_label.text()
-        assert not page.preview_button.isVisibleTo(page)
+        assert page.stereo.kind == "preview" and "PREVIEW" in page.stereo_bar.stereo_label.text()
+        assert not page.stereo_bar.preview_button.isVisibleTo(page)
         # a stereo.yaml written later takes over from the preview
         from tests.app.virtual_inputs import true_stereo_yaml
         true_stereo_yaml(lab, page.state.project.path("stereo"))
@@ -215,3 +215,28 @@ def test_autopilot_trains_and_verifies(qtbot, page):
     assert ok, message
     assert page.is_complete() and page.verification.n == 10 and page.verification.n_located >= 9
     assert "SIFT features" in message and "located" in message
+
+
+def test_without_a_lab_the_page_asks_the_state_once_and_waits(qtbot, boxes):
+    from app.state import WizardState
+
+    state = WizardState(seed=0, noise=0.5)
+    state.temporary_project()
+    state.choose_preset("educational_6r")
+    page = MarkerPage(state, TaskRunner())
+    qtbot.addWidget(page)
+    try:
+        assert not state.has_lab
+        assert page.capture_training()
+        assert "Building the virtual lab" in page.status.text()
+        assert not page.training_panel.capture_button.isEnabled()
+        assert not page.compare_panel.compare_button.isEnabled()
+        assert not page.compare()                       # one request at a time
+        qtbot.waitUntil(lambda: page.training_image is not None, timeout=60000)
+        wait(qtbot, page)
+        assert state.has_lab and page.training_image.source == "virtual lab camera"
+        assert page.training_panel.capture_button.isEnabled() and page.compare_panel.compare_button.isEnabled()
+        assert boxes == []
+    finally:
+        page.tasks.shutdown()
+        state.close()
