@@ -12,7 +12,7 @@ from app.pages.base import WizardPage
 from app.pages.export_page import ExportPage
 from app.pages.identification_page import IdentificationPage
 from app.pages.load_error_page import PageLoadErrorPage
-from app.pages.marker_page import MarkerPage
+from app.pages.marker.page import MarkerPage
 from app.pages.measurement_page import MeasurementPage
 from app.pages.poses.page import PosesPage
 from app.pages.setup_page import SetupPage

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from PySide6.QtCore import Qt
 
-from app.pages.marker_page import TAB_LIVE, TAB_SSD, MarkerPage
+from app.pages.marker.page import TAB_LIVE, TAB_SSD, MarkerPage
 from app.pages.measurement_inputs import MARKER_FILE, TRAINING_FILE, VERIFICATION_FILE
 from app.pages.registry import PAGES
 from app.pages.steps import Step
@@ -56,22 +56,22 @@ def test_registered_for_the_marker_step():
 def test_train_locate_plot_and_verify(qtbot, page, boxes):
     state = page.state
     assert not page.is_complete()
-    assert "stereo.yaml" in page.stereo_label.text() and page.stereo.kind == "file"
-    assert not page.preview_button.isVisible()
+    assert "stereo.yaml" in page.stereo_bar.stereo_label.text() and page.stereo.kind == "file"
+    assert not page.stereo_bar.preview_button.isVisible()
     # a training image from the virtual lab's camera: the outline is found automatically
-    qtbot.mouseClick(page.capture_button, Qt.MouseButton.LeftButton)
+    qtbot.mouseClick(page.training_panel.capture_button, Qt.MouseButton.LeftButton)
     wait(qtbot, page)
     assert page.training_image is not None and page.training_image.outline is not None
-    assert page.training_view.overlays["auto_outline"].getData()[0] is not None
+    assert page.training_panel.training_view.overlays["auto_outline"].getData()[0] is not None
     # train on a worker: keypoints, outline and reference drawn, files in the project
-    qtbot.mouseClick(page.train_button, Qt.MouseButton.LeftButton)
+    qtbot.mouseClick(page.training_panel.train_button, Qt.MouseButton.LeftButton)
     assert page.busy
     wait(qtbot, page)
     t = page.trained
     assert t is not None and t.n_image_features >= 100 and page.status.text().startswith("✓ Trained")
     assert np.allclose(t.reference_px, [239.5, 239.5], atol=0.1)
-    assert len(page.training_view.overlays["inliers"].data) == t.n_image_features
-    assert str(t.n_image_features) in page.training_info.text()
+    assert len(page.training_panel.training_view.overlays["inliers"].data) == t.n_image_features
+    assert str(t.n_image_features) in page.training_panel.training_info.text()
     folder = state.project.folder
     assert TrainedMarker.load(folder / MARKER_FILE).n_features == t.n_features
     assert cv2.imread(str(folder / TRAINING_FILE), cv2.IMREAD_GRAYSCALE).shape == t.image.shape
@@ -79,12 +79,12 @@ def test_train_locate_plot_and_verify(qtbot, page, boxes):
     assert not page.is_complete()                       # trained, not yet located
     # a live pair: every stage drawn in both images
     with qtbot.waitSignal(page.completeChanged, timeout=60000):
-        qtbot.mouseClick(page.next_button, Qt.MouseButton.LeftButton)
+        qtbot.mouseClick(page.live_panel.next_button, Qt.MouseButton.LeftButton)
         wait(qtbot, page)
     live = page.live
     assert live.location.ok, live.location.reason
     assert page.tabs.currentIndex() == TAB_LIVE
-    for view in (page.left_view, page.right_view):
+    for view in (page.live_panel.left_view, page.live_panel.right_view):
         assert len(view.overlays["inliers"].data) >= 10
         assert len(view.overlays["edges"].data) >= 50
         assert len(view.overlays["fitted"].getData()[0]) > 0
@@ -92,36 +92,37 @@ def test_train_locate_plot_and_verify(qtbot, page, boxes):
         assert len(view.overlays["roi"].getData()[0]) == 8          # 4 segments
         assert len(view.overlays["sift_outline"].getData()[0]) == 8
     # zoomed on the marker: the view shows about the marker, not the whole 1280 px image
-    xr = page.left_view.plot.viewRange()[0]
+    xr = page.live_panel.left_view.plot.viewRange()[0]
     assert xr[1] - xr[0] < 600
     # the 3D point with its sigma, and the error against the truth
-    assert "3D point" in page.point_label.text() and "±" in page.point_label.text()
+    assert "3D point" in page.live_panel.point_label.text() and "±" in page.live_panel.point_label.text()
     assert live.error < 0.05                             # the true rig: a few thousandths of a mm
-    assert "Error against the lab's true marker position" in page.point_label.text()
-    assert "SIFT matches agree" in page.details_label.text()
+    assert "Error against the lab's true marker position" in page.live_panel.point_label.text()
+    assert "SIFT matches agree" in page.live_panel.details_label.text()
     # Fig. 16 and Fig. 17
-    assert page.criteria_plot.has_data() and page.sweep_plot.has_data()
-    assert list(page.sweep_plot.sizes) == list(range(5, 38, 2))
+    assert page.ssd_panel.criteria_plot.has_data() and page.ssd_panel.sweep_plot.has_data()
+    assert list(page.ssd_panel.sweep_plot.sizes) == list(range(5, 38, 2))
     c = live.location.correspondence
-    x, y = page.criteria_plot.curve.getData()
+    x, y = page.ssd_panel.criteria_plot.curve.getData()
     assert len(x) == len(c.disparities)
-    assert page.criteria_plot.line.value() == pytest.approx(c.disparity)
-    axis = page.criteria_plot.plot_item.getAxis
+    assert page.ssd_panel.criteria_plot.line.value() == pytest.approx(c.disparity)
+    axis = page.ssd_panel.criteria_plot.plot_item.getAxis
     assert axis("bottom").labelText == "disparity (px)"
     assert axis("left").labelText == "SSD criteria (grey level², per pixel)"
-    assert "window size" in page.sweep_plot.plot_item.getAxis("bottom").labelText
+    assert "window size" in page.ssd_panel.sweep_plot.plot_item.getAxis("bottom").labelText
     assert page.is_complete() and (folder / VERIFICATION_FILE).is_file()
     page.tabs.setCurrentIndex(TAB_SSD)
     # the verification run over a few random poses
-    page.verify_spin.setValue(4)
-    qtbot.mouseClick(page.verify_button, Qt.MouseButton.LeftButton)
-    assert page.cancel_button.isEnabled()
+    page.verification_panel.verify_spin.setValue(4)
+    qtbot.mouseClick(page.verification_panel.verify_button, Qt.MouseButton.LeftButton)
+    assert page.progress_row().cancel_button.isEnabled()
     wait(qtbot, page)
     v = page.verification
     assert v.n == 4 and v.n_located >= 3 and v.median_error < 0.05
-    text = page.verify_summary.text()
+    text = page.verification_panel.verify_summary.text()
     assert f"{v.n_located} of 4" in text and "median 3D error" in text and "RMS 3D error" in text
-    assert page.precision_plot.n_errors == v.n_located and page.precision_plot.n_sigmas == v.n_located
+    assert page.verification_panel.precision_plot.n_errors == v.n_located
+    assert page.verification_panel.precision_plot.n_sigmas == v.n_located
     assert "Verification" in page.status.text()
     assert boxes == []
     page.grab().save(str(SCREENSHOT))
@@ -154,10 +155,10 @@ def test_crop_rectangle_trains_what_is_inside(qtbot, page):
     path = Path(page.state.project.folder) / "two_squares.png"
     cv2.imwrite(str(path), img)
     assert page.load_image(path)
-    page.crop_check.setChecked(True)
-    assert page.training_view.crop_visible
-    page.training_view.set_crop_box((100, 100, 380, 380))
-    page._crop_changed(page.training_view.crop_box())
+    page.training_panel.crop_check.setChecked(True)
+    assert page.training_panel.training_view.crop_visible
+    page.training_panel.training_view.set_crop_box((100, 100, 380, 380))
+    page.training_panel._crop_changed(page.training_panel.training_view.crop_box())
     assert "found" in page.status.text()
     assert page.train()
     wait(qtbot, page)
@@ -171,11 +172,11 @@ def test_crop_rectangle_trains_what_is_inside(qtbot, page):
 def test_preview_with_the_true_cameras_without_stereo(qtbot, lab, boxes):
     page = make_page(qtbot, lab, stereo=False)
     try:
-        assert page.stereo.rect is None and page.preview_button.isVisibleTo(page)
-        assert "no stereo calibration" in page.stereo_label.text()
+        assert page.stereo.rect is None and page.stereo_bar.preview_button.isVisibleTo(page)
+        assert "no stereo calibration" in page.stereo_bar.stereo_label.text()
         assert page.use_preview()
-        assert page.stereo.kind == "preview" and "PREVIEW" in page.stereo_label.text()
-        assert not page.preview_button.isVisibleTo(page)
+        assert page.stereo.kind == "preview" and "PREVIEW" in page.stereo_bar.stereo_label.text()
+        assert not page.stereo_bar.preview_button.isVisibleTo(page)
         # a stereo.yaml written later takes over from the preview
         from tests.app.virtual_inputs import true_stereo_yaml
         true_stereo_yaml(lab, page.state.project.path("stereo"))
@@ -214,3 +215,28 @@ def test_autopilot_trains_and_verifies(qtbot, page):
     assert ok, message
     assert page.is_complete() and page.verification.n == 10 and page.verification.n_located >= 9
     assert "SIFT features" in message and "located" in message
+
+
+def test_without_a_lab_the_page_asks_the_state_once_and_waits(qtbot, boxes):
+    from app.state import WizardState
+
+    state = WizardState(seed=0, noise=0.5)
+    state.temporary_project()
+    state.choose_preset("educational_6r")
+    page = MarkerPage(state, TaskRunner())
+    qtbot.addWidget(page)
+    try:
+        assert not state.has_lab
+        assert page.capture_training()
+        assert "Building the virtual lab" in page.status.text()
+        assert not page.training_panel.capture_button.isEnabled()
+        assert not page.compare_panel.compare_button.isEnabled()
+        assert not page.compare()                       # one request at a time
+        qtbot.waitUntil(lambda: page.training_image is not None, timeout=60000)
+        wait(qtbot, page)
+        assert state.has_lab and page.training_image.source == "virtual lab camera"
+        assert page.training_panel.capture_button.isEnabled() and page.compare_panel.compare_button.isEnabled()
+        assert boxes == []
+    finally:
+        page.tasks.shutdown()
+        state.close()

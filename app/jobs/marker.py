@@ -1,0 +1,286 @@
+"""The Marker step's work, plain Python run on worker threads by app/pages/marker: the training
+image (virtual lab camera or a file), training, one live stereo pair, the verification over
+random robot poses, the comparison of candidate markers; and the step's files in the project
+(marker.npz, marker_training.png, marker_verification.json).
+
+Points are in mm in the left camera frame; image coordinates in px. The virtual lab is an
+argument (the page asks `WizardState.request_lab` for it first).
+"""
+from __future__ import annotations
+
+import math
+import re
+import time
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from app.lab import ComparisonResult, VirtualLab, candidate_patterns, compare_markers
+from app.pages.measurement_inputs import TRAINING_FILE, VERIFICATION_FORMAT, marker_file, verification_file
+from core.errors import RoboCalError
+from core.files import atomic_write_bytes, atomic_write_json, read_json
+from core.images import load_gray
+from core.marker.correspondence import WindowSweep
+from core.marker.location import MarkerLocation, MarkerLocator
+from core.marker.training import TrainedMarker, find_outline, train_marker
+from core.task import Monitor
+
+CROP_MARGIN = 0.18           # default crop: the found outline enlarged by this fraction per side
+
+
+# -- training ----------------------------------------------------------------------------------
+@dataclass
+class TrainingImage:
+    image: np.ndarray                 # (H, W) uint8
+    source: str
+    outline: np.ndarray | None        # automatically found outer square (px), or None
+    outline_problem: str = ""
+    outer_size: float | None = None   # mm, when the source knows it (the virtual lab's marker)
+
+
+def auto_outline(image: np.ndarray) -> tuple[np.ndarray | None, str]:
+    """The marker's outer square (4x2 px) found in `image`, or None and why not."""
+    try:
+        return find_outline(image), ""
+    except RoboCalError as exc:
+        return None, exc.message
+
+
+def capture_training_image(lab: VirtualLab, *, progress=None, cancelled=None) -> TrainingImage:
+    """The virtual lab's training image (frontal view of the marker plate)."""
+    monitor = Monitor(progress, cancelled)
+    monitor.step(0.8, "taking the training image")
+    image = lab.render_training_image()
+    outline, problem = auto_outline(image)
+    return TrainingImage(image, "virtual lab camera", outline, problem, float(lab.marker.outer_size))
+
+
+def load_training_image(path: str | Path) -> TrainingImage:
+    """A training image from a file (grey levels), with its outline found if possible."""
+    path = Path(path)
+    image, why = load_gray(path)
+    if image is None:
+        raise RoboCalError(f"cannot read the image: {why}", source=path, hint="Choose a png or jpg image.")
+    outline, problem = auto_outline(image)
+    return TrainingImage(image, str(path), outline, problem)
+
+
+def crop_around(outline: np.ndarray, w: int, h: int) -> tuple[int, int, int, int]:
+    """The crop box (x0, y0, x1, y1) px around `outline`, CROP_MARGIN larger per side, inside w x h."""
+    q = np.asarray(outline, dtype=float)
+    x0, y0 = q.min(axis=0)
+    x1, y1 = q.max(axis=0)
+    mx, my = CROP_MARGIN * (x1 - x0), CROP_MARGIN * (y1 - y0)
+    return (int(max(0, np.floor(x0 - mx))), int(max(0, np.floor(y0 - my))),
+            int(min(w, np.ceil(x1 + mx))), int(min(h, np.ceil(y1 + my))))
+
+
+@dataclass
+class Training:
+    trained: TrainedMarker
+    offset: np.ndarray                # (2,) px: crop origin in the shown image
+    box: tuple[int, int, int, int] | None
+
+
+def train_job(image: np.ndarray, box, outer_size: float, source: str, *, progress=None, cancelled=None) -> Training:
+    """Train on the image, or on its crop `box` (x0, y0, x1, y1) px; `outer_size` in mm."""
+    if box is not None:
+        x0, y0, x1, y1 = box
+        crop = np.ascontiguousarray(image[y0:y1, x0:x1])
+        offset = np.array([x0, y0], dtype=float)
+    else:
+        crop, offset = image, np.zeros(2)
+    trained = train_marker(crop, outer_size=outer_size, name="marker", source=source,
+                           progress=progress, cancelled=cancelled)
+    return Training(trained, offset, box)
+
+
+# -- live pair ---------------------------------------------------------------------------------
+@dataclass
+class LiveResult:
+    index: int
+    q: np.ndarray
+    left: np.ndarray
+    right: np.ndarray
+    location: MarkerLocation
+    sweep: WindowSweep | None
+    truth: np.ndarray | None          # (3,) mm, the lab's true marker position
+    seconds: float
+
+    @property
+    def error(self) -> float:
+        """Distance (mm) of the located point from the truth; NaN when either is missing."""
+        if self.truth is None or not self.location.ok:
+            return float("nan")
+        return float(np.linalg.norm(self.location.point - self.truth))
+
+
+def _move(driver, q) -> None:
+    if driver is not None and driver.connected:
+        driver.move_to(q)          # refuses (RoboCalError) when stopped: nothing is moved
+
+
+def live_pair(lab: VirtualLab, locator: MarkerLocator, index: int, seed: int, driver=None, *, progress=None,
+              cancelled=None) -> LiveResult:
+    """The robot at a random visible pose: render the pair, locate the marker, sweep the window."""
+    monitor = Monitor(progress, cancelled)
+    t0 = time.perf_counter()
+    monitor.step(0.0, "choosing a visible pose")
+    q = lab.random_visible_poses(1, np.random.default_rng([seed, 31, index]))[0]
+    _move(driver, q)
+    monitor.step(0.1, "capturing the pair")
+    left, right = lab.render_marker_pair(q, np.random.default_rng([seed, 32, index]))
+    monitor.step(0.3, "locating the marker")
+    location = locator.locate(left, right)
+    sweep = None
+    if location.left_rectified is not None:
+        monitor.step(0.85, "window-size sweep")
+        sweep = locator.window_sweep(left, right, location)
+    monitor.step(1.0, "done")
+    return LiveResult(index, q, left, right, location, sweep, lab.marker_position(q), time.perf_counter() - t0)
+
+
+# -- verification ------------------------------------------------------------------------------
+@dataclass
+class VerificationResult:
+    n: int
+    stereo: str
+    depth: np.ndarray                 # (n,) true depth (mm), NaN when unknown
+    errors: np.ndarray                # (n,) mm against the truth, NaN when not located
+    sigmas: np.ndarray                # (n,) mm, √(σx²+σy²+σz²), NaN when not located
+    located: np.ndarray               # (n,) bool
+    reasons: Counter = field(default_factory=Counter)
+    seconds: float = 0.0
+    cancelled_after: int | None = None
+
+    @property
+    def n_located(self) -> int:
+        return int(np.count_nonzero(self.located))
+
+    @property
+    def detection_rate(self) -> float:
+        return self.n_located / self.n if self.n else 0.0
+
+    def _ok(self) -> np.ndarray:
+        e = self.errors[self.located]
+        return e[np.isfinite(e)]
+
+    @property
+    def median_error(self) -> float:
+        e = self._ok()
+        return float(np.median(e)) if e.size else float("nan")
+
+    @property
+    def rms_error(self) -> float:
+        e = self._ok()
+        return float(np.sqrt(np.mean(e ** 2))) if e.size else float("nan")
+
+    @property
+    def max_error(self) -> float:
+        e = self._ok()
+        return float(e.max()) if e.size else float("nan")
+
+    @property
+    def median_sigma(self) -> float:
+        s = self.sigmas[self.located]
+        s = s[np.isfinite(s)]
+        return float(np.median(s)) if s.size else float("nan")
+
+    def to_dict(self) -> dict:
+        def num(v):
+            return None if not math.isfinite(v) else round(float(v), 6)
+
+        return {"poses": self.n, "located": self.n_located, "detection_rate": round(self.detection_rate, 4),
+                "median_error_mm": num(self.median_error), "rms_error_mm": num(self.rms_error),
+                "max_error_mm": num(self.max_error), "median_sigma_mm": num(self.median_sigma),
+                "reasons": dict(self.reasons), "stereo": self.stereo}
+
+
+def run_verification(lab: VirtualLab, locator: MarkerLocator, n: int, seed: int, run: int, stereo: str,
+                     driver=None, *, progress=None, cancelled=None) -> VerificationResult:
+    """Locate the marker at n random visible robot poses of the virtual lab; compare with the truth."""
+    monitor = Monitor(progress, cancelled)
+    t0 = time.perf_counter()
+    monitor.step(0.0, "choosing visible poses")
+    Q = lab.random_visible_poses(n, np.random.default_rng([seed, 33, run]))
+    res = VerificationResult(n, stereo, np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan),
+                             np.zeros(n, bool))
+    for i, q in enumerate(Q):
+        monitor.step(i / n, f"pose {i + 1} of {n}")
+        _move(driver, q)
+        left, right = lab.render_marker_pair(q, np.random.default_rng([seed, 34, run, i]))
+        truth = lab.marker_position(q)
+        res.depth[i] = truth[2]
+        loc = locator.locate(left, right)
+        if loc.ok:
+            res.located[i] = True
+            res.errors[i] = float(np.linalg.norm(loc.point - truth))
+            res.sigmas[i] = float(np.linalg.norm(loc.sigma)) if loc.sigma is not None else np.nan
+        else:
+            res.reasons[short_reason(loc.reason)] += 1
+    res.seconds = time.perf_counter() - t0
+    monitor.step(1.0, "done")
+    return res
+
+
+def short_reason(reason: str) -> str:
+    """A rejection reason without its numbers, so that alike reasons are counted together."""
+    text = re.sub(r"\(.*?\)", "", reason or "no reason given")
+    text = re.sub(r"-?\d+(\.\d+)?", "#", text)
+    return " ".join(text.split())[:110]
+
+
+# -- comparison --------------------------------------------------------------------------------
+@dataclass
+class Comparison:
+    result: ComparisonResult
+    images: dict                      # pattern key -> small (64 x 64) picture of the pattern
+
+
+def run_comparison(lab: VirtualLab, views: int, seed: int, *, progress=None, cancelled=None) -> Comparison:
+    """Every candidate pattern trained and detected in the same `views` random views of the lab."""
+    patterns = candidate_patterns()
+    images = {}
+    for p in patterns:
+        try:
+            images[p.key] = cv2.resize(p.description.load_image(), (64, 64), interpolation=cv2.INTER_AREA)
+        except (RoboCalError, cv2.error, OSError):
+            pass
+    result = compare_markers(patterns, views=views, seed=seed, lab=lab, progress=progress, cancelled=cancelled)
+    return Comparison(result, images)
+
+
+# -- the step's files in the project -----------------------------------------------------------
+def save_trained(project, trained: TrainedMarker) -> Path:
+    """marker.npz and marker_training.png into the project (atomic); the old verification
+    record belongs to the old marker and is removed. Returns the path of marker.npz."""
+    path = trained.save(marker_file(project))
+    ok, png = cv2.imencode(".png", trained.image)
+    if ok:
+        atomic_write_bytes(Path(project.folder) / TRAINING_FILE, png.tobytes())
+    try:
+        verification_file(project).unlink(missing_ok=True)
+    except OSError as exc:
+        raise RoboCalError(f"cannot remove the old verification record ({exc.strerror})",
+                           source=verification_file(project)) from exc
+    return path
+
+
+def write_verification(project, marker_name: str, record: dict) -> None:
+    """marker_verification.json: the marker `marker_name` was located (`record` says how)."""
+    atomic_write_json(verification_file(project), {"format": VERIFICATION_FORMAT, "marker": marker_name, **record})
+
+
+def recorded_verification(project) -> bool:
+    """The project records a verification that located its marker at least once."""
+    path = verification_file(project)
+    if not path.is_file():
+        return False
+    try:
+        data = read_json(path)
+    except RoboCalError:
+        return False
+    return data.get("format") == VERIFICATION_FORMAT and int(data.get("located", 0) or 0) > 0

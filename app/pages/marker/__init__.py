@@ -1,0 +1,26 @@
+"""Step 3, Marker: train the end-effector marker, then check its 3D location on stereo pairs.
+
+The page is page.py, one panel per tab (*_panel.py) and the stereo line (stereo_bar.py); the
+work it runs on worker threads is app/jobs/marker.py. The chapter's chain, one tab each:
+
+1. **Training** (core.marker.training.train_marker, worker thread): a training image loaded
+   from a file or taken with the virtual lab's camera; the outer black square is found
+   automatically (drawn dashed) or inside a crop rectangle the user drags; SIFT keypoints,
+   the fitted outline and its reference point (the intersection of the diagonals) are drawn.
+   The marker goes into the project (marker.npz, marker_training.png) and to
+   ``state.marker``.
+2. **Live pair** (virtual lab: the robot at a random visible pose, "Next pose"): in both
+   images the SIFT matches (agreeing / not), the homography's outline, the region of
+   interest, the Canny edge pixels and the fitted outline, the reference point; the 3D point
+   (mm, left camera frame) with its σ and, in the virtual lab, its error against the truth.
+3. **SSD correlation**: the criteria curve along the epipolar line (Fig. 16) and the
+   window-size sweep (Fig. 17).
+4. **Verification** over N random robot poses (worker, progress, Cancel): detection rate,
+   median and RMS 3D error against the truth, rejection reasons counted.
+5. **Compare markers** (the virtual lab's marker comparison, Fig. 11).
+
+The stereo rectification comes from the project's stereo.yaml (else the Stereo step's
+result); in the virtual lab without one, the page offers a clearly labelled preview with the
+lab's true cameras. The step is complete once a marker is trained, saved and located at
+least once (marker_verification.json records the last verification).
+"""

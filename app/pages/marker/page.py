@@ -1,0 +1,447 @@
+"""The Marker step's page (step 3): the training controls and the stereo line above five tabs
+(Training, Live pair, SSD correlation, Verification, Compare markers); the chain is described
+in the package's docstring. Long work goes through `TaskMixin.start` with the virtual lab from
+`state.request_lab`; the page keeps the step's state and draws what the work returns."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+from PySide6.QtWidgets import QFileDialog, QTabWidget, QVBoxLayout
+
+from app.html import number
+from app.jobs.marker import (Comparison, LiveResult, Training, TrainingImage, VerificationResult,
+                             capture_training_image, live_pair, load_training_image, recorded_verification,
+                             run_comparison, run_verification, save_trained, train_job, write_verification)
+from app.lab import VirtualLab
+from app.pages.base import WizardPage
+from app.pages.marker.compare_panel import ComparePanel
+from app.pages.marker.live_panel import LivePanel
+from app.pages.marker.stereo_bar import StereoBar
+from app.pages.marker.ssd_panel import SsdPanel
+from app.pages.marker.training_panel import TrainingPanel
+from app.pages.marker.verification_panel import VerificationPanel
+from app.pages.measurement_inputs import StereoSource, marker_file, preview_source, stereo_source
+from app.pages.steps import Step
+from core.errors import RoboCalError
+from core.marker.location import LocatorOptions, MarkerLocator
+from core.marker.training import TrainedMarker
+
+DEMO_VERIFY = 10             # verification poses of the autopilot
+TAB_TRAINING, TAB_LIVE, TAB_SSD, TAB_VERIFY, TAB_COMPARE = range(5)
+
+
+class MarkerPage(WizardPage):
+    step = Step.MARKER
+
+    def __init__(self, state, tasks, **kwargs):
+        super().__init__(state, tasks, **kwargs)
+        self.trained: TrainedMarker | None = None
+        self.trained_offset = np.zeros(2)
+        self.saved_path: Path | None = None
+        self.verified = False
+        self.stereo = StereoSource(None, "", "no stereo calibration")
+        self._preview = False            # the user asked for the lab's true cameras
+        self._locator: MarkerLocator | None = None
+        self.live: LiveResult | None = None
+        self.verification: VerificationResult | None = None
+        self.comparison: Comparison | None = None
+        self._lab_pending = False        # waiting for state.request_lab
+        self._lab_token = 0               # drops a lab that arrives after the project or robot changed
+        self._live_count = 0
+        self._verify_count = 0
+        self._build()
+        state.projectChanged.connect(self._context_changed)
+        state.robotChanged.connect(self._context_changed)
+        state.stereoChanged.connect(lambda *_: self._refresh_stereo())
+        self._context_changed()
+
+    # -- construction ---------------------------------------------------------------------
+    def _build(self) -> None:
+        self.training_panel = TrainingPanel()
+        self.training_panel.load_button.clicked.connect(lambda: self.load_dialog())
+        self.training_panel.capture_button.clicked.connect(lambda: self.capture_training())
+        self.training_panel.train_button.clicked.connect(lambda: self.train())
+        self.training_panel.statusChanged.connect(self._set_status)
+        self.live_panel = LivePanel()
+        self.live_panel.next_button.clicked.connect(lambda: self.next_pose())
+        self.ssd_panel = SsdPanel()
+        self.verification_panel = VerificationPanel(self.progress_row())
+        self.verification_panel.verify_button.clicked.connect(lambda: self.verify())
+        self.compare_panel = ComparePanel()
+        self.compare_panel.compare_button.clicked.connect(lambda: self.compare())
+        self.stereo_bar = StereoBar()
+        self.stereo_bar.preview_button.clicked.connect(lambda: self.use_preview())
+        top = QVBoxLayout()
+        top.setContentsMargins(0, 0, 0, 0)
+        top.setSpacing(3)
+        top.addLayout(self.training_panel.controls)
+        top.addWidget(self.stereo_bar)
+        self.tabs = QTabWidget()
+        self.tabs.setObjectName("markerTabs")
+        for panel, name in ((self.training_panel, "Training"), (self.live_panel, "Live pair"),
+                            (self.ssd_panel, "SSD correlation"), (self.verification_panel, "Verification"),
+                            (self.compare_panel, "Compare markers")):
+            self.tabs.addTab(panel, name)
+        layout = QVBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.setSpacing(6)
+        layout.addLayout(top)
+        layout.addWidget(self.tabs, 1)
+        layout.addWidget(self.status)
+
+    # -- state ------------------------------------------------------------------------------
+    @property
+    def training_image(self) -> TrainingImage | None:
+        return self.training_panel.image
+
+    @property
+    def locator(self) -> MarkerLocator | None:
+        if self._locator is None and self.trained is not None and self.stereo.rect is not None:
+            self._locator = MarkerLocator(self.trained, self.stereo.rect, LocatorOptions())
+        return self._locator
+
+    def _context_changed(self, *_) -> None:
+        """Another project or robot: start again, from the project's saved marker if any."""
+        self.forget_task()
+        self._lab_token += 1
+        self._lab_pending = False
+        self._preview = False
+        self._set_trained(None, np.zeros(2), None)
+        self.training_panel.clear()
+        self._clear_results()
+        message, ok = self._load_saved_marker()
+        self._refresh_stereo()
+        self._update_buttons()
+        if message:
+            self._set_status(message, ok)
+        self.notify_complete()
+
+    def _clear_results(self) -> None:
+        """Forget (and undraw) the live pair and the verification: another marker or project."""
+        self.verified = False
+        self.live = None
+        self.verification = None
+        self._draw_live()
+        self.verification_panel.draw(None)
+
+    def _load_saved_marker(self) -> tuple[str, bool | None]:
+        """Take the project's marker.npz, if any; returns what to say about it."""
+        project = self.state.project
+        if project is None:
+            return "No project yet: create or open one in the Setup step (1).", None
+        path = marker_file(project)
+        if not path.is_file():
+            return "", None
+        try:
+            trained = TrainedMarker.load(path)
+        except RoboCalError as exc:
+            return f"The project's marker.npz cannot be used ({exc.message}); train again.", False
+        self._set_trained(trained, np.zeros(2), path)
+        self.state.set_marker(trained)
+        self.training_panel.image = TrainingImage(trained.image, trained.source or str(path), trained.outline)
+        self.training_panel.size_spin.setValue(trained.outer_size)
+        self._draw_training()
+        self.verified = recorded_verification(project)
+        return (f"This project already has a trained marker ({path.name}, {trained.n_image_features} SIFT features)"
+                + (", verified: the step is done." if self.verified else
+                   ". Locate it on a pair (Live pair or Verification) to finish the step."), self.verified)
+
+    def _refresh_stereo(self) -> None:
+        lab = self.state.lab if self.state.has_lab else None
+        if self._preview and lab is not None and stereo_source(self.state).rect is None:
+            src = preview_source(lab)
+        else:
+            self._preview = False
+            src = stereo_source(self.state)
+        changed = src.kind != self.stereo.kind or src.label != self.stereo.label
+        self.stereo = src
+        if changed:
+            self._locator = None
+        self.stereo_bar.draw(src, self.state.virtual)
+        self._update_buttons()
+
+    # -- WizardPage -------------------------------------------------------------------------
+    def on_enter(self) -> None:
+        self._refresh_stereo()
+        self.notify_complete()
+
+    def is_complete(self) -> bool:
+        return self.trained is not None and self.saved_path is not None and self.verified
+
+    def autopilot(self, done) -> None:
+        if self.state.project is None or self.state.robot is None:
+            done(False, "no project or robot model (Setup step)")
+            return
+        if not self.state.virtual:
+            done(False, "the marker autopilot needs the virtual lab (load and train a marker image by hand)")
+            return
+        if self.busy or self._lab_pending:
+            done(False, "the page is busy")
+            return
+        self._autopilot_done = done
+        self._autopilot_next()
+
+    def _autopilot_next(self) -> None:
+        """One step of the demo: stereo (or preview) → training image → train → live pair → verify."""
+        if self._autopilot_done is None:
+            return
+        step = self._autopilot_step()
+        if step is not None:
+            action, why = step
+            if not action(then=self._autopilot_next):
+                self._finish_autopilot(False, self.status.text() or why)
+            return
+        v = self.verification
+        if self.is_complete():
+            self._finish_autopilot(True, f"{self.trained.n_image_features} SIFT features; {v.n_located}/{v.n} "
+                                         f"located, median 3D error {number(v.median_error, 3, 'mm')}")
+        else:
+            self._finish_autopilot(False, "the marker was not located in any verification pose")
+
+    def _autopilot_step(self) -> tuple[Callable[..., bool], str] | None:
+        """The demo's next action and what to say if it cannot start; None once it has verified."""
+        if self.stereo.rect is None:
+            return self.use_preview, "no stereo calibration"
+        if self.trained is None or self.saved_path is None:
+            if self.training_image is None or self.training_image.source != "virtual lab camera":
+                return self.capture_training, "no training image"
+            return self.train, "training could not start"
+        if self.live is None:
+            return self.next_pose, "no live pair"
+        if self.verification is None:
+            self.verification_panel.verify_spin.setValue(DEMO_VERIFY)
+            return self.verify, "verification could not start"
+        return None
+
+    # -- tasks --------------------------------------------------------------------------------
+    def on_busy_changed(self) -> None:
+        self._update_buttons()
+
+    def _update_buttons(self) -> None:
+        busy = self.busy or self._lab_pending
+        has_project = self.state.project is not None
+        virtual = self.state.virtual and self.state.robot is not None
+        tp = self.training_panel
+        tp.load_button.setEnabled(not busy and has_project)
+        tp.capture_button.setEnabled(not busy and has_project and virtual)
+        tp.crop_check.setEnabled(not busy and tp.image is not None)
+        tp.train_button.setEnabled(not busy and has_project and tp.image is not None)
+        self.stereo_bar.preview_button.setEnabled(not busy)
+        ready = self.trained is not None and self.stereo.rect is not None and virtual
+        self.live_panel.next_button.setEnabled(not busy and ready)
+        self.verification_panel.verify_button.setEnabled(not busy and ready)
+        self.compare_panel.compare_button.setEnabled(not busy and virtual)
+
+    def _with_lab(self, go: Callable[[VirtualLab], bool]) -> bool:
+        """`go(lab)` with the virtual lab: at once when it exists, else once `state.request_lab`
+        has built it (the page's controls wait meanwhile). Returns False if nothing started."""
+        if self.state.has_lab:
+            return go(self.state.lab)
+        if self.busy or self._lab_pending:
+            self._set_status("Busy: wait for the running task or cancel it.", False)
+            return False
+        self._lab_token += 1
+        token = self._lab_token
+        self._lab_pending = True
+        self._update_buttons()
+        self._set_status("Building the virtual lab…", None)
+
+        def settled() -> bool:
+            if token != self._lab_token:
+                return False                      # another project or robot meanwhile
+            self._lab_pending = False
+            self._update_buttons()
+            return True
+
+        def arrived(lab: VirtualLab) -> None:
+            if settled() and not go(lab):
+                self._finish_autopilot(False, self.status.text() or "the task could not start")
+
+        def failed(message: str) -> None:
+            if settled():
+                self.on_failed(message)
+
+        self.state.request_lab(arrived, on_error=failed)
+        return True
+
+    # -- stereo preview -----------------------------------------------------------------------
+    def use_preview(self, then=None) -> bool:
+        """Virtual lab without a stereo calibration: locate with the lab's true cameras."""
+        if not self.state.virtual or self.state.robot is None:
+            self._set_status("The preview needs a virtual-lab project with a robot.", False)
+            return False
+        announce = not self.state.has_lab
+
+        def preview(lab: VirtualLab) -> bool:
+            self._preview = True
+            self._refresh_stereo()
+            if announce:
+                self._set_status("Preview: locating with the virtual lab's true cameras (not a calibration).", None)
+            if then is not None:
+                then()
+            return True
+
+        return self._with_lab(preview)
+
+    # -- training -----------------------------------------------------------------------------
+    def load_dialog(self) -> bool:
+        start = str(self.state.project.folder) if self.state.project else ""
+        path, _ = QFileDialog.getOpenFileName(self, "Marker training image", start,
+                                              "Images (*.png *.jpg *.jpeg *.bmp *.tif *.tiff)")
+        return self.load_image(path) if path else False
+
+    def load_image(self, path: str | Path) -> bool:
+        try:
+            image = load_training_image(path)
+        except RoboCalError as exc:
+            self._set_status(f"✗ {exc.message}", False)
+            return False
+        self._set_training_image(image)
+        return True
+
+    def capture_training(self, then=None) -> bool:
+        if not self.state.virtual or self.state.robot is None:
+            self._set_status("Capture needs the virtual lab (live cameras arrive with the hardware issue); "
+                             "load an image of the marker instead.", False)
+            return False
+        return self._with_lab(lambda lab: self.start(
+            capture_training_image, lab, on_done=self._set_training_image, label="Training image", then=then,
+            status="Taking the training image…"))
+
+    def _set_training_image(self, image: TrainingImage) -> None:
+        self.training_panel.set_image(image)
+        self._update_buttons()
+
+    def train(self, then=None) -> bool:
+        img = self.training_image
+        if img is None:
+            self._set_status("Load or capture a training image first.", False)
+            return False
+        if self.state.project is None:
+            self._set_status("Create or open a project first (Setup step).", False)
+            return False
+        return self.start(train_job, img.image, self.training_panel.crop_box(),
+                          float(self.training_panel.size_spin.value()), img.source, on_done=self._trained,
+                          label="Training the marker", then=then,
+                          status="Training: outline, edges, SIFT features of the marker and of simulated "
+                                 "tilted views…")
+
+    def _trained(self, training: Training) -> None:
+        trained = training.trained
+        path = save_trained(self.state.project, trained)
+        self._set_trained(trained, training.offset, path)
+        self._clear_results()
+        self._draw_training()
+        self.state.set_marker(trained)
+        self._set_status(f"✓ Trained: {trained.n_image_features} SIFT features on the marker "
+                         f"({trained.n_features} with the simulated tilted views), saved as {path.name}. "
+                         "Now check it on a live pair (Next pose) and run a verification.", True)
+        self.tabs.setCurrentIndex(TAB_TRAINING)
+        self.notify_complete()
+
+    def _set_trained(self, trained: TrainedMarker | None, offset, path: Path | None) -> None:
+        self.trained = trained
+        self.trained_offset = np.asarray(offset, dtype=float)
+        self.saved_path = path
+        self._locator = None
+        self._update_buttons()
+
+    def _draw_training(self) -> None:
+        self.training_panel.show_training(self.trained, self.trained_offset,
+                                          self.saved_path.name if self.saved_path else "")
+
+    # -- live pair ------------------------------------------------------------------------------
+    def _ready_locator(self) -> MarkerLocator | None:
+        if self.locator is None:
+            self._set_status("Train the marker and provide a stereo calibration first.", False)
+        return self.locator
+
+    def next_pose(self, then=None) -> bool:
+        locator = self._ready_locator()
+        if locator is None:
+            return False
+
+        def go(lab: VirtualLab) -> bool:
+            self._live_count += 1
+            return self.start(live_pair, lab, locator, self._live_count, int(self.state.seed),
+                              self.state.robot_connection, on_done=self._live_done, label="Live pair", then=then,
+                              status="Moving to a random visible pose, capturing and locating…")
+
+        return self._with_lab(go)
+
+    def _live_done(self, live: LiveResult) -> None:
+        self.live = live
+        self._draw_live()
+        loc = live.location
+        if loc.ok:
+            self._mark_verified({"kind": "live pair", "poses": 1, "located": 1,
+                                 "error_mm": None if not math.isfinite(live.error) else round(live.error, 6)})
+            self._set_status(f"✓ Located in {1000 * loc.timings.get('total', live.seconds):.0f} ms: error against "
+                             f"the truth {live.error:.3f} mm. Next pose for another, or run a verification.", True)
+        else:
+            self._set_status(f"Not located: {loc.reason}", False)
+        self.tabs.setCurrentIndex(TAB_LIVE)
+
+    def _draw_live(self) -> None:
+        self.live_panel.draw(self.live, self.stereo)
+        self.ssd_panel.draw(self.live)
+
+    # -- verification ---------------------------------------------------------------------------
+    def verify(self, then=None) -> bool:
+        locator = self._ready_locator()
+        if locator is None:
+            return False
+
+        def go(lab: VirtualLab) -> bool:
+            n = self.verification_panel.verify_spin.value()
+            self._verify_count += 1
+            self.tabs.setCurrentIndex(TAB_VERIFY)
+            return self.start(run_verification, lab, locator, n, int(self.state.seed), self._verify_count,
+                              self.stereo.label, self.state.robot_connection, on_done=self._verified,
+                              label="Verification", then=then, status=f"Verification over {n} random poses…")
+
+        return self._with_lab(go)
+
+    def _verified(self, v: VerificationResult) -> None:
+        self.verification = v
+        self.verification_panel.draw(v)
+        if v.n_located:
+            self._mark_verified({"kind": "verification", **v.to_dict()})
+            self._set_status(f"✓ Verification: {v.n_located} of {v.n} located, median 3D error "
+                             f"{number(v.median_error, 3, 'mm')}, RMS {number(v.rms_error, 3, 'mm')}. "
+                             "The step is done.", True)
+        else:
+            self._set_status("✗ The marker was not located in any pose: see the reasons.", False)
+
+    def _mark_verified(self, record: dict) -> None:
+        project = self.state.project
+        if project is not None and self.saved_path is not None:
+            try:
+                write_verification(project, self.saved_path.name, record)
+            except RoboCalError as exc:
+                self._set_status(f"The verification record was not written: {exc.message}", False)
+        was = self.verified
+        self.verified = True
+        if not was:
+            self.notify_complete()
+
+    # -- comparison ---------------------------------------------------------------------------
+    def compare(self) -> bool:
+        if not self.state.virtual or self.state.robot is None:
+            self._set_status("The marker comparison renders its views in the virtual lab.", False)
+            return False
+        self.tabs.setCurrentIndex(TAB_COMPARE)
+        return self._with_lab(lambda lab: self.start(
+            run_comparison, lab, self.compare_panel.compare_spin.value(), int(self.state.seed),
+            on_done=self._compared, label="Comparing markers", status="Comparing the candidate markers…"))
+
+    def _compared(self, comparison: Comparison) -> None:
+        self.comparison = comparison
+        self.compare_panel.draw(comparison)
+        result = comparison.result
+        best = next(p for p in result.patterns if p.key == result.recommended)
+        self._set_status(f"✓ Compared {len(result.patterns)} patterns over {result.views} views: "
+                         f"{best.name} detected best ({100 * best.detection_rate:.0f} %).", True)

@@ -1,0 +1,81 @@
+"""The Marker page's Verification tab: the marker located at N random robot poses of the
+virtual lab, its detection rate, 3D errors against the truth (mm) and rejection reasons."""
+from __future__ import annotations
+
+from PySide6.QtCore import Qt
+from PySide6.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
+
+from app.html import esc, number
+from app.jobs.marker import VerificationResult
+from app.pages.forms import button, row, spin
+from widgets.precision_plot import PrecisionPlot
+from widgets.progress_row import ProgressRow
+
+DEFAULT_VERIFY = 20
+IDLE_TEXT = ("<span style='color:#5f6368'>The robot visits N random poses where both cameras see the marker; "
+             "each pair is located and compared with the virtual lab's true marker position.</span>")
+
+
+def verification_html(v: VerificationResult, truth: bool = True) -> str:
+    """Detection rate, 3D errors (mm) and the rejection reasons counted."""
+    rate = f"<b>{v.n_located} of {v.n}</b> located ({100 * v.detection_rate:.0f} %)"
+    if v.cancelled_after is not None:
+        rate += f" — cancelled after {v.cancelled_after} poses"
+    rows = [f"<p>{rate} in {v.seconds:.1f} s.</p>"]
+    if truth and v.n_located:
+        rows.append("<table cellspacing='0' cellpadding='2'>"
+                    f"<tr><td>median 3D error&nbsp;</td><td align='right'><b>{number(v.median_error, 3, 'mm')}</b>"
+                    "</td></tr>"
+                    f"<tr><td>RMS 3D error</td><td align='right'><b>{number(v.rms_error, 3, 'mm')}</b></td></tr>"
+                    f"<tr><td>largest error</td><td align='right'>{number(v.max_error, 3, 'mm')}</td></tr>"
+                    f"<tr><td>median predicted σ&nbsp;</td><td align='right'>{number(v.median_sigma, 3, 'mm')}"
+                    "</td></tr></table>")
+    if v.reasons:
+        rows.append("<p><b>Rejected</b> (a clear reason, never a guessed point):</p><ul>"
+                    + "".join(f"<li>{n}× {esc(r)}</li>" for r, n in v.reasons.most_common()) + "</ul>")
+    elif v.n_located == v.n:
+        rows.append("<p>No pose rejected.</p>")
+    rows.append(f"<p style='color:#5f6368'>Stereo: {esc(v.stereo)}. Errors are against the virtual lab's "
+                "true marker positions; with a calibrated stereo.yaml they include the calibration's own "
+                "error.</p>")
+    return "".join(rows)
+
+
+class VerificationPanel(QWidget):
+    """The Verification tab with the page's progress row; the page connects `verify_button`
+    and calls `draw(result)`."""
+
+    def __init__(self, progress: ProgressRow, parent: QWidget | None = None):
+        super().__init__(parent)
+        self.progress = progress
+        self.verify_spin = spin(DEFAULT_VERIFY, 1, 500, name="verifySpin",
+                                tooltip="Random robot poses where both cameras see the marker")
+        self.verify_button = button("Run verification", "verifyButton")
+        self.verify_summary = QLabel()
+        self.verify_summary.setObjectName("verifySummary")
+        self.verify_summary.setWordWrap(True)
+        self.verify_summary.setTextFormat(Qt.TextFormat.RichText)
+        self.verify_summary.setAlignment(Qt.AlignmentFlag.AlignTop | Qt.AlignmentFlag.AlignLeft)
+        self.verify_summary.setMinimumWidth(230)
+        self.verify_summary.setMaximumWidth(320)
+        self.precision_plot = PrecisionPlot()
+        layout = QVBoxLayout(self)
+        layout.setContentsMargins(4, 4, 4, 4)
+        controls = row("Poses:", self.verify_spin, self.verify_button, stretch=False)
+        controls.addWidget(progress, 1)
+        layout.addLayout(controls)
+        body = QHBoxLayout()
+        body.addWidget(self.verify_summary)
+        body.addWidget(self.precision_plot, 1)
+        layout.addLayout(body, 1)
+
+    def draw(self, v: VerificationResult | None) -> None:
+        """The summary and the precision plot of `v` (None: what a verification does)."""
+        if v is None:
+            self.verify_summary.setText(IDLE_TEXT)
+            self.precision_plot.clear_points()
+            self.progress.reset()
+            return
+        self.verify_summary.setText(verification_html(v))
+        self.precision_plot.set_points(v.depth, v.errors, v.sigmas)
+        self.progress.set_progress(1.0, "done")
