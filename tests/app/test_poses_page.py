@@ -2,7 +2,6 @@
 output for the Measurement step, cancel, bad input, autopilot."""
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,9 +14,6 @@ from app.state import WizardState
 from app.worker import TaskRunner
 from core.poses.candidates import arm_polyline
 from core.poses.file import read_poses, write_poses
-
-SCREENSHOT = Path("/tmp/robocal-poses-page.png")
-
 
 @pytest.fixture
 def page(qtbot, boxes):
@@ -45,7 +41,7 @@ def test_registered_for_the_pose_step():
     assert PAGES[Step.POSES] is PosesPage
 
 
-def test_select_fills_table_plot_views_and_output(qtbot, page):
+def test_select_fills_table_plot_views_and_output(qtbot, page, tmp_path):
     assert not page.is_complete()
     with qtbot.waitSignal(page.completeChanged, timeout=60000):
         select(qtbot, page)
@@ -89,8 +85,9 @@ def test_select_fills_table_plot_views_and_output(qtbot, page):
     # another index shows its own curve for the same selection (linear axis)
     page.set_index("O3")
     assert not page.curve_plot.log_y and "O3" in page.curve_plot.plot_item.getAxis("left").labelText
-    page.grab().save(str(SCREENSHOT))
-    assert SCREENSHOT.stat().st_size > 10000
+    shot = tmp_path / "page.png"
+    page.grab().save(str(shot))
+    assert shot.stat().st_size > 10000
 
 
 def test_cancel_keeps_nothing(qtbot, page):
