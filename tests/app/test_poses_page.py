@@ -2,7 +2,6 @@
 output for the Measurement step, cancel, bad input, autopilot."""
 from __future__ import annotations
 
-
 import numpy as np
 import pytest
 from PySide6.QtCore import Qt
