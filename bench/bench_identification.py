@@ -31,12 +31,14 @@ from pathlib import Path
 
 import numpy as np
 
-from core.identification.jacobian import (calibration_jacobian, hayati_joints, parameter_difference,
-                                       predict_points)
+from scipy.optimize import least_squares
+
+from core.identification.jacobian import (apply_step, calibration_jacobian, hayati_joints, parameter_difference,
+                                          predict_points)
 from core.identification.identifiability import random_configurations
 from core.identification.solver import identify, identify_files
 from core.robot.model import robot_path
-from core.measurement.file import write_measurements
+from core.measurement.file import read_measurements, write_measurements
 from core.robot.file import read_robot, write_robot
 from core.virtual_lab.synthetic import perturbed_model, simulate_measurements
 
@@ -44,6 +46,11 @@ SIGMA = 0.05
 N_POSES = 50
 RUNS = 50
 KFOLD_RUNS = 20
+# Targets about 2x the measured figures (seeded, so these are the runs' own values):
+# largest |d − true d| on parallel axes 0.064 / 0.234 / 0.027 / 0.095 mm; the median
+# |spread/σ − 1| is at most 0.042 (target 0.1); two converged starts agree to 1.8e-7 mm at
+# worst (both at the same minimum; the solver's stopping tolerance sets the digits): 1e-6 mm.
+PARALLEL_D_MM = {"educational_6r": 0.13, "puma560": 0.47, "ur5": 0.055, "abb_irb120": 0.19}
 
 
 def _configurations(model, n, seed):
@@ -127,12 +134,12 @@ def accuracy_study(report, name, *, runs=RUNS, kfold_runs=KFOLD_RUNS):
     ratio = E.std(axis=0, ddof=1) / np.median(S, axis=0)
     med = float(np.median(ratio))
     worst_k = int(np.argmax(np.abs(ratio - 1.0)))
-    report.add(f"{name}: spread / reported σ, median over parameters (|r − 1|)", abs(med - 1.0), "<=", 0.30, "",
+    report.add(f"{name}: spread / reported σ, median over parameters (|r − 1|)", abs(med - 1.0), "<=", 0.10, "",
                note=f"r = {med:.3f} over {len(E)} runs")
     report.add(f"{name}: spread / reported σ, worst parameter (|r − 1|)", abs(float(ratio[worst_k]) - 1.0),
                "<=", 0.30, "", note=f"r = {ratio[worst_k]:.3f} ({free_names[worst_k]})")
-    report.add(f"{name}: largest |d − true d| of joints on parallel axes (no blow-up)", float(max(dmax)), "<", 0.5,
-               "mm", note=", ".join(f"J{i + 1}" for i in parallel))
+    report.add(f"{name}: largest |d − true d| of joints on parallel axes (no blow-up)", float(max(dmax)), "<",
+               PARALLEL_D_MM[name], "mm", note=", ".join(f"J{i + 1}" for i in parallel))
     report.info(f"{name}: time for the study", elapsed(), "s")
 
 
@@ -152,12 +159,30 @@ def far_start(report, name):
     report.info(f"{name} far start: RMS before (nominal, base registered)", far.before.rms_mm, "mm")
     report.add(f"{name} far start: converged, RMS after / (σ·√3)", far.after.rms_mm / (SIGMA * math.sqrt(3)),
                "<=", 1.0, "x", note=f"{far.n_iterations} iterations")
-    report.add(f"{name} far start: max prediction difference to a near start", float(diff), "<", 0.01, "mm",
+    report.add(f"{name} far start: max prediction difference to a near start", float(diff), "<", 1e-6, "mm",
                note="300 random configurations")
 
 
+def _least_squares(result, meas):
+    """Plain scipy.optimize.least_squares on the same problem: the same estimated parameters
+    from the same start (the nominal model with the base registered), residuals = predicted −
+    measured points, its default trust-region solver and finite-difference Jacobian."""
+    params = result.identifiability.free
+    Q, names, xyz = meas.Q, meas.target, meas.xyz
+
+    def residuals(x):
+        return (predict_points(apply_step(result.initial, params, x), Q, names) - xyz).ravel()
+
+    fit = least_squares(residuals, np.zeros(len(params)), x_scale="jac")
+    return math.sqrt(np.mean(np.sum(fit.fun.reshape(-1, 3) ** 2, axis=1)))
+
+
 def speed(report):
-    """6R, 100 poses, 3 targets: from the files to the written result."""
+    """6R, 100 poses, 3 targets: from the files to the written result, as a ratio to a plain
+    scipy least_squares on the same problem in the same run (the absolute time beside it).
+    RoboCal's run also reads and checks the files, registers the base, analyses
+    identifiability, computes the covariance and writes the result, yet its Gauss-Newton steps
+    with the analytic Jacobian need far fewer model evaluations: measured 0.24x, target 2x that."""
     nominal = read_robot(robot_path("educational_6r"))
     nominal.targets["marker2"] = np.array([40.0, 0.0, 20.0])
     nominal.targets["marker3"] = np.array([0.0, 40.0, 20.0])
@@ -166,13 +191,21 @@ def speed(report):
         tmp = Path(tmp)
         write_robot(nominal, tmp / "robot.json")
         write_measurements(simulate_measurements(true, 100, sigma_mm=SIGMA, rng=4), tmp / "m.csv")
-        times = []
+        meas = read_measurements(tmp / "m.csv", nominal)
+        times, plain = [], []
         for _ in range(7):
             t0 = time.perf_counter()
             result = identify_files(tmp / "robot.json", tmp / "m.csv", tmp / "calibrated.json")
-            times.append(time.perf_counter() - t0)
-    report.add("speed: 6R, 100 poses, 3 targets, file to result (median of 7)", statistics.median(times), "<", 1.0, "s",
-               note=f"worst {max(times):.3f} s, {result.n_points} points, {len(result.estimated)} parameters")
+            t1 = time.perf_counter()
+            plain_rms = _least_squares(result, meas)
+            plain.append(time.perf_counter() - t1)
+            times.append(t1 - t0)
+    ours, base = statistics.median(times), statistics.median(plain)
+    report.info("plain scipy least_squares, same problem: median of 7 / RMS after", f"{base:.4f} s / "
+                f"{plain_rms:.4f} mm")
+    report.add("speed: 6R, 100 poses, 3 targets, file to result / plain least_squares (median of 7)",
+               ours / base, "<=", 0.5, "x", note=f"{ours:.3f} vs {base:.3f} s, RMS after {result.after.rms_mm:.4f} mm, "
+                                               f"{result.n_points} points, {len(result.estimated)} parameters")
 
 
 def run(report):

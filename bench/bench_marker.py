@@ -1,8 +1,18 @@
-"""Marker: reference point (Canny vs SIFT alone), detection rate, 3D error vs predicted uncertainty, speed."""
+"""Marker: reference point (Canny vs SIFT alone), detection rate, 3D error vs predicted uncertainty, speed.
+
+Accuracy targets are about 2x the figures measured with these seeds (reference point median
+0.0029 px, 99th percentile 0.025 px), so a regression shows. The reference point's σ floor
+(0.003 px, core.marker.edges.EdgeOptions.sigma_floor_px) was tuned on the 3D views of seed 77;
+the predicted-uncertainty ratios are therefore also measured on 120 views of other seeds
+(1001-1120, one generator per view) that played no part in the tuning, and those carry the targets.
+Speed: ratios to one plain cv2.SIFT detect + match of the same pair (detectAndCompute on both
+images, brute-force 2-NN matching with Lowe's ratio test), timed in the same run.
+"""
 from __future__ import annotations
 
 import time
 
+import cv2
 import numpy as np
 
 from core import transforms as tf
@@ -16,7 +26,8 @@ from core.marker.triangulation import triangulate_general, triangulate_rectified
 from core.virtual_lab.lab import VirtualLab
 
 N_VIEWS = 320            # 2D: rendered views of the marker
-N_POSES = 120            # 3D: stereo pairs at 400-900 mm
+N_POSES = 120            # 3D: stereo pairs at 400-900 mm (tuning seed 77, then validation seeds)
+VALIDATION_SEEDS = range(1001, 1001 + N_POSES)
 N_SPEED = 20             # pairs timed
 CORRECT_PX = 1.0
 
@@ -38,7 +49,10 @@ def run(report) -> None:
                 float(np.abs(trained.outline - truth_outline).max()), "px")
     _reference_point_2d(report, lab, trained)
     locator = MarkerLocator(trained, StereoRectification.from_rig(lab.rig))
-    _location_3d(report, lab, locator)
+    _location_3d(report, lab, locator, [np.random.default_rng(77)] * N_POSES, "tuning views (seed 77)", False)
+    _location_3d(report, lab, locator, [np.random.default_rng(s) for s in VALIDATION_SEEDS],
+                 f"validation views (seeds {VALIDATION_SEEDS[0]}-{VALIDATION_SEEDS[-1]}, not used to tune the floor)",
+                 True)
     _speed(report, lab, locator)
 
 
@@ -71,8 +85,8 @@ def _reference_point_2d(report, lab, trained) -> None:
     report.info(f"2D views: {N_VIEWS}, depth 300-1200 mm, rotation ±180°, tilt up to "
                 f"{max(tilts):.0f}° (median {np.median(tilts):.0f}°)", "")
     report.add("reference point (SIFT -> Canny -> lines -> diagonals): median error", float(np.median(found)),
-               "<=", 0.05, "px")
-    report.add("reference point: 99th percentile error", _pct(found, 99), "<=", 0.2, "px")
+               "<=", 0.006, "px")
+    report.add("reference point: 99th percentile error", _pct(found, 99), "<=", 0.05, "px")
     report.info("  reference point: max error", float(found.max()) if len(found) else float("nan"), "px")
     report.add("detection rate (reference point within 1 px)", 100.0 * rate, ">=", 99.0, "%")
     report.add("wrong points given (more than 1 px off)", float(wrong), "<=", 0.0, "")
@@ -83,12 +97,12 @@ def _reference_point_2d(report, lab, trained) -> None:
     report.info("SIFT alone: views within 0.2 px", 100.0 * float(np.mean(sift <= 0.2)), "%")
 
 
-def _location_3d(report, lab, locator: MarkerLocator) -> None:
-    """Pairs at 400-900 mm with the true rig, so the figures measure the marker pipeline."""
-    rng = np.random.default_rng(77)
+def _location_3d(report, lab, locator: MarkerLocator, rngs, label: str, targets: bool) -> None:
+    """Pairs at 400-900 mm with the true rig, so the figures measure the marker pipeline.
+    `rngs`: one generator per view (the same one repeated: a single stream)."""
     rect = locator.rect
     err, err_ssd, err_plain, err_sift, pred, rejected = [], [], [], [], [], []
-    for i in range(N_POSES):
+    for rng in rngs:
         T = random_marker_pose(lab, rng, depth=(400.0, 900.0), max_tilt=60.0, both=True)
         left, right = lab.render_marker_at(T, rng)
         loc = locator.locate(left, right)
@@ -98,6 +112,8 @@ def _location_3d(report, lab, locator: MarkerLocator) -> None:
             continue
         err.append(loc.point - X)
         pred.append(float(np.trace(loc.covariance)))
+        if targets:
+            continue
         err_ssd.append(loc.point_ssd - X)
         c = loc.correspondence
         u_l, v_l = loc.left_rectified
@@ -117,19 +133,33 @@ def _location_3d(report, lab, locator: MarkerLocator) -> None:
     measured = rms(err)
     predicted = float(np.sqrt(np.mean(pred)))
     ratio = measured / predicted
-    report.info(f"3D: {N_POSES} pairs, 400-900 mm, tilt up to 60°, true rig; located", len(err))
-    report.add("3D located rate", 100.0 * len(err) / N_POSES, ">=", 99.0, "%")
-    report.info("3D RMS error (reference points of both images, default)", measured, "mm")
-    report.info("3D predicted RMS uncertainty (edge-fit residuals + 0.003 px floor)", predicted, "mm")
-    report.add("3D RMS error / predicted uncertainty", ratio, "<=", 1.5, "")
-    report.add("3D predicted uncertainty / RMS error", 1.0 / ratio, "<=", 1.5, "")
-    report.info("3D RMS error, chapter: left reference + SSD disparity (plane-warped)", rms(err_ssd), "mm")
-    plain = np.linalg.norm(np.array(err_plain), axis=1)
-    report.info("3D median error, left reference + plain SSD disparity (eq. 26-27)", float(np.median(plain)), "mm")
-    report.info("  plain SSD: points more than 1 mm off", int(np.sum(~(plain <= 1.0))), "")
-    report.info("3D RMS error, SIFT alone (homography centres, eq. 22)", rms(err_sift), "mm")
+    n = len(rngs)
+    report.info(f"3D, {label}: {n} pairs, 400-900 mm, tilt up to 60°, true rig; located", len(err))
+    report.info("  3D RMS error / predicted (edge-fit residuals + 0.003 px floor)",
+                f"{measured:.4f} / {predicted:.4f}", "mm")
+    if targets:
+        report.add("3D located rate", 100.0 * len(err) / n, ">=", 99.0, "%")
+        # an honest uncertainty is 1 ± sampling: with 120 views the ratio's 2-sigma band is about ± 0.15
+        report.add("3D RMS error / predicted uncertainty, validation views", ratio, "<=", 1.2, "")
+        report.add("3D predicted uncertainty / RMS error, validation views", 1.0 / ratio, "<=", 1.2, "")
+    else:
+        report.info("  3D RMS error / predicted uncertainty, tuning views", ratio)
+        report.info("3D RMS error, chapter: left reference + SSD disparity (plane-warped)", rms(err_ssd), "mm")
+        plain = np.linalg.norm(np.array(err_plain), axis=1)
+        report.info("3D median error, left reference + plain SSD disparity (eq. 26-27)", float(np.median(plain)),
+                    "mm")
+        report.info("  plain SSD: points more than 1 mm off", int(np.sum(~(plain <= 1.0))), "")
+        report.info("3D RMS error, SIFT alone (homography centres, eq. 22)", rms(err_sift), "mm")
     if rejected:
         report.info(f"  rejected ({len(rejected)}): first reason", rejected[0][:60])
+
+
+def _plain_sift(left, right, sift, matcher) -> int:
+    """One plain SIFT detect + match of a pair: keypoints and descriptors in both images,
+    2-NN brute-force matching, Lowe's ratio test. Returns the number of good matches."""
+    _, d1 = sift.detectAndCompute(left, None)
+    _, d2 = sift.detectAndCompute(right, None)
+    return sum(1 for m, k in matcher.knnMatch(d1, d2, k=2) if m.distance < 0.8 * k.distance)
 
 
 def _speed(report, lab, locator: MarkerLocator) -> None:
@@ -145,8 +175,18 @@ def _speed(report, lab, locator: MarkerLocator) -> None:
         loc = locator.locate(left, right)
         cold.append(time.perf_counter() - t)
         assert loc.ok, loc.reason
-    report.add("cold detection + location, 1280x1024 pair: median", float(np.median(cold)), "<=", 0.4, "s")
-    report.info("  cold: 90th percentile", _pct(cold, 90), "s")
+    sift, matcher = cv2.SIFT_create(), cv2.BFMatcher(cv2.NORM_L2)
+    plain = []
+    for _, left, right in scenes:
+        t = time.perf_counter()
+        _plain_sift(left, right, sift, matcher)
+        plain.append(time.perf_counter() - t)
+    base = float(np.median(plain))
+    report.info("plain cv2.SIFT detect + match of one pair: median", base, "s")
+    # SIFT on both images is the bulk of a cold location; Canny, the line fits, the SSD search
+    # and triangulation come on top, and its SIFT matches against the trained features only
+    report.add("cold detection + location / plain SIFT detect + match: median", float(np.median(cold)) / base,
+               "<=", 1.5, "x", note=f"{np.median(cold):.3f} s, 90th percentile {_pct(cold, 90):.3f} s")
     tracker = MarkerTracker(locator)
     predicted, previous = [], []
     for T, left, right in scenes:
@@ -165,7 +205,8 @@ def _speed(report, lab, locator: MarkerLocator) -> None:
         loc2 = tracker.track(l2, r2)
         previous.append(time.perf_counter() - t)
         assert loc2.ok, loc2.reason
-    report.add("tracking mode (robot-predicted position), per pair: median", float(np.median(predicted)),
-               "<=", 0.04, "s")
-    report.info("  tracking (predicted): 90th percentile", _pct(predicted, 90), "s")
-    report.info("tracking from the previous frame, per pair: median", float(np.median(previous)), "s")
+    # tracking skips SIFT (the search window comes from the robot's prediction): a third of it
+    report.add("tracking mode (robot-predicted position) / plain SIFT detect + match: median",
+               float(np.median(predicted)) / base, "<=", 0.35, "x",
+               note=f"{np.median(predicted):.4f} s, 90th percentile {_pct(predicted, 90):.4f} s")
+    report.info("tracking from the previous frame / plain SIFT: median", float(np.median(previous)) / base, "x")

@@ -28,12 +28,19 @@ Definitions
   Position error:
   RMS distance between the identified and the true model's marker at 500 fresh configurations
   (same sampling as the candidates).
-* Speed: wall time of select_poses (candidates, Φ, greedy + exchange, curve, 100 random
-  selections, ordering) for 30 of 2000 full-range candidates; the machine has 2 cores.
+* Speed: select_poses on 30 of the same 2000 full-range candidates (Φ, greedy + exchange,
+  curve, 100 random selections, ordering) as a ratio to a plain greedy timed in the same run:
+  the textbook forward selection by the index itself (Φ of the candidates scaled the same way,
+  then 30 rounds that each try every remaining candidate with a batched numpy eigvalsh of
+  the summed information matrices, κ = sqrt(λmax/λmin); before the set has full rank, the
+  largest Σ log λ). It is the simplest method that optimises the same κ, so the ratio says
+  what the exchange, curve, random comparison and ordering cost on top; the absolute time and
+  both κ are beside it.
 """
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
@@ -41,7 +48,7 @@ from core.identification.jacobian import parameter_difference, predict_points
 from core.identification.identifiability import analyse, characteristic_scales
 from core.identification.solver import identify
 from core.robot.model import robot_path
-from core.poses.selection import select_poses
+from core.poses.selection import scaled_blocks, select_poses
 from core.virtual_lab.lab import lab_options
 from core.robot.file import read_robot
 from core.virtual_lab.synthetic import perturbed_model, simulate_measurements
@@ -53,6 +60,7 @@ CANDIDATES = 2000
 TRIALS = 100
 SIGMA = 0.05
 RUNS = 12
+PLAIN_RATIO = 2.8          # about 2x the measured ratio (0.86-1.38 for the three robots)
 
 
 def _reference(nominal, true, fixed, cache):
@@ -121,13 +129,37 @@ def _accuracy(report, label, nominal, true, result, seed):
         report.info(f"{label}: with {', '.join(hidden)} estimated too: position (mm)", f"{sx:.4f} / {rx:.4f}")
 
 
+def plain_greedy(robot, Q, target: str, count: int) -> float:
+    """The plain baseline (see Speed above); returns the κ of its selection."""
+    A = scaled_blocks(robot, Q, [target])[0]
+    G = np.einsum("mki,mkj->mij", A, A)                       # per-candidate information blocks
+    info, free = np.zeros(G.shape[1:]), np.ones(len(G), bool)
+    for k in range(count):
+        lam = np.linalg.eigvalsh(info + G[free])
+        if 3 * (k + 1) < G.shape[1]:
+            score = -np.log(np.maximum(lam, 1e-12 * lam[:, -1:])).sum(axis=1)
+        else:
+            score = lam[:, -1] / np.maximum(lam[:, 0], 1e-300)
+        pick = np.flatnonzero(free)[int(np.argmin(score))]
+        info, free[pick] = info + G[pick], False
+    lam = np.linalg.eigvalsh(info)
+    return float(np.sqrt(lam[-1] / lam[0]))
+
+
 def full_range(report, name):
     nominal = read_robot(robot_path(name))
     result = select_poses(nominal, COUNT, candidates=CANDIDATES, index="cond", seed=0, margin=0.0,
                           random_trials=TRIALS)
     report.add(f"{name}: κ selected / median of {TRIALS} random (full ranges)", result.ratio(), "<=", 0.7, "x",
                note=f"κ {result.value():.2f} vs {result.random_median():.2f}, {result.exchanges} exchanges")
-    report.add(f"{name}: time, {COUNT} from {CANDIDATES} candidates", result.seconds, "<", 10.0, "s")
+    again = select_poses(nominal, COUNT, index="cond", seed=0, margin=0.0, random_trials=TRIALS,
+                         candidate_set=result.candidates)
+    t0 = time.perf_counter()
+    plain_kappa = plain_greedy(nominal, result.candidates.Q, next(iter(nominal.targets)), COUNT)
+    plain = time.perf_counter() - t0
+    report.add(f"{name}: time, {COUNT} from {CANDIDATES} candidates / plain greedy", again.seconds / plain, "<=",
+               PLAIN_RATIO, "x", note=f"{again.seconds:.2f} vs {plain:.2f} s; κ {again.value():.2f} vs "
+                                      f"{plain_kappa:.2f}; with candidate generation {result.seconds:.2f} s")
     for k in ("O1", "O3", "O5"):
         report.info(f"{name}: {k} selected / random median", f"{result.value(k) / result.random_median(k):.3f}")
     true = perturbed_model(nominal, 2024)

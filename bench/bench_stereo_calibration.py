@@ -2,23 +2,24 @@
 
 Real data (`../shared/data/stereo-checkerboard-640x512`, 25 pairs, 9x6, 24 mm): RoboCal's
 detections and default model (k1 k2 p1 p2 k3, intrinsics refined in the stereo fit, no
-pair excluded). The baseline is a plain `cv2.stereoCalibrate` on exactly the same corners,
-computed in the same run, in its two usual forms: from scratch (flags 0) and after
-`cv2.calibrateCamera` per camera (its default CALIB_FIX_INTRINSIC); the lower RMS is the
-baseline. Focal lengths are compared with the README's reference fx = fy = 518.05 px
+pair excluded). The baseline is plain OpenCV from the same images, computed in the same run:
+findChessboardCorners + cornerSubPix (11x11) per image, then cv2.stereoCalibrate (flags 0). Focal lengths are compared with the README's reference fx = fy = 518.05 px
 (the original author's rational-model, fixed-aspect run).
 
 Virtual lab: 20 pairs rendered at 1280x1024 with the lab's default noise, seed 0, detected
 and calibrated exactly as the CLI does; errors against the lab's true rig. Rotation error =
 angle of R_est · R_trueᵀ.
 
-Speed (wall clock on this machine, other processes included): detection of one 1280x1024
-pair (median over the 20 lab pairs, read from memory), and the whole CLI path for 20 pairs
-at 1280x1024: PNG files -> detection -> calibration (with cross-validation) -> stereo.yaml.
+Speed, as ratios to plain OpenCV timed in the same run (absolute times beside them): detection
+of one 1280x1024 pair (median over the 20 lab pairs, read from memory) against
+findChessboardCorners + cornerSubPix on both images, and the whole CLI path for 20 pairs at
+1280x1024 (PNG files -> detection -> calibration with cross-validation -> stereo.yaml) against
+imread + those calls + stereoCalibrate.
 """
 from __future__ import annotations
 
 import math
+import shutil
 import statistics
 import tempfile
 import time
@@ -58,24 +59,25 @@ def _real(report) -> None:
     files = [(REAL_DATA / f"left{n:02d}.jpg", REAL_DATA / f"right{n:02d}.jpg") for n in range(1, 26)]
     det = detect_pairs(files, board)
     result = calibrate_stereo(det, CalibrationOptions())
-    obj = [result.object_points.astype(np.float32)] * result.pairs_used
-    left = [p.astype(np.float32) for p in result.left_points]
-    right = [p.astype(np.float32) for p in result.right_points]
-    size = result.file.image_size
-    scratch = cv2.stereoCalibrate(obj, left, right, None, None, None, None, size, flags=0)[0]
-    _, K1, D1, _, _ = cv2.calibrateCamera(obj, left, size, None, None)
-    _, K2, D2, _, _ = cv2.calibrateCamera(obj, right, size, None, None)
-    fixed = cv2.stereoCalibrate(obj, left, right, K1, D1, K2, D2, size)[0]
-    baseline = min(scratch, fixed)
+    folder = Path(tempfile.mkdtemp(prefix="robocal-bench-"))
+    try:                                   # the plain pipeline reads left/ and right/ folders
+        for side, k in (("left", 0), ("right", 1)):
+            (folder / side).mkdir()
+            for n, pair in enumerate(files):
+                (folder / side / f"{n:02d}.jpg").symlink_to(pair[k])
+        baseline = _plain_pipeline(folder, board)
+    finally:
+        shutil.rmtree(folder)
     report.info("real: pairs used / rejected", f"{result.pairs_used} / {len(result.rejected)}")
-    report.info("real: plain cv2.stereoCalibrate RMS, flags 0 / after calibrateCamera",
-                f"{scratch:.4f} / {fixed:.4f}", "px")
-    report.add("real: RoboCal stereo RMS (<= plain OpenCV + 1e-6 px)", result.file.rms_stereo, "<=",
-               baseline + 1e-6, "px", note=f"baseline {baseline:.6f} px")
+    report.add("real: RoboCal stereo RMS / plain OpenCV from the images", result.file.rms_stereo / baseline, "<=", 1.0,
+               "x", note=f"{result.file.rms_stereo:.4f} vs {baseline:.4f} px (findChessboardCorners + cornerSubPix "
+                         "11x11 + stereoCalibrate)")
+    # targets: about 2x the measured worst |error| (0.25 %, right fy), which is itself within
+    # the spread of the reference (a rational-model, fixed-aspect run on the same pairs)
     for name, value in (("left fx", result.file.K1[0, 0]), ("left fy", result.file.K1[1, 1]),
                         ("right fx", result.file.K2[0, 0]), ("right fy", result.file.K2[1, 1])):
         report.add(f"real: {name} {value:.2f} px vs 518.05 (|error|)", abs(value / REFERENCE_FOCAL - 1) * 100,
-                   "<", 1.0, "%")
+                   "<", 0.5, "%")
     report.info("real: epipolar error after rectification, RMS / max",
                 f"{result.epipolar_rms:.3f} / {result.epipolar_max:.3f}", "px")
     cv = result.cross_validation
@@ -118,15 +120,17 @@ def _ground_truth(report, pairs, truth, board) -> None:
     b_err = abs(result.baseline_mm / truth.baseline - 1) * 100
     dR = result.file.R @ truth.R.T
     rot = math.degrees(math.acos(min(1.0, max(-1.0, (np.trace(dR) - 1) / 2))))
-    report.add("lab: focal length error (worst of fx, fy, both cameras)", f_err, "<", 0.1, "%")
-    report.add("lab: principal point error (worst coordinate)", pp_err, "<", 1.0, "px")
+    # targets: about 2x the errors measured on this seed (0.0035 %, 0.63 px, 0.0043 %, 0.0079°);
+    # the principal point's reported std is 0.24 px, so 0.63 px is 2.6 sigma: its target is 1.3 px
+    report.add("lab: focal length error (worst of fx, fy, both cameras)", f_err, "<", 0.007, "%")
+    report.add("lab: principal point error (worst coordinate)", pp_err, "<", 1.3, "px")
     z = max(abs(result.file.K1[0, 2] - truth.left.cx) / result.std["cx_left"],
             abs(result.file.K1[1, 2] - truth.left.cy) / result.std["cy_left"],
             abs(result.file.K2[0, 2] - truth.right.cx) / result.std["cx_right"],
             abs(result.file.K2[1, 2] - truth.right.cy) / result.std["cy_right"])
     report.info("lab: principal point, worst |error| / reported std", z, "sigma")
-    report.add("lab: baseline length error", b_err, "<", 0.1, "%")
-    report.add("lab: rotation error", rot, "<", 0.05, "deg")
+    report.add("lab: baseline length error", b_err, "<", 0.009, "%")
+    report.add("lab: rotation error", rot, "<", 0.016, "deg")
     report.info("lab: stereo RMS / epipolar RMS",
                 f"{result.file.rms_stereo:.4f} / {result.epipolar_rms:.4f}", "px")
     report.info("lab: cross-validation, observed area RMS", result.cross_validation.rms_observed_px, "px")
@@ -137,14 +141,48 @@ def _ground_truth(report, pairs, truth, board) -> None:
 # --------------------------------------------------------------------------- speed
 
 
+SUBPIX = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_MAX_ITER, 30, 1e-3)
+
+
+def _plain_detect(image, board):
+    """The textbook OpenCV corners of one image: findChessboardCorners + cornerSubPix (11x11)."""
+    found, corners = cv2.findChessboardCorners(image, board.pattern_size)
+    return cv2.cornerSubPix(image, corners, (11, 11), (-1, -1), SUBPIX) if found else None
+
+
+def _plain_pipeline(folder, board):
+    """Plain OpenCV from the files: imread, _plain_detect per image, stereoCalibrate (flags 0)."""
+    obj, left, right = [], [], []
+    for a, b in zip(sorted((folder / "left").iterdir()), sorted((folder / "right").iterdir())):
+        images = [cv2.imread(str(p), cv2.IMREAD_GRAYSCALE) for p in (a, b)]
+        corners = [_plain_detect(img, board) for img in images]
+        if corners[0] is not None and corners[1] is not None:
+            obj.append(board.object_points().astype(np.float32))
+            left.append(corners[0])
+            right.append(corners[1])
+    size = images[0].shape[::-1]
+    return cv2.stereoCalibrate(obj, left, right, None, None, None, None, size, flags=0)[0]
+
+
 def _speed(report, pairs, board) -> None:
-    times = []
+    """Each time is a ratio to plain OpenCV doing the same job in the same run (same images,
+    same machine load); the absolute times are information. RoboCal's detection does more than
+    the plain calls (an exhaustive fallback and a corner-order consensus across pairs), its
+    calibration adds per-corner residuals, uncertainty, rectification and a cross-validation.
+    Targets: about 2x the measured ratios (detection 5.8x, the whole path 2.1x)."""
+    ours, plain = [], []
     for left, right in pairs:
         start = time.perf_counter()
         detect_pair(left, right, board)
-        times.append((time.perf_counter() - start) * 1000)
-    report.add("speed: detection of one 1280x1024 pair (median of 20)", statistics.median(times), "<=", 150,
-               "ms", note=f"max {max(times):.0f} ms")
+        mid = time.perf_counter()
+        _plain_detect(left, board), _plain_detect(right, board)
+        end = time.perf_counter()
+        ours.append((mid - start) * 1000)
+        plain.append((end - mid) * 1000)
+    ratio = statistics.median(ours) / statistics.median(plain)
+    report.add(f"speed: detection of one 1280x1024 pair / plain OpenCV (median of {len(pairs)})", ratio,
+               "<=", 12.0, "x", note=f"{statistics.median(ours):.0f} vs {statistics.median(plain):.0f} ms, "
+                                    f"max {max(ours):.0f} ms")
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         (tmp / "left").mkdir()
@@ -159,8 +197,13 @@ def _speed(report, pairs, board) -> None:
         write_stereo_yaml(tmp / "stereo.yaml", result)
         end = time.perf_counter()
         read_stereo_yaml(tmp / "stereo.yaml")
-    report.add(f"speed: {len(pairs)} pairs 1280x1024 files -> stereo.yaml", end - start, "<", 10.0, "s",
-               note=f"detection {mid - start:.2f} s, calibration + file {end - mid:.2f} s")
+        t0 = time.perf_counter()
+        plain_rms = _plain_pipeline(tmp, board)
+        plain_time = time.perf_counter() - t0
+    report.add(f"speed: {len(pairs)} pairs 1280x1024 files -> stereo.yaml / plain OpenCV from the files",
+               (end - start) / plain_time, "<=", 4.0, "x",
+               note=f"{end - start:.2f} vs {plain_time:.2f} s (detection {mid - start:.2f} s, calibration + "
+                    f"file {end - mid:.2f} s); RMS {result.file.rms_stereo:.4f} vs {plain_rms:.4f} px")
 
 
 def _warped_pairs(n: int = LAB_PAIRS, board: Board = Board(9, 6, 25.0)):

@@ -1,6 +1,10 @@
 """Suite-wide test settings.
 
 - Qt runs offscreen unless told otherwise (QT_QPA_PLATFORM).
+- Temporary folders the code under test makes (tempfile, a child process's TMPDIR) go under
+  pytest's own temporary folder, so tests write nowhere else.
+- Hypothesis is derandomized (its examples follow from each test's source, no example
+  database is read or written), so every run, locally and on CI, tries the same examples.
 - napari style: a GUI test (one that uses qtbot or qapp) fails when it leaves a QThread
   running, a busy TaskRunner, or a visible top-level window behind. Leftovers are cleaned up
   before failing, so one leak does not cascade into the following tests.
@@ -11,10 +15,15 @@ from __future__ import annotations
 
 import os
 import sys
+import tempfile
 
 import pytest
+from hypothesis import settings
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+
+settings.register_profile("robocal", derandomize=True, database=None, print_blob=True)
+settings.load_profile("robocal")
 
 GUI_FIXTURES = {"qtbot", "qapp"}
 
@@ -65,6 +74,13 @@ class QThreadTracker:
             except RuntimeError:   # the C++ object is gone: not running
                 pass
         return alive
+
+
+@pytest.fixture(autouse=True)
+def _temporary_files_under_pytest(tmp_path_factory, monkeypatch):
+    folder = tmp_path_factory.mktemp("tempfile")
+    monkeypatch.setattr(tempfile, "tempdir", str(folder))
+    monkeypatch.setenv("TMPDIR", str(folder))
 
 
 @pytest.fixture(autouse=True)

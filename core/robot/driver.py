@@ -14,11 +14,14 @@ Safety rules shared by every driver:
 - `move_to` refuses a configuration outside the model's joint limits (RoboCalError),
   before anything is sent to the robot;
 - `stop()` is always safe to call (connected or not, stopped or not) and latches: no motion
-  is accepted after it until `resume()`;
+  is accepted after it until `resume()`. The latch and the move share one lock, so once
+  `stop()` returns no move is being sent and none will be (a GUI thread's stop cannot fall
+  between a worker's check and its move);
 - a driver is a context manager (`with driver: ...` connects and always disconnects).
 """
 from __future__ import annotations
 
+import threading
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 
@@ -54,6 +57,8 @@ class RobotDriver(ABC):
     def __init__(self, model: RobotModel):
         self.model = model
         self._speed = 100.0
+        self._motion_lock = threading.Lock()   # the stop latch and a move never interleave
+        self._stopped = False
 
     @property
     def info(self) -> DriverInfo:
@@ -101,10 +106,11 @@ class RobotDriver(ABC):
         if not self.connected:
             raise RoboCalError("the robot is not connected", source=self.name,
                                hint="Connect it first (Setup step).")
-        if self.stopped:
-            raise RoboCalError("the robot was stopped", source=self.name,
-                               hint="Check that the way is clear, then resume before moving it again.")
-        self._move(q)
+        with self._motion_lock:
+            if self._stopped:
+                raise RoboCalError("the robot was stopped", source=self.name,
+                                   hint="Check that the way is clear, then resume before moving it again.")
+            self._move(q)
 
     @abstractmethod
     def _move(self, q: np.ndarray) -> None:
@@ -114,19 +120,27 @@ class RobotDriver(ABC):
     def current_joints(self) -> np.ndarray:
         """The joint configuration the robot is in now (internal units), shape (dof,)."""
 
-    @abstractmethod
     def stop(self) -> None:
         """Stop any motion at once and refuse further motion until `resume()`. Never raises
-        because the robot is not connected or already stopped."""
+        because the robot is not connected or already stopped. Returns once no move is being
+        sent (a move already under way is waited for, then nothing more is sent)."""
+        self._halt()
+        with self._motion_lock:
+            self._stopped = True
+
+    @abstractmethod
+    def _halt(self) -> None:
+        """Tell the robot to stop now (called by `stop` first, without waiting for a move)."""
 
     @property
-    @abstractmethod
     def stopped(self) -> bool:
         """True after `stop()` until `resume()`."""
+        return self._stopped
 
-    @abstractmethod
     def resume(self) -> None:
         """Accept motion again after a stop (the user checked that the way is clear)."""
+        with self._motion_lock:
+            self._stopped = False
 
     # -- checks --------------------------------------------------------------------------
     def check_joints(self, q) -> np.ndarray:

@@ -210,8 +210,13 @@ class SerialRobot(RobotDriver):
         return self._stopped
 
     def stop(self) -> None:
-        """Send the stop command(s) at once (from any thread, also during a move) and wait up
-        to `reply_timeout` for the controller to confirm. Never raises."""
+        """Stop at once, from any thread, also during a move: unlike the base class this does
+        not wait for the move to return (the controller's STOPPED ends it). Never raises."""
+        self._halt()
+
+    def _halt(self) -> None:
+        """Send the stop command(s) and wait up to `reply_timeout` for the controller to
+        confirm; motion stays refused until `resume()`."""
         self._stopped = True
         if not self.connected or self.lost:
             return

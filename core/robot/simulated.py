@@ -22,8 +22,7 @@ class SimulatedRobot(RobotDriver):
         start = np.zeros(model.dof) if q0 is None else np.asarray(q0, dtype=float).reshape(-1)
         self._q = self.check_joints(np.clip(start, lo, hi) if q0 is None else start)
         self._connected = False
-        self._stopped = False
-        self._lock = threading.Lock()   # stop() may come from the GUI thread during a move
+        self._lock = threading.Lock()   # current_joints() may come from the GUI thread during a move
         self.stop_count = 0
         self.move_count = 0
 
@@ -54,13 +53,5 @@ class SimulatedRobot(RobotDriver):
         """Tool pose (4x4, mm) of the current configuration in the model's world frame."""
         return self.model.fk(self.current_joints())
 
-    def stop(self) -> None:
-        self._stopped = True
+    def _halt(self) -> None:
         self.stop_count += 1
-
-    @property
-    def stopped(self) -> bool:
-        return self._stopped
-
-    def resume(self) -> None:
-        self._stopped = False

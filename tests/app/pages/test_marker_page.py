@@ -19,9 +19,6 @@ from app.worker import TaskRunner
 from core.marker.training import TrainedMarker
 from tests.app.virtual_inputs import lab_state, make_lab
 
-SCREENSHOT = Path("/tmp/robocal-marker-page.png")
-
-
 @pytest.fixture(scope="module")
 def lab():
     return make_lab()
@@ -53,7 +50,7 @@ def test_registered_for_the_marker_step():
     assert PAGES[Step.MARKER] is MarkerPage
 
 
-def test_train_locate_plot_and_verify(qtbot, page, boxes):
+def test_train_locate_plot_and_verify(qtbot, page, boxes, tmp_path):
     state = page.state
     assert not page.is_complete()
     assert "stereo.yaml" in page.stereo_bar.stereo_label.text() and page.stereo.kind == "file"
@@ -125,8 +122,9 @@ def test_train_locate_plot_and_verify(qtbot, page, boxes):
     assert page.verification_panel.precision_plot.n_sigmas == v.n_located
     assert "Verification" in page.status.text()
     assert boxes == []
-    page.grab().save(str(SCREENSHOT))
-    assert SCREENSHOT.stat().st_size > 10000
+    shot = tmp_path / "page.png"
+    page.grab().save(str(shot))
+    assert shot.stat().st_size > 10000
 
 
 def test_too_few_features_says_why(qtbot, page, tmp_path, boxes):

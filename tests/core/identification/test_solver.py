@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from core import transforms as tf
-from core.identification.jacobian import (all_parameters, apply_step, calibration_jacobian, expand_poses,
+from core.identification.jacobian import (all_parameters, apply_step, calibration_jacobian, expand_poses, hayati_joints,
                                        parameter_difference, predict_points, resolve_names)
 from core.errors import Cancelled, RoboCalError, UsageError
 from core.identification.identifiability import (FIXED_BY_USER, HAYATI, NOT_IDENTIFIABLE, analyse, check_data,
@@ -189,6 +189,12 @@ def equivalent_truth(nominal, true, fixed=()):
     return identify(nominal, simulate_measurements(true, 300, sigma_mm=0.0, rng=99), fixed=fixed).model
 
 
+# Largest |d − true d| of the joints on parallel axes (Hayati), measured over 8 seeds of the
+# true robot and the noise (60 poses, σ = 0.05 mm): 6R 0.036, PUMA 0.16, UR5 0.023,
+# ABB 0.069 mm; the bound is about 2x that (a blow-up would be metres).
+PARALLEL_D_MM = {"educational_6r": 0.08, "puma560": 0.3, "ur5": 0.05, "abb_irb120": 0.15}
+
+
 @pytest.mark.parametrize("name", PRESETS)
 def test_noisy_fit_is_consistent_with_its_uncertainty(presets, name):
     nominal = presets[name]
@@ -204,8 +210,10 @@ def test_noisy_fit_is_consistent_with_its_uncertainty(presets, name):
     assert result.sigma_hat == pytest.approx(sigma, rel=0.2)
     assert result.after.rms_mm == pytest.approx(sigma * math.sqrt(3), rel=0.25)
     # Hayati: no blow-up of d on the parallel axes
-    for i, j in enumerate(result.model.joints):
-        assert abs(j.d - nominal.joints[i].d) < 10.0
+    parallel = sorted({k for i in hayati_joints(nominal) for k in (i, i + 1)})
+    assert parallel
+    for i in parallel:
+        assert abs(result.model.joints[i].d - ref.joints[i].d) < PARALLEL_D_MM[name], f"J{i + 1}.d"
     # the correlation matrix is a correlation matrix
     C = result.correlation
     assert np.allclose(np.diag(C), 1.0) and np.all(np.abs(C) <= 1 + 1e-9) and np.allclose(C, C.T)

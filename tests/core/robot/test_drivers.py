@@ -1,6 +1,8 @@
 """The robot driver interface and the simulated robot (no Qt here)."""
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import pytest
 
@@ -80,6 +82,40 @@ def test_stop_latches_until_resume(robot):
     robot.resume()
     robot.move_to(np.full(6, 0.1))
     assert np.allclose(robot.current_joints(), 0.1)
+
+
+class _SlowRobot(SimulatedRobot):
+    """A simulated robot whose move is held inside `_move` until `release` is set."""
+
+    def __init__(self, model):
+        super().__init__(model)
+        self.entered, self.release = threading.Event(), threading.Event()
+
+    def _move(self, q):
+        self.entered.set()
+        assert self.release.wait(10)
+        super()._move(q)
+
+
+def test_stop_during_a_move_returns_after_it_and_no_move_follows(model):
+    """A stop from another thread while a move is being sent: stop() returns only once that
+    move is done, and the worker's next move is refused (no check-then-move gap)."""
+    robot = _SlowRobot(model)
+    robot.connect()
+    worker = threading.Thread(target=robot.move_to, args=(np.full(6, 0.1),))
+    worker.start()
+    assert robot.entered.wait(10)
+    stopper = threading.Thread(target=robot.stop)
+    stopper.start()
+    stopper.join(0.2)
+    assert stopper.is_alive() and robot.stop_count == 1          # the halt went out at once
+    robot.release.set()
+    worker.join(10)
+    stopper.join(10)
+    assert not stopper.is_alive() and robot.stopped and robot.move_count == 1
+    with pytest.raises(RoboCalError, match="stopped"):
+        robot.move_to(np.full(6, 0.2))
+    assert robot.move_count == 1 and np.allclose(robot.current_joints(), 0.1)
 
 
 def test_stop_is_always_safe(model):

@@ -153,20 +153,25 @@ def test_outlier_flagged_then_excluded_by_the_user():
         calibrate_stereo(det, exclude=[40])
 
 
-@pytest.mark.parametrize("options, check", [
-    (CalibrationOptions(radial=2), lambda r: r.file.D1[4] == 0 and r.file.D2[4] == 0 and len(r.file.D1) == 5),
-    (CalibrationOptions(tangential=False), lambda r: np.all(r.file.D1[2:4] == 0) and np.all(r.file.D2[2:4] == 0)),
-    (CalibrationOptions(fix_aspect=True), lambda r: abs(r.file.K1[0, 0] - r.file.K1[1, 1]) < 1e-9),
+# max_rms: about 1.1x the largest stereo RMS over noise seeds 3-10 (16 views, 0.02 px noise, so
+# sqrt(2) x 0.02 = 0.028 px for a model that can represent the rig). Measured ranges:
+# radial=2 0.0275-0.0283, no tangential 0.0308-0.0338 (the rig has p1, p2), fix_aspect
+# 0.0360-0.0413 (fy/fx = 1.0007), fix_principal 0.0425-0.0697 (cx, cy off-centre by up to 8 px),
+# radial=6 0.0275-0.0283, refine_intrinsics=False 0.0281-0.0301.
+@pytest.mark.parametrize("options, check, max_rms", [
+    (CalibrationOptions(radial=2), lambda r: r.file.D1[4] == 0 and r.file.D2[4] == 0 and len(r.file.D1) == 5, 0.031),
+    (CalibrationOptions(tangential=False), lambda r: np.all(r.file.D1[2:4] == 0) and np.all(r.file.D2[2:4] == 0), 0.037),
+    (CalibrationOptions(fix_aspect=True), lambda r: abs(r.file.K1[0, 0] - r.file.K1[1, 1]) < 1e-9, 0.045),
     (CalibrationOptions(fix_principal=True),
-     lambda r: abs(r.file.K1[0, 2] - (SIZE[0] - 1) / 2) < 1 and abs(r.file.K2[1, 2] - (SIZE[1] - 1) / 2) < 1),
-    (CalibrationOptions(radial=6), lambda r: len(r.file.D1) == 8 and len(r.file.D2) == 8),
-    (CalibrationOptions(refine_intrinsics=False), lambda r: np.allclose(r.file.K1, r.fit.mono_left.K)),
+     lambda r: abs(r.file.K1[0, 2] - (SIZE[0] - 1) / 2) < 1 and abs(r.file.K2[1, 2] - (SIZE[1] - 1) / 2) < 1, 0.077),
+    (CalibrationOptions(radial=6), lambda r: len(r.file.D1) == 8 and len(r.file.D2) == 8, 0.031),
+    (CalibrationOptions(refine_intrinsics=False), lambda r: np.allclose(r.file.K1, r.fit.mono_left.K), 0.033),
 ])
-def test_model_options(synthetic, options, check):
+def test_model_options(synthetic, options, check, max_rms):
     _, left, right, _ = synthetic
     r = calibrate_points(left, right, BOARD, SIZE, options.__class__(**{**options.__dict__, "cross_validate": False}))
     assert check(r)
-    assert r.file.rms_stereo < 2.0
+    assert 0.02 < r.file.rms_stereo < max_rms
     fixed = {p.name for p in r.parameters if p.group == "left" and p.fixed}
     if options.radial == 2:
         assert "k3" in fixed
@@ -229,13 +234,37 @@ def test_real_pairs_focal_lengths_near_reference(real_result):
         assert abs(K[0, 0] / REAL_REFERENCE_FOCAL - 1) < 0.01
         assert abs(K[1, 1] / REAL_REFERENCE_FOCAL - 1) < 0.01
     assert r.file.rms_stereo < 0.25 and r.epipolar_rms < 0.3
-    assert r.baseline_mm == pytest.approx(92.0, abs=1.5)     # README: T = (91.20, -2.65, 12.20)
+    # README: T = (91.20, -2.65, 12.20), |T| = 92.05 mm. RoboCal: 92.06 ± 0.067 mm (reported std);
+    # leaving out one pair at a time moves it within 91.97-92.12 mm (std 0.037 mm).
+    assert r.baseline_mm == pytest.approx(92.05, abs=0.2)
+
+
+def _plain_opencv(files, pattern=(9, 6), square=24.0):
+    """The textbook OpenCV pipeline from the raw images: findChessboardCorners + cornerSubPix
+    (11x11 window) per image, stereoCalibrate from scratch (flags 0) on the pairs found in both."""
+    criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_MAX_ITER, 30, 1e-3)
+    board = np.zeros((pattern[0] * pattern[1], 3), np.float32)
+    board[:, :2] = np.mgrid[0:pattern[0], 0:pattern[1]].T.reshape(-1, 2) * square
+    obj, left, right = [], [], []
+    for a, b in files:
+        corners = []
+        for path in (a, b):
+            image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+            found, c = cv2.findChessboardCorners(image, pattern)
+            corners.append(cv2.cornerSubPix(image, c, (11, 11), (-1, -1), criteria) if found else None)
+        if corners[0] is not None and corners[1] is not None:
+            obj.append(board)
+            left.append(corners[0])
+            right.append(corners[1])
+    size = image.shape[::-1]
+    rms, _, _, _, _, _, T, _, _ = cv2.stereoCalibrate(obj, left, right, None, None, None, None, size, flags=0)
+    return len(obj), rms, float(np.linalg.norm(T))
 
 
 def test_real_pairs_no_worse_than_plain_opencv(real_result):
+    """Measured: plain OpenCV 0.174 px and 92.03 mm on all 25 pairs; RoboCal 0.164 px, 92.06 mm."""
     _, r = real_result
-    obj = [r.object_points.astype(np.float32)] * r.pairs_used
-    L = [p.astype(np.float32) for p in r.left_points]
-    R = [p.astype(np.float32) for p in r.right_points]
-    base = cv2.stereoCalibrate(obj, L, R, None, None, None, None, r.file.image_size, flags=0)[0]
-    assert r.file.rms_stereo <= base + 1e-6
+    pairs, rms, baseline = _plain_opencv(real_pairs())
+    assert pairs == r.pairs_used == 25
+    assert r.file.rms_stereo <= rms
+    assert r.baseline_mm == pytest.approx(baseline, abs=0.15)            # about 2x the reported std
