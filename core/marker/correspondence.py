@@ -68,14 +68,7 @@ class StereoRectification:
 
     @classmethod
     def from_stereo_file(cls, stereo) -> "StereoRectification":
-        """From a core.stereo.file.StereoFile (its rig and rectification)."""
-        for key in ("D1", "D2"):
-            d = np.asarray(getattr(stereo, key), dtype=float).ravel()
-            if d.size > 5 and np.any(d[5:] != 0):
-                raise RoboCalError("the calibration uses the rational distortion model (k4..k6), which the "
-                                   "marker location does not support yet", field=key,
-                                   hint="Calibrate with 2 or 3 radial coefficients (robocal stereo-calibrate "
-                                        "--radial 3).")
+        """From a core.stereo.file.StereoFile (its rig and rectification; 5 or 8 distortion coefficients)."""
         return cls(stereo.rig, stereo.R1, stereo.R2, stereo.P1, stereo.P2, stereo.Q)
 
     @property

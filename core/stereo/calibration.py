@@ -294,7 +294,7 @@ class CrossValidation:
 class StereoCalibrationResult:
     """Everything the stereo calibration page draws and the files hold."""
 
-    rig: StereoRig                      # cameras with 5 coefficients (see `rig_exact`)
+    rig: StereoRig                      # cameras with 5 coefficients, 8 with the rational model
     image_size: tuple[int, int]
     board: Board
     options: CalibrationOptions
@@ -347,11 +347,6 @@ class StereoCalibrationResult:
     @property
     def baseline_mm(self) -> float:
         return float(np.linalg.norm(self.T))
-
-    @property
-    def rig_exact(self) -> bool:
-        """False when the distortion has terms core.camera.CameraModel cannot hold (k4..k6)."""
-        return bool(np.all(self.D1[5:] == 0) and np.all(self.D2[5:] == 0))
 
     @property
     def pairs_used(self) -> int:
@@ -548,11 +543,7 @@ def calibrate_points(left_points: Sequence[np.ndarray], right_points: Sequence[n
     if abs(centre[0]) >= abs(centre[1]) and centre[0] < 0:
         warnings.append(f"the right camera sits {abs(centre[0]):.0f} mm to the left of the left camera: "
                         f"are the left and right images swapped?")
-    exact = bool(np.all(fit.D1[5:] == 0) and np.all(fit.D2[5:] == 0))
-    if not exact:
-        warnings.append("the rational model's k4..k6 are kept in stereo.yaml (D1, D2) but not in the "
-                        "5-coefficient camera model used by the later steps")
-    rig = StereoRig(CameraModel(fit.K1, fit.D1[:5], *image_size), CameraModel(fit.K2, fit.D2[:5], *image_size),
+    rig = StereoRig(CameraModel(fit.K1, fit.D1, *image_size), CameraModel(fit.K2, fit.D2, *image_size),
                     fit.R, fit.T)
     monitor.step(1.0, "done")
     return StereoCalibrationResult(
