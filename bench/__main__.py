@@ -12,7 +12,7 @@ from pathlib import Path
 from bench.report import Report
 
 # The wizard's order: the virtual lab (renderer accuracy, simulate speed) first.
-ORDER = ["virtual_lab", "stereo_calibration", "marker", "pose_selection", "identification"]
+ORDER = ["virtual_lab", "stereo_calibration", "marker", "pose_selection", "identification", "teaching"]
 
 
 def _rank(name: str) -> tuple[int, str]:
