@@ -23,10 +23,8 @@ from core.identification.solver import identify
 from core.marker.correspondence import StereoRectification, window_sweep
 from core.marker.location import MarkerLocator
 from core.marker.training import train_marker
-from core.measurement.file import read_measurements
 from core.poses.file import read_poses
 from core.resources import resource_path
-from core.robot.file import read_robot
 from core.virtual_lab.lab import VirtualLab
 from core.virtual_lab.marker_comparison import compare_markers
 from core.virtual_lab.synthetic import simulate_measurements
