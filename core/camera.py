@@ -1,8 +1,10 @@
-"""Pinhole camera with radial (k1, k2, k3) and tangential (p1, p2) distortion, eq. (11)–(19).
+"""Pinhole camera with radial and tangential distortion: OpenCV's model (the chapter's eq. 11–19
+has the same pinhole and radial terms but a different tangential term, see resources/help/stereo.html).
 
 Frames and units: points in the camera frame in mm (OpenCV convention: z forward, x right,
 y down); image coordinates in pixels with (0, 0) at the centre of the top-left pixel.
-Distortion coefficients are stored in OpenCV's order (k1, k2, p1, p2, k3).
+Distortion coefficients are stored in OpenCV's order: (k1, k2, p1, p2, k3), or with the
+rational model (k1, k2, p1, p2, k3, k4, k5, k6), k4..k6 in the radial term's denominator.
 """
 from __future__ import annotations
 
@@ -15,15 +17,15 @@ import numpy as np
 @dataclass
 class CameraModel:
     K: np.ndarray                      # 3x3 intrinsic matrix (px)
-    dist: np.ndarray = field(default_factory=lambda: np.zeros(5))  # k1, k2, p1, p2, k3
+    dist: np.ndarray = field(default_factory=lambda: np.zeros(5))  # k1, k2, p1, p2, k3[, k4, k5, k6]
     width: int = 1280
     height: int = 1024
 
     def __post_init__(self):
         self.K = np.asarray(self.K, dtype=float).reshape(3, 3)
-        d = np.zeros(5)
-        given = np.asarray(self.dist, dtype=float).ravel()[:5]
-        d[:given.size] = given
+        given = np.asarray(self.dist, dtype=float).ravel()[:8]
+        d = np.zeros(8 if given.size > 5 and np.any(given[5:] != 0) else 5)
+        d[:min(given.size, d.size)] = given[:d.size]
         self.dist = d
 
     @property
@@ -47,17 +49,21 @@ class CameraModel:
         return (self.width, self.height)
 
     def distort_normalized(self, xy: np.ndarray) -> np.ndarray:
-        """Eq. (14)–(17): ideal normalised coordinates (N, 2) -> distorted normalised."""
-        k1, k2, p1, p2, k3 = self.dist
+        """Ideal normalised coordinates (N, 2) -> distorted normalised (OpenCV's model; r from the
+        principal point)."""
+        k1, k2, p1, p2, k3 = self.dist[:5]
         x, y = xy[..., 0], xy[..., 1]
         r2 = x * x + y * y
         radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+        if self.dist.size == 8:
+            k4, k5, k6 = self.dist[5:]
+            radial = radial / (1.0 + r2 * (k4 + r2 * (k5 + r2 * k6)))
         xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
         yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
         return np.stack([xd, yd], axis=-1)
 
     def normalized_to_pixels(self, xy: np.ndarray, distort: bool = True) -> np.ndarray:
-        """Normalised image coordinates (..., 2) to pixels, eq. (18)–(19)."""
+        """Normalised image coordinates (..., 2) to pixels (distorted first when `distort`)."""
         xy = np.asarray(xy, dtype=float)
         xd = self.distort_normalized(xy) if distort else xy
         u = self.K[0, 0] * xd[..., 0] + self.K[0, 1] * xd[..., 1] + self.K[0, 2]
@@ -65,7 +71,7 @@ class CameraModel:
         return np.stack([u, v], axis=-1)
 
     def project(self, points_cam: np.ndarray, distort: bool = True) -> np.ndarray:
-        """Project points given in this camera's frame (N, 3) mm -> (N, 2) px (eq. 11–19)."""
+        """Project points given in this camera's frame (N, 3) mm -> (N, 2) px (eq. 11–12 with distortion)."""
         P = np.asarray(points_cam, dtype=float)
         xy = P[..., :2] / P[..., 2:3]
         return self.normalized_to_pixels(xy, distort)

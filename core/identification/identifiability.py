@@ -32,7 +32,7 @@ many poses to take.
 Observability indices (Sun & Hollerbach, "Observability index selection for robot
 calibration", ICRA 2008), with σ_1 ≥ … ≥ σ_L the singular values of the scaled Φ (L
 parameters) and m the number of measured points:
-    O1 = (σ_1·σ_2·…·σ_L)^(1/L) / √m      (Borm & Menq: volume of the error ellipsoid, D-optimal)
+    O1 = (σ_1·σ_2·…·σ_L)^(1/L) / √m      (Borm & Menq, D-optimal: grows as the error ellipsoid shrinks)
     O2 = σ_L / σ_1                        (Driels & Pathre: inverse condition number)
     O3 = σ_L                              (Nahvi et al.: minimum singular value, E-optimal)
     O4 = σ_L² / σ_1                       (Nahvi & Hollerbach: noise amplification index)

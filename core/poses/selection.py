@@ -61,6 +61,14 @@ from core.stereo.rig import StereoRig
 from core.task import Monitor
 
 INDEXES = ("cond", "O1", "O3", "O4", "O5")
+#: one line per index, for choosers and legends (σ_i the singular values of the scaled Φ)
+INDEX_DESCRIPTIONS = {
+    "cond": "Condition number κ (smaller is better)",
+    "O1": "O1: D-optimal, grows as the error ellipsoid's volume shrinks",
+    "O3": "O3: E-optimal, smallest singular value",
+    "O4": "O4: noise amplification index",
+    "O5": "O5: A-optimal, reciprocal of the total variance 1/Σσ⁻²",
+}
 #: keys of ObservabilityIndices.as_dict() for each index
 INDEX_KEYS = {"cond": "condition_number", "O1": "O1", "O3": "O3", "O4": "O4", "O5": "O5"}
 DEFAULT_CANDIDATES = 2000

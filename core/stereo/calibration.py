@@ -98,11 +98,6 @@ class StereoCalibrationResult:
         return self.file.baseline_mm
 
     @property
-    def rig_exact(self) -> bool:
-        """False when the distortion has terms core.camera.CameraModel cannot hold (k4..k6)."""
-        return bool(np.all(self.file.D1[5:] == 0) and np.all(self.file.D2[5:] == 0))
-
-    @property
     def pairs_used(self) -> int:
         return len(self.view_indices)
 
@@ -295,9 +290,6 @@ def _warnings(pair: StereoFile, cv: CrossValidation | None, outliers: list[int],
     if abs(centre[0]) >= abs(centre[1]) and centre[0] < 0:
         warnings.append(f"the right camera sits {abs(centre[0]):.0f} mm to the left of the left camera: "
                         f"are the left and right images swapped?")
-    if not (np.all(pair.D1[5:] == 0) and np.all(pair.D2[5:] == 0)):
-        warnings.append("the rational model's k4..k6 are kept in stereo.yaml (D1, D2) but not in the "
-                        "5-coefficient camera model used by the later steps")
     return warnings
 
 

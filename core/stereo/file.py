@@ -78,9 +78,9 @@ class StereoFile:
 
     @property
     def rig(self) -> StereoRig:
-        """The calibrated pair (core.camera holds k1 k2 p1 p2 k3; k4..k6 are not kept)."""
+        """The calibrated pair (5 distortion coefficients, or 8 with the rational model)."""
         w, h = self.image_size
-        return StereoRig(CameraModel(self.K1, self.D1[:5], w, h), CameraModel(self.K2, self.D2[:5], w, h),
+        return StereoRig(CameraModel(self.K1, self.D1, w, h), CameraModel(self.K2, self.D2, w, h),
                          self.R, self.T)
 
     @property

@@ -74,15 +74,7 @@ class StereoRectification:
     @classmethod
     def from_calibration(cls, stereo: StereoFile, *, for_location: bool = True) -> "StereoRectification":
         """The rectification a calibration holds. `for_location`: refuse what the marker
-        location cannot use (the rational model's k4..k6, a vertical or swapped rig)."""
-        if for_location:
-            for key in ("D1", "D2"):
-                d = np.asarray(getattr(stereo, key), dtype=float).ravel()
-                if d.size > 5 and np.any(d[5:] != 0):
-                    raise RoboCalError("the calibration uses the rational distortion model (k4..k6), which the "
-                                       "marker location does not support yet", field=key,
-                                       hint="Calibrate with 2 or 3 radial coefficients (robocal stereo-calibrate "
-                                            "--radial 3).")
+        location cannot use (a vertical or swapped rig)."""
         return cls(stereo.rig, stereo.R1, stereo.R2, stereo.P1, stereo.P2, stereo.Q, calibration=stereo,
                    require_side_by_side=for_location)
 

@@ -62,3 +62,18 @@ def test_stereo_rig_geometry_matches_opencv_conventions():
     hl = np.c_[uv_l, np.ones(50)]
     hr = np.c_[uv_r, np.ones(50)]
     assert np.max(np.abs(np.sum(hr @ F * hl, axis=1))) < 1e-9  # x_r^T F x_l = 0
+
+
+def test_rational_model_agrees_with_opencv_and_inverts():
+    dist = np.array([-0.28, 0.12, 0.0005, -0.0003, 0.01, 0.15, -0.05, 0.02])   # k1 k2 p1 p2 k3 k4 k5 k6
+    camera = CameraModel(K, dist)
+    assert camera.dist.size == 8
+    rng = np.random.default_rng(4)
+    points = rng.uniform([-250, -200, 400], [250, 200, 900], (300, 3))
+    expected, _ = cv2.projectPoints(points, np.zeros(3), np.zeros(3), K, dist)
+    np.testing.assert_allclose(camera.project(points), expected.reshape(-1, 2), atol=1e-9)
+    without = CameraModel(K, dist[:5]).project(points)
+    assert np.abs(without - expected.reshape(-1, 2)).max() > 1.0       # k4..k6 matter
+    rays = camera.pixel_rays(camera.project(points))
+    np.testing.assert_allclose(rays, points / np.linalg.norm(points, axis=1, keepdims=True), atol=1e-10)
+    assert CameraModel(K, np.r_[dist[:5], 0, 0, 0]).dist.size == 5     # zero k4..k6: the 5-term model

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from core import transforms as tf
+from core.camera import CameraModel
 from core.stereo.rectification import StereoRectification
 from core.errors import RoboCalError
 from core.marker.location import LocatorOptions, MarkerLocator, MarkerTracker, square_pose
@@ -203,3 +204,21 @@ def test_square_pose_from_four_corners():
     n, centre = square_pose(uv, K, 40.0)
     assert abs(abs(n @ T[:3, 2]) - 1.0) < 1e-9
     np.testing.assert_allclose(centre, T[:3, 3], rtol=1e-5)
+
+
+def test_rational_distortion_model():
+    """Cameras with OpenCV's rational model (k4..k6): the marker is located with all 8 coefficients."""
+    lab = copy.copy(scenes.lab())
+    dist = [-0.28, 0.12, 0.0005, -0.0003, 0.01, 0.15, -0.05, 0.02]
+    lab.rig = StereoRig(CameraModel(lab.rig.left.K, dist, *lab.rig.left.size),
+                        CameraModel(lab.rig.right.K, dist, *lab.rig.right.size), lab.rig.R, lab.rig.T)
+    lab._room_canvas = None
+    T = scenes.pose_at(1000, 300, 600, 30, 30)
+    left, right = lab.render_marker_at(T, np.random.default_rng(1))
+    loc = MarkerLocator(scenes.trained(), StereoRectification.from_rig(lab.rig)).locate(left, right)
+    assert loc.ok, loc.reason
+    assert np.linalg.norm(loc.point - T[:3, 3]) < 0.05
+    five = StereoRig(CameraModel(lab.rig.left.K, dist[:5], *lab.rig.left.size),
+                     CameraModel(lab.rig.right.K, dist[:5], *lab.rig.right.size), lab.rig.R, lab.rig.T)
+    cut = MarkerLocator(scenes.trained(), StereoRectification.from_rig(five)).locate(left, right)
+    assert not cut.ok or np.linalg.norm(cut.point - T[:3, 3]) > 0.5      # k4..k6 matter here

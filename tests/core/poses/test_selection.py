@@ -273,3 +273,16 @@ def test_result_as_json(selection):
     assert d["indices"]["condition_number"] == pytest.approx(selection.value("cond"))
     assert d["random_median"]["condition_number"] == pytest.approx(selection.random_median("cond"))
     assert d["min_poses"] == 9 and d["travel_after"] < d["travel_before"]
+
+
+def test_index_descriptions_match_the_definitions():
+    from core.poses.selection import INDEX_DESCRIPTIONS, INDEXES, indices_from_eigenvalues
+
+    assert list(INDEX_DESCRIPTIONS) == list(INDEXES)
+    rng = np.random.default_rng(0)
+    A = rng.normal(size=(60, 6))
+    M = A.T @ A
+    one = indices_from_eigenvalues(np.linalg.eigvalsh(M), 20)
+    two = indices_from_eigenvalues(np.linalg.eigvalsh(4.0 * M), 20)    # every σ doubled: ellipsoid 2⁶ times smaller
+    assert float(two["O1"]) == pytest.approx(2.0 * float(one["O1"]))    # O1 grows as the ellipsoid shrinks
+    assert float(one["O5"]) == pytest.approx(1.0 / np.trace(np.linalg.inv(M)))   # 1 / total variance

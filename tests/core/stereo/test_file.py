@@ -242,3 +242,16 @@ def test_json_export(tmp_path, result):
     assert any(p["name"] == "baseline" and p["std"] > 0 for p in data["parameters"])
     plain = stereo_json(result.file)
     assert "calibration" not in plain
+
+
+def test_rational_model_reaches_the_marker_step(tmp_path, rational):
+    """A stereo.yaml with k4..k6 keeps all 8 coefficients in its rig and rectifies for the marker step."""
+    from core.marker.correspondence import StereoRectification
+
+    sf = read_stereo_yaml(write_stereo_yaml(tmp_path / "stereo.yaml", rational))
+    assert np.any(sf.D1[5:] != 0)
+    np.testing.assert_array_equal(sf.rig.left.dist, sf.D1.ravel()[:8])
+    np.testing.assert_array_equal(sf.rig.right.dist, sf.D2.ravel()[:8])
+    rect = StereoRectification.from_calibration(sf)
+    np.testing.assert_allclose(rect.P1, sf.P1)
+    assert rect.baseline == pytest.approx(sf.baseline_mm, rel=0.01)
