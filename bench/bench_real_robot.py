@@ -15,6 +15,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
+from core.identification.prior import PriorOptions
 from core.identification.solver import evaluate, identify
 from core.measurement.importer import import_measurements
 from core.robot.file import read_robot
@@ -109,6 +110,16 @@ def run(report) -> None:
                round(independent * 1.01, 4), "mm", "target: within 1 % of the independent fit")
     report.info("IRB 120 held-out mean error, independent scipy least_squares fit", independent, "mm")
     report.info("IRB 120 held-out mean error, published minimal POE model (data README)", PUBLISHED_MINIMAL_MM, "mm")
+    with_prior = identify(robot, cal.with_robot(robot), prior=PriorOptions())
+    prior_mean = evaluate(with_prior.model, test.with_robot(robot)).mean_mm
+    p = with_prior.prior
+    report.add("IRB 120 held-out mean error, RoboCal with the prior toward nominal (weight by 5-fold CV)", prior_mean,
+               "<=", ours.mean_mm, "mm",
+               f"target: no worse than without; weight {p.weight:g}, dominated: {', '.join(p.dominated) or 'none'}")
+    for weight in (1e-4, 1e-3, 1e-2):
+        fixed = identify(robot, cal.with_robot(robot), prior=PriorOptions(weight=weight)).model
+        report.info(f"IRB 120 held-out mean error, prior of fixed weight {weight:g}",
+                    evaluate(fixed, test.with_robot(robot)).mean_mm, "mm")
     report.info("IRB 120 held-out max error, RoboCal", ours.max_mm, "mm")
     # target about 2x the measured 0.034: scipy differentiates the model numerically, RoboCal analytically
     report.add("identification time, RoboCal / scipy least_squares on the same problem", t_robocal / t_scipy, "<",

@@ -29,10 +29,17 @@ def add_arguments(parser) -> None:
     parser.add_argument("--huber", type=options.huber_k, metavar="K",
                         help="robust (Huber) fit: down-weight points beyond K robust standard deviations (e.g. 3)")
     parser.add_argument("--seed", type=options.seed, default=0, help="seed of the validation split (default 0)")
+    parser.add_argument("--prior", type=options.prior_weight, default=False, metavar="auto|WEIGHT",
+                        help="estimate the DH parameters the measurements barely determine with a prior toward "
+                             "their nominal values instead of keeping them at nominal; 'auto' chooses its weight "
+                             "by cross validation, 0 is the plain fit (default: no prior)")
+    parser.add_argument("--prior-folds", type=options.prior_folds, default=5, metavar="K",
+                        help="cross-validation folds for choosing the prior's weight (default 5)")
 
 
 def run(args) -> CommandResult:
     from core.errors import UsageError
+    from core.identification.prior import PriorOptions
     from core.identification.solver import identify, write_calibrated_model
     from core.measurement.file import read_measurements
     from core.robot.file import read_robot
@@ -43,8 +50,9 @@ def run(args) -> CommandResult:
     robot = read_robot(args.robot)
     meas = read_measurements(args.measurements, robot)
     fixed = [n.strip() for n in args.fix.split(",") if n.strip()]
+    prior = None if args.prior is False else PriorOptions(weight=args.prior, folds=args.prior_folds)
     result = identify(robot, meas, fixed=fixed, huber=args.huber, holdout=args.holdout, kfold=args.kfold,
-                      seed=args.seed)
+                      seed=args.seed, prior=prior)
     write_calibrated_model(result, args.out)
     data = result.summary()
     data["out"] = str(args.out)
@@ -66,6 +74,21 @@ def _text(result, out) -> str:
             f"{len(v.test_poses)} held-out poses"
         lines.append(f"  Validation ({what}): RMS {v.before.rms_mm:.4f} mm before, {v.after.rms_mm:.4f} mm after "
                      f"(max {v.after.max_mm:.4f} mm).")
+    p = result.prior
+    if p is not None:
+        how = "given" if p.chosen_by == "given" else f"chosen by {p.chosen_by}"
+        if p.weight == 0:
+            lines.append(f"  Prior toward nominal: weight 0 ({how}): the plain fit.")
+        else:
+            lines.append(f"  Prior toward nominal: weight {p.weight:g} ({how}), i.e. ± {p.std_length_mm:.3g} "
+                         f"per DH length (mm), ± {p.std_angle_deg:.3g} per angle (deg)"
+                         + (" in units of the measurements' σ." if result.weighted else "."))
+        if p.cv_rms_mm:
+            lines.append("    cross-validated RMS by weight: " + ", ".join(
+                f"{w:g}: {_fmt(r)} mm" for w, r in p.cv_rms_mm.items()))
+        if p.dominated:
+            lines.append("    dominated by the prior (share the measurements determine): " + ", ".join(
+                f"{n} {p.shares[n]:.0%}" for n in p.dominated))
     if result.unidentifiable:
         lines.append("  Not estimated (kept at nominal):")
         for r in result.unidentifiable:

@@ -9,6 +9,7 @@ from typing import Callable
 
 from core import bounds as B
 from core.bounds import Bound
+from core.identification import prior as P
 
 FRACTION = Bound(0.0, 1.0, "", "a fraction of the poses")
 FOLDS = Bound(2, 1000, "", "K-fold validation needs at least two folds")
@@ -54,3 +55,13 @@ angle_deg = number_in(B.OPTION_ANGLE_DEG)
 huber_k = number_in(B.HUBER_K)
 fraction = number_in(FRACTION)
 outlier_k = number_in(OUTLIER_K)
+prior_folds = whole_in(P.CV_FOLDS)
+_prior_weight = number_in(P.WEIGHT)
+
+
+def prior_weight(text: str) -> float | None:
+    """`auto` (None: chosen by cross validation) or a weight within its bound."""
+    return None if text.strip().lower() == "auto" else _prior_weight(text)
+
+
+prior_weight.__name__ = "prior weight"

@@ -35,7 +35,7 @@ file's base pose means nothing in the camera frame).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Iterable, Sequence
@@ -47,6 +47,8 @@ from core.identification.jacobian import (Parameter, all_parameters, apply_step,
                                        predict_points, resolve_names)
 from core.errors import RoboCalError, UsageError
 from core.files import strict_json
+from core.identification.prior import (DOMINATED_SHARE, PRIOR_DOMINATED, PriorOptions, PriorReport, PriorTerm, choose_weight,
+                                      data_share, reach_mm)
 from core.identification.identifiability import (FIXED_BY_USER, Identifiability, ObservabilityIndices, analyse,
                                   check_data, column_scales, observability_indices,
                                   practical_identifiability, qr_r, small_factor)
@@ -177,6 +179,7 @@ class ParameterRow:
     status: str
     explanation: str = ""
     partners: tuple[str, ...] = ()
+    data_share: float | None = None   # with a prior: the share the measurements determine (0 … 1)
 
     @property
     def correction(self) -> float:
@@ -186,9 +189,12 @@ class ParameterRow:
         return d
 
     def as_dict(self) -> dict:
-        return {"name": self.name, "unit": self.unit, "nominal": self.nominal, "identified": self.identified,
-                "std": self.std, "identifiable": self.identifiable, "status": self.status,
-                "explanation": self.explanation}
+        out = {"name": self.name, "unit": self.unit, "nominal": self.nominal, "identified": self.identified,
+               "std": self.std, "identifiable": self.identifiable, "status": self.status,
+               "explanation": self.explanation}
+        if self.data_share is not None:
+            out["data_share"] = self.data_share
+        return out
 
 
 @dataclass
@@ -221,6 +227,7 @@ class IdentificationResult:
     date: str = ""
     warnings: list[str] = field(default_factory=list)
     weighted: bool = False             # the measurements gave sx, sy, sz: sigma_hat is unitless
+    prior: PriorReport | None = None   # the prior toward nominal, when one was asked for
 
     @property
     def sigma_hat_text(self) -> str:
@@ -267,6 +274,8 @@ class IdentificationResult:
         }
         if self.validation is not None:
             stats["validation"] = self.validation.summary()
+        if self.prior is not None:
+            stats["prior"] = self.prior.summary()
         return {
             "format": "robocal.calibration/1",
             "date": self.date,
@@ -300,6 +309,8 @@ class IdentificationResult:
                           "error_mm": float(self.after.errors[i])} for i in self.outliers],
             "warnings": list(self.warnings),
         }
+        if self.prior is not None:
+            out["prior"] = self.prior.summary()
         if self.validation is not None:
             v = self.validation
             out["holdout"] = v.summary()
@@ -375,21 +386,27 @@ def levenberg_marquardt(model: RobotModel, meas: Measurements, free: Sequence[Pa
                         weights: np.ndarray, *, monitor: Monitor | None = None,
                         records: list[IterationRecord] | None = None, stage: str = "fit",
                         damping: float = 1e-3, max_iterations: int = 100, ftol: float = 1e-10,
-                        xtol: float = 1e-10) -> _LMOutcome:
+                        xtol: float = 1e-10, prior: PriorTerm | None = None) -> _LMOutcome:
     """Minimise Σ w·|x_measured − x_model|² over the corrections of `free`, starting at `model`.
 
     Each step solves (AᵀA + λI)·x = Aᵀb with A = √W·Φ·D⁻¹ (columns scaled by their norms D,
     kept as the running maximum as in MINPACK), b = √W·Δx, and the correction is Δg = D⁻¹·x;
     λ = 0 is the Gauss–Newton step of eq. (9–10). λ adapts as in Nielsen's rule. Stops when
     the relative cost decrease is below `ftol` or the scaled step below `xtol`·|b|.
-    `weights` are per coordinate (N, 3)."""
+    `weights` are per coordinate (N, 3). With a `prior`, its penalty rows are appended to Φ and
+    Δx (core.identification.prior) and the cost includes the penalty."""
     monitor = monitor or Monitor()
     records = records if records is not None else []
     sw = np.sqrt(np.asarray(weights, dtype=float).reshape(-1))
     meas_xyz = meas.xyz.reshape(-1)
 
     def residual(m):
-        return sw * (meas_xyz - predict_points(m, meas.Q, meas.target).reshape(-1))
+        b = sw * (meas_xyz - predict_points(m, meas.Q, meas.target).reshape(-1))
+        return b if prior is None else np.concatenate([b, prior.rows(m, free)[1]])
+
+    def jacobian(m):
+        J = sw[:, None] * calibration_jacobian(m, meas.Q, meas.target, free)
+        return J if prior is None else np.vstack([J, prior.rows(m, free)[0]])
 
     b = residual(model)
     cost = float(b @ b)
@@ -398,7 +415,7 @@ def levenberg_marquardt(model: RobotModel, meas: Measurements, free: Sequence[Pa
                                    stage, start=True))
     if not free:
         return _LMOutcome(model, True, 0)
-    J = sw[:, None] * calibration_jacobian(model, meas.Q, meas.target, free)
+    J = jacobian(model)
     D = column_scales(J)
     lam, nu = float(damping), 2.0
     converged, done = False, 0
@@ -430,7 +447,7 @@ def levenberg_marquardt(model: RobotModel, meas: Measurements, free: Sequence[Pa
             if small_change or small_step or cost <= floor:
                 converged = True
                 break
-            J = sw[:, None] * calibration_jacobian(model, meas.Q, meas.target, free)
+            J = jacobian(model)
             Dn = column_scales(J)
             D = np.where(np.isfinite(D), np.fmax(D, Dn), Dn)
         else:
@@ -478,6 +495,8 @@ class _Fit:
     dof: int
     covariance: np.ndarray
     observability: ObservabilityIndices
+    prior_weight: float = 0.0
+    shares: dict[str, float] | None = None     # with a prior: the data share of each free parameter
 
 
 def _base_fixed(ident_params: Sequence[Parameter], fixed_names: set[str]) -> bool:
@@ -486,9 +505,11 @@ def _base_fixed(ident_params: Sequence[Parameter], fixed_names: set[str]) -> boo
 
 def fit_model(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (),
               huber: float | None = None, outlier_k: float = 4.0, max_iterations: int = 100,
-              damping: float = 1e-3, monitor: Monitor | None = None) -> _Fit:
+              damping: float = 1e-3, prior_weight: float = 0.0, monitor: Monitor | None = None) -> _Fit:
     """Register the base, decide the identifiable parameters, estimate them (LM + optional
-    Huber), and compute their covariance. The building block of `identify` (and of k-fold)."""
+    Huber), and compute their covariance. The building block of `identify` (and of k-fold).
+    With `prior_weight` λ > 0 (core.identification.prior), parameters the data barely determine
+    are estimated with the prior toward `robot`'s values instead of being kept at nominal."""
     monitor = monitor or Monitor()
     if huber is not None and not huber > 0:
         raise UsageError(f"the Huber threshold must be positive, got {huber}")
@@ -501,13 +522,16 @@ def fit_model(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (
     initial = robot.copy() if _base_fixed(params, fixed_names) else register_base(robot, meas)
     monitor.step(0.03, "checking which parameters the measurements determine")
     ident = analyse(initial, targets, fixed=fixed_names, params=params)
-    check_data(initial, meas.Q, meas.target, ident, source=meas.source or None)
+    prior = PriorTerm(robot, float(prior_weight), reach_mm(robot)) if prior_weight > 0 else None
+    # with a prior, what the data leave undetermined of the joint parameters the prior determines
+    checked = ident if prior is None else replace(ident, free=[p for p in ident.free if p.group != "joint"])
+    check_data(initial, meas.Q, meas.target, checked, source=meas.source or None)
 
     w0 = _weights0(meas)
     records: list[IterationRecord] = []
+    lm = dict(records=records, damping=damping, max_iterations=max_iterations, prior=prior)
     # Phase 1: the parameters identifiable at the nominal geometry (a safe, reduced set).
-    out = levenberg_marquardt(initial, meas, ident.free, w0, monitor=monitor.sub(0.08, 0.45),
-                              records=records, damping=damping, max_iterations=max_iterations)
+    out = levenberg_marquardt(initial, meas, ident.free, w0, monitor=monitor.sub(0.08, 0.45), **lm)
     model, converged = out.model, out.converged
     # Phase 2: re-analyse at the estimate, whose geometry has none of the nominal's special
     # values (marker exactly on an axis, a = 0 exactly …), and drop what the data barely determine.
@@ -520,15 +544,15 @@ def fit_model(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (
         if huber is not None:   # outliers would inflate σ and make good parameters look weak
             sigma1 = min(sigma1, _robust_scale(np.sqrt(w0) * b1))
         ident2 = analyse(model, targets, fixed=fixed_names, params=params)
-        ident2 = practical_identifiability(ident2, model, meas.Q, meas.target, w0, max(sigma1, 1e-9))
+        if prior is None:
+            ident2 = practical_identifiability(ident2, model, meas.Q, meas.target, w0, max(sigma1, 1e-9))
         if ident2.free_names == ident.free_names:
             ident = ident2    # same set; explanations from the analysis at the estimate
             break
         reset = [p for p in ident.free if p.name not in set(ident2.free_names)]
         start = _reset_to(model, initial, reset)
         out = levenberg_marquardt(start, meas, ident2.free, w0, monitor=monitor.sub(0.45, 0.55),
-                                  records=records, stage="refine", damping=damping,
-                                  max_iterations=max_iterations)
+                                  stage="refine", **lm)
         model, converged, ident = out.model, out.converged, ident2
     point_w = np.ones(meas.n_points)
     if huber is not None and converged:
@@ -542,8 +566,7 @@ def fit_model(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (
                 break
             sub = monitor.sub(0.55 + 0.018 * (rnd - 1), 0.55 + 0.018 * rnd)
             out = levenberg_marquardt(model, meas, ident.free, w0 * point_w[:, None], monitor=sub,
-                                      records=records, stage=f"huber {rnd}", damping=damping,
-                                      max_iterations=max_iterations)
+                                      stage=f"huber {rnd}", **lm)
             model, converged = out.model, out.converged
     if not converged:
         raise RoboCalError(
@@ -558,29 +581,35 @@ def fit_model(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (
     w = w0 * point_w[:, None]
     b = (np.sqrt(w) * (meas.xyz - predict_points(model, meas.Q, meas.target))).reshape(-1)
     J = np.sqrt(w).reshape(-1)[:, None] * calibration_jacobian(model, meas.Q, meas.target, ident.free)
-    m, p = J.shape
-    dof = m - p
+    m = J.shape[0]
+    J_p = np.zeros((0, J.shape[1])) if prior is None else prior.rows(model, ident.free)[0]
+    shares = data_share(J, J_p) if prior is not None else None
+    # parameters the prior determines use up less than a degree of freedom each: m − trace(resolution)
+    p = float(shares.sum()) if shares is not None else J.shape[1]
+    dof = int(round(m - p))
     bw = np.sqrt(w0) * (meas.xyz - predict_points(model, meas.Q, meas.target))
     u = np.linalg.norm(bw, axis=1) / _robust_scale(bw)
     outliers = [int(i) for i in np.flatnonzero(u > outlier_k)]
     if huber is None:
-        sigma_hat = math.sqrt(float(b @ b) / dof) if dof > 0 else math.nan
+        sigma_hat = math.sqrt(float(b @ b) / (m - p)) if m - p > 0 else math.nan
     else:   # robust fit: the scatter of the points that are not outliers
         inl = np.ones(meas.n_points, bool)
         inl[outliers] = False
         dof_in = 3 * int(inl.sum()) - p
         sigma_hat = math.sqrt(float(np.sum(bw[inl] ** 2)) / dof_in) if dof_in > 0 else math.nan
-    D = column_scales(J)
-    _, s, Vt = np.linalg.svd(small_factor(np.where(np.isfinite(D), J / D, 0.0)), full_matrices=False)
+    J_all = np.vstack([J, J_p])     # the posterior covariance with a prior: σ̂²(ΦᵀWΦ + λP)⁻¹
+    D = column_scales(J_all)
+    _, s, Vt = np.linalg.svd(small_factor(np.where(np.isfinite(D), J_all / D, 0.0)), full_matrices=False)
     with np.errstate(divide="ignore"):
         inv_s2 = np.where(s > 0, 1.0 / s ** 2, np.inf)
     Dinv = np.where(np.isfinite(D), 1.0 / D, 0.0)
     cov = (sigma_hat ** 2) * (Dinv[:, None] * (Vt.T * inv_s2) @ Vt * Dinv[None, :])
-    obs = observability_indices(J, n_points=meas.n_points, scales=D)
+    obs = observability_indices(J, n_points=meas.n_points, scales=column_scales(J))
     monitor.step(1.0, "done")
     return _Fit(model=model, initial=initial, ident=ident, records=records, converged=converged,
                 weights=point_w, outliers=outliers, sigma_hat=sigma_hat, dof=dof, covariance=cov,
-                observability=obs)
+                observability=obs, prior_weight=float(prior_weight),
+                shares=None if shares is None else dict(zip(ident.free_names, shares.tolist())))
 
 
 def _reset_to(model: RobotModel, reference: RobotModel, params: Sequence[Parameter]) -> RobotModel:
@@ -665,13 +694,19 @@ def _parameter_rows(fit: _Fit, nominal: RobotModel) -> tuple[list[ParameterRow],
                 std = float(std_int[k] * prm.to_display)
         else:
             std = None
+        share = fit.shares.get(prm.name) if fit.shares is not None and prm.group == "joint" else None
+        status = IDENTIFIED if k is not None else excl.status
+        explanation = "" if excl is None else excl.explanation
+        if share is not None and share < DOMINATED_SHARE:
+            status = PRIOR_DOMINATED
+            explanation = (f"The measurements determine {share:.0%} of {prm.name}; the prior toward its "
+                           f"nominal value determines the rest.")
         rows.append(ParameterRow(
             name=prm.name, group=prm.group, kind=prm.kind, unit=prm.unit,
             nominal=_display_value(nominal, prm), initial=_display_value(fit.initial, prm),
             identified=_display_value(model, prm), std=std, identifiable=k is not None,
-            status=IDENTIFIED if k is not None else excl.status,
-            explanation="" if excl is None else excl.explanation,
-            partners=() if excl is None else excl.partners))
+            status=status, explanation=explanation,
+            partners=() if excl is None else excl.partners, data_share=share))
     return rows, std_int
 
 
@@ -679,7 +714,7 @@ def _parameter_rows(fit: _Fit, nominal: RobotModel) -> tuple[list[ParameterRow],
 def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (),
              huber: float | None = None, holdout: float | None = None, kfold: int | None = None,
              seed: int = 0, outlier_k: float = 4.0, max_iterations: int = 100, damping: float = 1e-3,
-             progress=None, cancelled=None) -> IdentificationResult:
+             prior: PriorOptions | None = None, progress=None, cancelled=None) -> IdentificationResult:
     """Identify the robot's geometry from measured points.
 
     `fixed`: parameter names kept at their nominal value (`J2.a`, `base.rz`, `marker.x`).
@@ -687,7 +722,10 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
     `holdout`: fraction of the poses held out for validation; the returned model is fitted on
     the others (what is validated is what is written). `kfold`: k-fold cross validation; the
     returned model is fitted on all poses and every pose is predicted once by a model that did
-    not see it. Raises RoboCalError for bad data, Cancelled on cancel."""
+    not see it. `prior`: a prior toward the nominal DH values instead of keeping weakly determined
+    parameters at nominal (core.identification.prior); its weight, unless given, is chosen by
+    cross validation over the poses the returned model is fitted on. Raises RoboCalError for
+    bad data, Cancelled on cancel."""
     if holdout is not None and kfold is not None:
         raise UsageError("use either a held-out fraction or k-fold cross validation, not both")
     monitor = Monitor(progress, cancelled)
@@ -705,6 +743,14 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
     elif kfold is not None:
         folds = kfold_poses(meas.pose_ids, kfold, seed)
         main_span = (0.0, 1.0 / (kfold + 1))
+    choice = None
+    if prior is not None:
+        if prior.weight is None:
+            def fit_at(tr, weight, mon):
+                return fit_model(robot, tr, monitor=mon, **{**kw, "prior_weight": weight}).model
+            choice = choose_weight(train, fit_at, folds=prior.folds, seed=seed, monitor=monitor.sub(0.0, 0.6))
+            monitor = monitor.sub(0.6, 1.0)
+        kw["prior_weight"] = choice.weight if choice is not None else float(prior.weight)
     fit = fit_model(robot, train, monitor=monitor.sub(*main_span), **kw)
     if holdout is not None:
         before = error_stats(register_base(robot, train), test)
@@ -753,6 +799,13 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
     if fit.dof < len(fit.ident.free):
         warnings.append(f"few measurements for {len(fit.ident.free)} parameters ({fit.dof} degrees of "
                         f"freedom left): the uncertainties are themselves uncertain; measure more poses")
+    prior_report = None
+    if prior is not None:
+        prior_report = PriorReport(
+            weight=fit.prior_weight, reach_mm=reach_mm(robot), sigma_hat=fit.sigma_hat,
+            chosen_by="given" if choice is None else f"{choice.folds}-fold cross validation",
+            shares={r.name: r.data_share for r in rows if r.data_share is not None},
+            cv_rms_mm={} if choice is None else dict(choice.rms_mm))
     model = fit.model.copy()
     result = IdentificationResult(
         model=model, nominal=robot, initial=fit.initial, identifiability=fit.ident, parameters=rows,
@@ -762,7 +815,7 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
         outliers=fit.outliers, validation=validation, measurements_source=meas.source,
         n_poses=train.n_poses, n_points=train.n_points, huber=huber,
         date=datetime.now(timezone.utc).replace(microsecond=0).isoformat(), warnings=warnings,
-        weighted=train.sigma is not None)
+        weighted=train.sigma is not None, prior=prior_report)
     model.calibration = result.calibration_section()
     return result
 
