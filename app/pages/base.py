@@ -117,20 +117,30 @@ class TaskMixin:
 
     def start_with_lab(self, fn: Callable, *args, on_done: Callable[[Any], None], lab_keyword: str = "lab",
                        status: str = "", **kwargs) -> bool:
-        """`start(fn, *args, lab=<the virtual lab>, ...)` once the state has built the lab (at
-        once when it exists). Busy meanwhile; Cancel stops the wait (the build goes on for the
-        other pages); a failed build goes to `on_failed`."""
+        """`start(fn, *args, lab=<the virtual lab>, ...)` once the state has built the lab (see
+        `with_lab`)."""
+        def go(lab) -> None:
+            self.start(fn, *args, on_done=on_done, status=status, **{lab_keyword: lab}, **kwargs)
+
+        return self.with_lab(go, status=status, on_failed=kwargs.get("on_failed"))
+
+    def with_lab(self, go: Callable[[Any], Any], *, status: str = "",
+                 on_failed: Callable[[str], None] | None = None) -> bool:
+        """`go(lab)` once the state has built the virtual lab (at once when it exists). Busy
+        meanwhile; Cancel stops the wait (the build goes on for the other pages); a failed
+        build goes to `on_failed`. False (and nothing done) while a task is running."""
         if self.busy:
             self._set_status("Busy: wait for the running task or cancel it.", False)
             return False
         self._task_token += 1
         token = self._lab_wait = self._task_token
-        on_failed = kwargs.get("on_failed") or self.on_failed
+        on_failed = on_failed or self.on_failed
 
         def ready(lab) -> None:
             if token == self._lab_wait:
                 self._lab_wait = 0
-                self.start(fn, *args, on_done=on_done, status=status, **{lab_keyword: lab}, **kwargs)
+                self._busy_changed()
+                go(lab)
 
         def failed(message: str) -> None:
             if token == self._lab_wait:

@@ -48,8 +48,6 @@ class MarkerPage(WizardPage):
         self.live: LiveResult | None = None
         self.verification: VerificationResult | None = None
         self.comparison: Comparison | None = None
-        self._lab_pending = False        # waiting for state.request_lab
-        self._lab_token = 0               # drops a lab that arrives after the project or robot changed
         self._live_count = 0
         self._verify_count = 0
         self._build()
@@ -106,8 +104,6 @@ class MarkerPage(WizardPage):
     def _context_changed(self, *_) -> None:
         """Another project or robot: start again, from the project's saved marker if any."""
         self.forget_task()
-        self._lab_token += 1
-        self._lab_pending = False
         self._preview = False
         self._set_trained(None, np.zeros(2), None)
         self.training_panel.clear()
@@ -178,7 +174,7 @@ class MarkerPage(WizardPage):
         if not self.state.virtual:
             done(False, "the marker autopilot needs the virtual lab (load and train a marker image by hand)")
             return
-        if self.busy or self._lab_pending:
+        if self.busy:
             done(False, "the page is busy")
             return
         self._autopilot_done = done
@@ -221,7 +217,7 @@ class MarkerPage(WizardPage):
         self._update_buttons()
 
     def _update_buttons(self) -> None:
-        busy = self.busy or self._lab_pending
+        busy = self.busy
         has_project = self.state.project is not None
         virtual = self.state.virtual and self.state.robot is not None
         tp = self.training_panel
@@ -234,38 +230,6 @@ class MarkerPage(WizardPage):
         self.live_panel.next_button.setEnabled(not busy and ready)
         self.verification_panel.verify_button.setEnabled(not busy and ready)
         self.compare_panel.compare_button.setEnabled(not busy and virtual)
-
-    def _with_lab(self, go: Callable[[VirtualLab], bool]) -> bool:
-        """`go(lab)` with the virtual lab: at once when it exists, else once `state.request_lab`
-        has built it (the page's controls wait meanwhile). Returns False if nothing started."""
-        if self.state.has_lab:
-            return go(self.state.lab)
-        if self.busy or self._lab_pending:
-            self._set_status("Busy: wait for the running task or cancel it.", False)
-            return False
-        self._lab_token += 1
-        token = self._lab_token
-        self._lab_pending = True
-        self._update_buttons()
-        self._set_status("Building the virtual lab…", None)
-
-        def settled() -> bool:
-            if token != self._lab_token:
-                return False                      # another project or robot meanwhile
-            self._lab_pending = False
-            self._update_buttons()
-            return True
-
-        def arrived(lab: VirtualLab) -> None:
-            if settled() and not go(lab):
-                self._finish_autopilot(False, self.status.text() or "the task could not start")
-
-        def failed(message: str) -> None:
-            if settled():
-                self.on_failed(message)
-
-        self.state.request_lab(arrived, on_error=failed)
-        return True
 
     # -- stereo preview -----------------------------------------------------------------------
     def use_preview(self, then=None) -> bool:
@@ -284,7 +248,7 @@ class MarkerPage(WizardPage):
                 then()
             return True
 
-        return self._with_lab(preview)
+        return self.with_lab(preview)
 
     # -- training -----------------------------------------------------------------------------
     def load_dialog(self) -> bool:
@@ -307,7 +271,7 @@ class MarkerPage(WizardPage):
             self._set_status("Capture needs the virtual lab (live cameras arrive with the hardware issue); "
                              "load an image of the marker instead.", False)
             return False
-        return self._with_lab(lambda lab: self.start(
+        return self.with_lab(lambda lab: self.start(
             capture_training_image, lab, on_done=self._set_training_image, label="Training image", then=then,
             status="Taking the training image…"))
 
@@ -370,7 +334,7 @@ class MarkerPage(WizardPage):
                               self.state.robot_connection, on_done=self._live_done, label="Live pair", then=then,
                               status="Moving to a random visible pose, capturing and locating…")
 
-        return self._with_lab(go)
+        return self.with_lab(go)
 
     def _live_done(self, live: LiveResult) -> None:
         self.live = live
@@ -403,7 +367,7 @@ class MarkerPage(WizardPage):
                               self.stereo.label, self.state.robot_connection, on_done=self._verified,
                               label="Verification", then=then, status=f"Verification over {n} random poses…")
 
-        return self._with_lab(go)
+        return self.with_lab(go)
 
     def _verified(self, v: VerificationResult) -> None:
         self.verification = v
@@ -434,7 +398,7 @@ class MarkerPage(WizardPage):
             self._set_status("The marker comparison renders its views in the virtual lab.", False)
             return False
         self.tabs.setCurrentIndex(TAB_COMPARE)
-        return self._with_lab(lambda lab: self.start(
+        return self.with_lab(lambda lab: self.start(
             run_comparison, lab, self.compare_panel.compare_spin.value(), int(self.state.seed),
             on_done=self._compared, label="Comparing markers", status="Comparing the candidate markers…"))
 
