@@ -125,3 +125,24 @@ def test_cancel_and_forget_while_waiting_for_the_lab(page, qtbot, monkeypatch):
     gate.set()
     qtbot.waitUntil(lambda: page.state.has_lab, timeout=5000)       # the build itself goes on for other pages
     qtbot.wait(20)
+
+
+def test_with_lab_runs_its_callback_once_the_lab_exists_and_at_once_after(page, qtbot, monkeypatch):
+    gate = threading.Event()
+    monkeypatch.setattr("app.state.build_lab", lambda robot, seed, noise: gate.wait(5) and "lab")
+    seen = []
+    assert page.with_lab(lambda lab: seen.append((lab, page.busy)))
+    assert page.busy and seen == []
+    gate.set()
+    qtbot.waitUntil(lambda: seen == [("lab", False)], timeout=5000)     # not busy when the callback runs
+    assert page.with_lab(lambda lab: seen.append((lab, page.busy)))
+    assert seen[-1] == ("lab", False) and len(seen) == 2                # the lab exists: at once
+
+
+def test_a_failed_lab_build_reaches_on_failed(page, qtbot, monkeypatch):
+    def broken(robot, seed, noise):
+        raise RoboCalError("no robot model", source="robot.json")
+    monkeypatch.setattr("app.state.build_lab", broken)
+    page.with_lab(lambda lab: pytest.fail("called without a lab"))
+    qtbot.waitUntil(lambda: not page.busy, timeout=5000)
+    assert "no robot model" in page.status.text() and page.autopilot_said[-1][0] is False
