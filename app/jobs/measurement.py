@@ -1,5 +1,6 @@
-"""The Measurement step's work, without Qt: the run in the virtual lab, the status of each pose
-of a list read back from the files, moving old files aside, the nominal model's predictions.
+"""The Measurement step's work, without Qt: which pose list to measure, the run in the virtual
+lab, the status of each pose of a list read back from the files, moving old files aside, the
+nominal model's predictions.
 
 Files: the project's measurements.csv (core.measurement.file) and its rejects file
 (core.measurement.run.rejects_path_for); points in mm in the left camera frame.
@@ -17,7 +18,8 @@ from core.measurement.file import read_measurements
 from core.measurement.run import (JOINT_TOLERANCE, MeasurementRunResult, PoseOutcome, read_rejects,
                                   rejects_path_for, run_measurements)
 from core.poses.candidates import arm_polyline
-from core.poses.file import PoseList
+from core.poses.file import PoseList, read_pose_list
+from core.poses.selection import minimum_poses
 from widgets.marker_views import marker_pair_thumbnail
 
 THUMB_WIDTH = 400            # px per camera in the live thumbnail
@@ -154,3 +156,36 @@ def nominal_arm(lab, q) -> np.ndarray:
     """The lab's nominal arm at one configuration q (n,) as a polyline (P, 3), mm."""
     pts, _ = arm_polyline(lab.nominal_robot, np.atleast_2d(q), lab.target)
     return pts[0]
+
+
+def choose_pose_list(robot, *, loaded_csv: Path | None, project_poses: Path | None,
+                     selection) -> tuple[PoseList | None, str, str]:
+    """The poses to measure with `robot`: a CSV the user loaded, else the project's poses.csv
+    (`project_poses`, None when it has none), else the Pose step's `selection` (a
+    PoseSelectionResult). Returns (poses, where they come from, the problem or "")."""
+    try:
+        if loaded_csv is not None:
+            poses = read_pose_list(loaded_csv, robot)
+            return poses, f"{len(poses)} poses from {loaded_csv.name}", ""
+        if project_poses is not None:
+            poses = read_pose_list(project_poses, robot)
+            return poses, f"{len(poses)} poses from the project's poses.csv", ""
+        if selection is not None:
+            poses = PoseList(q_file=np.asarray(selection.q_file, float), Q=np.asarray(selection.Q, float),
+                             pose=np.arange(len(selection.Q)))
+            return poses, f"{len(poses)} poses from the Pose sequence step", ""
+    except RoboCalError as exc:
+        return None, "", f"The pose list cannot be used: {exc.message}"
+    return None, "", "No pose list yet: select poses in step 4, or load a poses CSV."
+
+
+def poses_needed(robot, selection) -> int:
+    """The fewest poses identification needs: the Pose step's figure, else `robot`'s with its
+    marker (0 for a robot without identifiable parameters)."""
+    n_min = int(getattr(selection, "n_min", 0) or 0) if selection is not None else 0
+    if n_min:
+        return n_min
+    try:
+        return minimum_poses(robot)
+    except Exception:  # noqa: BLE001 - a robot without identifiable parameters: no minimum
+        return 0

@@ -30,8 +30,8 @@ from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import QFileDialog, QLabel, QMessageBox, QSplitter, QVBoxLayout
 
 from app import messages
-from app.jobs.measurement import (MEASURED, PENDING, REJECTED, RUNNING, PoseRow, measure_virtual, move_aside,
-                                  nominal_arm, nominal_predictions, pose_rows)
+from app.jobs.measurement import (MEASURED, PENDING, REJECTED, RUNNING, PoseRow, choose_pose_list, measure_virtual,
+                                  move_aside, nominal_arm, nominal_predictions, pose_rows, poses_needed)
 from app.pages.base import WizardPage
 from app.pages.lab_wait import LabWaitMixin
 from app.pages.measurement.controls import RunControls
@@ -44,7 +44,6 @@ from app.pages.steps import Step
 from core.errors import RoboCalError
 from core.measurement.run import PoseOutcome, rejects_path_for
 from core.poses.file import PoseList, read_pose_list
-from core.poses.selection import minimum_poses
 from widgets.workspace_views import camera_wedges
 
 
@@ -156,34 +155,16 @@ class MeasurementPage(LabWaitMixin, WizardPage):
 
     # -- poses and files ------------------------------------------------------------------------
     def _pose_list(self) -> str:
-        """Read the pose list (a loaded CSV, else the project's poses.csv, else the Pose step's
-        output) into `poses` and the minimum for identification into `n_min`; the problem or ""."""
+        """Read the pose list into `poses` and the minimum for identification into `n_min`;
+        the problem or ""."""
         state, robot = self.state, self.state.robot
-        self.poses, self.poses_label, problem = None, "", ""
+        self.poses, self.poses_label = None, ""
         if state.project is None or robot is None:
             return "No project or robot yet (Setup step)."
-        selection = state.poses
-        try:
-            if self.loaded_csv is not None:
-                self.poses = read_pose_list(self.loaded_csv, robot)
-                self.poses_label = f"{len(self.poses)} poses from {self.loaded_csv.name}"
-            elif state.project.has("poses"):
-                self.poses = read_pose_list(state.project.path("poses"), robot)
-                self.poses_label = f"{len(self.poses)} poses from the project's poses.csv"
-            elif selection is not None:
-                self.poses = PoseList(q_file=np.asarray(selection.q_file, float), Q=np.asarray(selection.Q, float),
-                                      pose=np.arange(len(selection.Q)))
-                self.poses_label = f"{len(self.poses)} poses from the Pose sequence step"
-            else:
-                problem = "No pose list yet: select poses in step 4, or load a poses CSV."
-        except RoboCalError as exc:
-            problem = f"The pose list cannot be used: {exc.message}"
-        self.n_min = int(getattr(selection, "n_min", 0) or 0) if selection is not None else 0
-        if not self.n_min:
-            try:
-                self.n_min = minimum_poses(robot)
-            except Exception:  # noqa: BLE001 - a robot without identifiable parameters: no minimum
-                self.n_min = 0
+        project_poses = state.project.path("poses") if state.project.has("poses") else None
+        self.poses, self.poses_label, problem = choose_pose_list(robot, loaded_csv=self.loaded_csv,
+                                                                 project_poses=project_poses, selection=state.poses)
+        self.n_min = poses_needed(robot, state.poses)
         return problem
 
     def _load_poses(self) -> None:

@@ -1,17 +1,22 @@
-"""The Measurement step's jobs with plain arguments: the virtual-lab run, the status of each pose
-read back from the files, moving files aside, the nominal model's predictions."""
+"""The Measurement step's jobs with plain arguments: which pose list to measure, the virtual-lab
+run, the status of each pose read back from the files, moving files aside, the nominal model's
+predictions."""
 from __future__ import annotations
+
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
-from app.jobs.measurement import (MEASURED, PENDING, REJECTED, THUMB_WIDTH, measure_virtual, move_aside, nominal_arm,
-                                  nominal_predictions, pose_rows)
+from app.jobs.measurement import (MEASURED, PENDING, REJECTED, THUMB_WIDTH, choose_pose_list, measure_virtual,
+                                  move_aside, nominal_arm, nominal_predictions, pose_rows, poses_needed)
 from core.errors import RoboCalError
 from core.marker.correspondence import StereoRectification
 from core.marker.training import train_marker
 from core.measurement.file import Measurements, write_measurements
 from core.measurement.run import RejectsWriter, poses_from_internal, rejects_path_for
+from core.poses.file import write_poses
+from core.poses.selection import minimum_poses
 from core.robot.simulated import SimulatedRobot
 from tests.app.virtual_inputs import make_lab
 
@@ -31,6 +36,32 @@ def measurements_of(poses, rows, q_shift=0.0) -> Measurements:
     xyz = np.arange(3 * len(rows), dtype=float).reshape(-1, 3) + 100.0
     return Measurements(pose=np.asarray(poses.pose)[rows], target=["marker"] * len(rows), q_file=q, Q=None,
                         xyz=xyz, sigma=np.full((len(rows), 3), 0.02))
+
+
+def test_the_pose_list_a_loaded_csv_else_the_projects_else_the_selection(lab, poses, tmp_path):
+    robot = lab.nominal_robot
+    selection = SimpleNamespace(q_file=poses.q_file[:3], Q=poses.Q[:3], n_min=7)
+    loaded = write_poses(tmp_path / "mine.csv", poses.q_file[:2])
+    project = write_poses(tmp_path / "poses.csv", poses.q_file)
+    chosen, where, problem = choose_pose_list(robot, loaded_csv=loaded, project_poses=project, selection=selection)
+    assert (len(chosen), where, problem) == (2, "2 poses from mine.csv", "")
+    chosen, where, problem = choose_pose_list(robot, loaded_csv=None, project_poses=project, selection=selection)
+    assert (len(chosen), where, problem) == (4, "4 poses from the project's poses.csv", "")
+    np.testing.assert_allclose(chosen.Q, poses.Q, atol=1e-9)
+    chosen, where, problem = choose_pose_list(robot, loaded_csv=None, project_poses=None, selection=selection)
+    assert (len(chosen), where, problem) == (3, "3 poses from the Pose sequence step", "")
+    assert chosen.pose.tolist() == [0, 1, 2]
+    assert choose_pose_list(robot, loaded_csv=None, project_poses=None, selection=None)[2].startswith("No pose list")
+    broken = write_poses(tmp_path / "three.csv", np.zeros((2, 3)))
+    chosen, where, problem = choose_pose_list(robot, loaded_csv=broken, project_poses=project, selection=selection)
+    assert chosen is None and where == "" and problem.startswith("The pose list cannot be used:")
+    assert "three.csv" in problem
+
+
+def test_poses_needed_the_selections_figure_else_the_robots(lab):
+    robot = lab.nominal_robot
+    assert poses_needed(robot, SimpleNamespace(n_min=7)) == 7
+    assert poses_needed(robot, None) == poses_needed(robot, SimpleNamespace(n_min=0)) == minimum_poses(robot) > 0
 
 
 def test_rows_read_back_from_the_measurements_and_rejects_files(poses, tmp_path):
