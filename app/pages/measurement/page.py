@@ -25,13 +25,12 @@ from __future__ import annotations
 import threading
 from pathlib import Path
 
-import numpy as np
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import QFileDialog, QLabel, QMessageBox, QSplitter, QVBoxLayout
 
 from app import messages
 from app.jobs.measurement import (MEASURED, PENDING, REJECTED, RUNNING, PoseRow, choose_pose_list, measure_virtual,
-                                  move_aside, nominal_arm, nominal_predictions, pose_rows, poses_needed)
+                                  move_aside, pose_rows, poses_needed)
 from app.pages.base import WizardPage
 from app.pages.lab_wait import LabWaitMixin
 from app.pages.measurement.controls import RunControls
@@ -65,7 +64,6 @@ class MeasurementPage(LabWaitMixin, WizardPage):
         self._pause = threading.Event()
         self._run_id = 0                            # the poses reported by an older run are dropped
         self._autopilot_retried = False
-        self._predicted = self._arms = None
         self._wedges = None
         self._file_problem = ""
         self._build()
@@ -83,7 +81,8 @@ class MeasurementPage(LabWaitMixin, WizardPage):
         self.controls = RunControls(self.progress_row(), on_load=self.load_dialog, on_start=self.start_run,
                                     on_pause=self._pause_toggled, on_start_over=self.start_over)
         self.table = PoseTable()
-        self.table.itemSelectionChanged.connect(lambda: self._highlight(self.table.selected()))
+        self.table.itemSelectionChanged.connect(lambda: self.views.highlight_row(
+            self.rows, self._joints(), self._lab(), self.table.selected()))
         self.pair = PairView()
         upper = QSplitter(Qt.Orientation.Horizontal)
         upper.addWidget(self.table)
@@ -132,7 +131,7 @@ class MeasurementPage(LabWaitMixin, WizardPage):
 
     def _lab_changed(self, lab) -> None:
         if lab is not None:
-            self._predicted = self._arms = None
+            self.views.forget_predictions()
             self._show_views()
 
     def _poses_changed(self) -> None:
@@ -170,7 +169,7 @@ class MeasurementPage(LabWaitMixin, WizardPage):
     def _load_poses(self) -> None:
         """The pose list, the minimum for identification, and what is already on disk."""
         problem = self._pose_list()
-        self._predicted = self._arms = None
+        self.views.forget_predictions()
         self._read_existing()
         self._show_sources()
         self._redraw()
@@ -493,37 +492,10 @@ class MeasurementPage(LabWaitMixin, WizardPage):
     def _show_summary(self) -> None:
         self.summary.setText(summary_html(self.rows, self.n_min))
 
-    def _predictions(self):
-        """Marker positions of every pose by the nominal model, in the left camera frame (the
-        virtual lab's placed nominal robot); None outside the lab."""
-        if self._predicted is None and self.poses is not None:
-            lab = self._lab()
-            if lab is not None and self.poses.Q is not None:
-                try:
-                    self._predicted, self._arms = nominal_predictions(lab, self.poses.Q)
-                except Exception:  # noqa: BLE001 - a drawing aid only
-                    self._predicted = self._arms = None
-        return self._predicted
+    def _joints(self):
+        """Every pose's joint values (rad / mm), or None."""
+        return self.poses.Q if self.poses is not None else None
 
     def _show_views(self, highlight: int | None = None) -> None:
-        measured = np.array([r.point for r in self.rows if r.status == MEASURED and r.point is not None]).reshape(-1, 3)
-        predicted = self._predictions()
-        if predicted is not None:
-            todo = [r.index for r in self.rows if r.status in (PENDING, RUNNING)]
-            predicted = predicted[todo] if todo else None
-        self.views.set_scene(wedges=self._wedges, candidates=predicted, selected=measured, extent=self._arms)
-        self._highlight(self.table.selected() if highlight is None else highlight)
-
-    def _highlight(self, i: int | None) -> None:
-        if i is None or not 0 <= i < len(self.rows):
-            self.views.set_highlight(None)
-            return
-        r = self.rows[i]
-        lab = self._lab()
-        arm = None
-        if lab is not None and self.poses is not None and self.poses.Q is not None:
-            try:
-                arm = nominal_arm(lab, self.poses.Q[i])
-            except Exception:  # noqa: BLE001 - a drawing aid only
-                arm = None
-        self.views.highlight(arm, r.point[None, :] if r.point is not None else None)
+        self.views.show_rows(self.rows, self._joints(), self._lab(), self._wedges,
+                             self.table.selected() if highlight is None else highlight)
