@@ -25,4 +25,5 @@ class PairView(QWidget):
 
     def show_pair(self, pose: int, thumb, measured: bool, reason: str) -> None:
         self.thumb.set_image(thumb)
-        self.label.setText(f"Pose {pose}: left | right — " + ("located" if measured else f"rejected: {short(reason, 60)}"))
+        outcome = "located" if measured else f"rejected: {short(reason, 60)}"
+        self.label.setText(f"Pose {pose}: left | right — {outcome}")

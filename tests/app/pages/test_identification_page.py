@@ -130,12 +130,15 @@ def test_ideal_measurements_identify_and_export(lab_page, qtbot, monkeypatch, tm
     assert np.allclose(series["before"], [p["error_mm"] for p in result.before.per_pose()])
     assert page.results.residuals.histogram.counts["before"].sum() == result.n_points
     assert page.results.residuals.histogram.counts["after"].sum() == result.n_points
-    assert len(page.results.convergence.x) >= 3 and page.results.convergence.y[0] > page.results.convergence.y[-1]
+    convergence = page.results.convergence
+    assert len(convergence.x) >= 3 and convergence.y[0] > convergence.y[-1]
     assert page.results.convergence.getPlotItem().ctrl.logYCheck.isChecked()
     assert page.results.correlation.matrix.shape == (len(result.estimated),) * 2
-    assert page.results.correlation.hover_text(0, 1).startswith(f"{result.estimated[0]} (1) × {result.estimated[1]} (2)")
+    correlation = page.results.correlation
+    assert correlation.hover_text(0, 1).startswith(f"{result.estimated[0]} (1) × {result.estimated[1]} (2)")
     page.results.residuals.set_log(False)
-    assert not page.results.residuals.bars.log and np.allclose(page.results.residuals.bars.series()["before"], series["before"])
+    bars = page.results.residuals.bars
+    assert not bars.log and np.allclose(bars.series()["before"], series["before"])
 
     # validation figures and the accuracy against the lab's true robot
     text = page.results.validation_view.toPlainText()
