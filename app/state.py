@@ -222,8 +222,8 @@ class WizardState(QObject):
                               on_error=failed, on_cancelled=cancelled, label="Building the virtual lab")
 
     def adopt_lab(self, lab: VirtualLab | None) -> None:
-        """Take a lab a page built itself, if it matches this state's robot, seed and noise.
-        Transitional: pages move to `request_lab`, after which this goes."""
+        """Take a lab built elsewhere (one lab shared by several states, as the tests do) if it
+        matches this state's robot, seed and noise. Pages ask `request_lab` instead."""
         if self._lab is not None or lab is None or self.robot is None:
             return
         if (getattr(lab, "seed", None), getattr(lab, "noise", None)) != (self.seed, float(self.noise)):

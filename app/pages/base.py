@@ -119,8 +119,8 @@ class TaskMixin:
                        status: str = "", **kwargs) -> bool:
         """`start(fn, *args, lab=<the virtual lab>, ...)` once the state has built the lab (see
         `with_lab`)."""
-        def go(lab) -> None:
-            self.start(fn, *args, on_done=on_done, status=status, **{lab_keyword: lab}, **kwargs)
+        def go(lab) -> bool:
+            return self.start(fn, *args, on_done=on_done, status=status, **{lab_keyword: lab}, **kwargs)
 
         return self.with_lab(go, status=status, on_failed=kwargs.get("on_failed"))
 
@@ -128,7 +128,8 @@ class TaskMixin:
                  on_failed: Callable[[str], None] | None = None) -> bool:
         """`go(lab)` once the state has built the virtual lab (at once when it exists). Busy
         meanwhile; Cancel stops the wait (the build goes on for the other pages); a failed
-        build goes to `on_failed`. False (and nothing done) while a task is running."""
+        build goes to `on_failed`. Returns `go`'s answer (None counts as True) when the lab
+        exists, True while it is being built, False (nothing done) while a task is running."""
         if self.busy:
             self._set_status("Busy: wait for the running task or cancel it.", False)
             return False
@@ -136,11 +137,13 @@ class TaskMixin:
         token = self._lab_wait = self._task_token
         on_failed = on_failed or self.on_failed
 
+        answers = []
+
         def ready(lab) -> None:
             if token == self._lab_wait:
                 self._lab_wait = 0
                 self._busy_changed()
-                go(lab)
+                answers.append(go(lab) is not False)
 
         def failed(message: str) -> None:
             if token == self._lab_wait:
@@ -153,7 +156,7 @@ class TaskMixin:
         if self._lab_wait == token:                       # still waiting: the lab is being built
             self.progress_row().set_progress(0.0, "building the virtual lab")
             self._set_status(status or "Building the virtual lab…", None)
-        return True
+        return answers[0] if answers else True
 
     def cancel(self) -> None:
         """Ask the running task to stop, or stop waiting for the lab (`on_cancelled` follows)."""

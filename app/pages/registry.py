@@ -10,10 +10,10 @@ import traceback
 
 from app.pages.base import WizardPage
 from app.pages.export_page import ExportPage
-from app.pages.identification_page import IdentificationPage
+from app.pages.identification.page import IdentificationPage
 from app.pages.load_error_page import PageLoadErrorPage
 from app.pages.marker.page import MarkerPage
-from app.pages.measurement_page import MeasurementPage
+from app.pages.measurement.page import MeasurementPage
 from app.pages.poses.page import PosesPage
 from app.pages.setup_page import SetupPage
 from app.pages.steps import Step

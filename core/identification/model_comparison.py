@@ -119,3 +119,11 @@ def accuracy_against_truth(truth: RobotModel, nominal: RobotModel, calibrated: R
     before = compare_models(truth, nominal, Q, names, align=align)
     after = compare_models(truth, calibrated, Q, names, align=align)
     return TruthAccuracy(nominal=before, calibrated=after, n_configurations=before.n_configurations)
+
+
+def identification_accuracy(truth: RobotModel, result, Q, targets: Sequence[str] | None = None) -> TruthAccuracy:
+    """What an identification gained against the true robot at configurations Q ((N, n), rad /
+    mm) it never measured: the nominal model with its base registered (`result.initial`) and
+    the calibrated model (`result.model`) of a core.identification.solver.IdentificationResult,
+    each after the best rigid alignment (mm)."""
+    return accuracy_against_truth(truth, result.initial, result.model, Q, targets)

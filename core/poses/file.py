@@ -113,3 +113,15 @@ def read_poses(path: str | Path, robot: RobotModel | None = None) -> PoseList:
                                hint="Select the poses again for this robot.")
     return PoseList(q_file=q_file, Q=Q, pose=np.array(poses, dtype=int), path=path)
 
+
+
+def read_pose_list(path: str | Path, robot: RobotModel) -> PoseList:
+    """A poses CSV to measure with `robot`: joint values converted to internal units (rad / mm)
+    in `Q`. Unlike `read_poses(path, robot)`, poses outside the joint limits are kept: the robot
+    refuses them one by one and the measurement run reports them."""
+    poses = read_poses(path)
+    if poses.q_file.shape[1] != robot.dof:
+        raise RoboCalError(f"the file has {poses.q_file.shape[1]} joint columns but the robot '{robot.name}' "
+                           f"has {robot.dof} joints", source=path, hint="Use poses selected for this robot.")
+    poses.Q = np.asarray(robot.q_from_file(poses.q_file), dtype=float).reshape(poses.q_file.shape)
+    return poses

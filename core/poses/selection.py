@@ -462,9 +462,15 @@ def scaled_blocks(robot: RobotModel, Q: np.ndarray, targets: Sequence[str], *, f
     return A, names, scales, ident
 
 
-def minimum_poses(n_parameters: int, n_targets: int = 1) -> int:
-    """The fewest poses whose 3·N·T equations exceed the L parameters (identification needs it)."""
-    return n_parameters // (3 * max(n_targets, 1)) + 1
+def minimum_poses(robot: RobotModel, targets: Sequence[str] = ("marker",), *, fixed: Iterable[str] = ()) -> int:
+    """The fewest poses identification can use for `robot` measured at `targets`: the 3·N·T
+    equations of N poses must exceed its L identifiable parameters (`fixed` ones left out).
+    Targets the robot lacks are dropped (its first target when none is left); 0 for a robot
+    without targets."""
+    names = [t for t in targets if t in robot.targets] or list(robot.targets)[:1]
+    if not names:
+        return 0
+    return len(analyse(robot, names, fixed=fixed).free) // (3 * len(names)) + 1
 
 
 def random_sets(rng: np.random.Generator, M: int, n: int, trials: int) -> np.ndarray:
@@ -506,7 +512,7 @@ def select_poses(robot: RobotModel, count: int, *, candidates: int = DEFAULT_CAN
                            hint="Add a target (e.g. \"marker\": [0, 0, 25]) to the robot model.")
     ident = analyse(robot, targets, fixed=fixed)
     L = len(ident.free)
-    n_min = minimum_poses(L, len(targets))
+    n_min = minimum_poses(robot, targets, fixed=fixed)
     recommended = max(n_min, recommended_poses(L, len(targets)))
     if count < n_min:
         raise UsageError(

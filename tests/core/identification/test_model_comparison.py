@@ -11,7 +11,8 @@ from core.errors import RoboCalError
 from core.identification.identifiability import random_configurations
 from core.identification.solver import identify
 from core.robot.model import robot_path
-from core.identification.model_comparison import accuracy_against_truth, common_targets, compare_models
+from core.identification.model_comparison import (accuracy_against_truth, common_targets, compare_models,
+                                                  identification_accuracy)
 from core.robot.file import read_robot
 from core.virtual_lab.synthetic import perturbed_model, simulate_measurements
 
@@ -106,3 +107,15 @@ def test_calibration_brings_the_model_close_to_the_truth(robot):
     assert acc.calibrated.rms_mm < 0.1              # close to the truth after
     assert acc.improvement > 10
     assert set(acc.summary()) == {"n_configurations", "nominal", "calibrated"}
+
+
+def test_an_identification_judged_against_the_truth(robot):
+    true = perturbed_model(robot, 7)
+    result = identify(robot, simulate_measurements(true, 40, sigma_mm=0.05, rng=8))
+    Q = random_configurations(robot, 50, seed=10)
+    acc = identification_accuracy(true, result, Q, ["marker"])
+    assert acc.n_configurations == 50 and acc.calibrated.targets == ["marker"]
+    assert acc.nominal.aligned and acc.calibrated.aligned
+    assert acc.nominal.rms_mm > 1.0 and acc.calibrated.rms_mm < 0.1
+    # the nominal side has its base registered: far nearer the truth than the unregistered model
+    assert acc.nominal.raw_rms_mm < compare_models(true, robot, Q).rms_mm

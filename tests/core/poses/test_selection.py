@@ -1,6 +1,7 @@
 """Pose selection: candidates, indices, greedy + exchange, ordering, poses.csv, bad input."""
 from __future__ import annotations
 
+import copy
 import json
 
 import numpy as np
@@ -198,9 +199,18 @@ def test_too_few_poses_says_the_minimum(arm):
     with pytest.raises(UsageError) as info:
         select_poses(arm, 6, candidates=100)
     assert "at least 9 poses" in info.value.message and "25 identifiable parameters" in info.value.message
-    assert minimum_poses(25) == 9 and minimum_poses(24) == 9 and minimum_poses(27) == 10
     with pytest.raises(UsageError, match="unknown observability index"):
         select_poses(arm, 12, index="O2")
+
+
+def test_minimum_poses_of_a_robot(arm):
+    # 25 identifiable parameters with the marker: 9 poses give 27 equations, 8 only 24
+    assert minimum_poses(arm) == 9 and minimum_poses(arm, fixed=["J2.a"]) == 9          # 24 parameters
+    assert minimum_poses(arm, fixed=["J2.a", "J3.a"]) == 8                               # 23 parameters
+    assert minimum_poses(arm, ("probe",)) == 9                  # a target it lacks: its first one
+    bare = copy.copy(arm)
+    bare.targets = {}
+    assert minimum_poses(bare) == 0
 
 
 def test_more_poses_than_candidates(arm):

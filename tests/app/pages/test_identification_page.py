@@ -8,7 +8,8 @@ import pytest
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QFileDialog
 
-from app.pages.identification_page import IDEAL_BUTTON_TEXT, IdentificationPage
+from app.pages.identification.page import IdentificationPage
+from app.pages.identification.source_panel import IDEAL_BUTTON_TEXT
 from app.state import WizardState
 from app.worker import TaskRunner
 from core import project as projects
@@ -74,31 +75,31 @@ def identify(qtbot, page):
 # -- no measurements -------------------------------------------------------------------------
 def test_without_measurements_the_page_says_what_to_do(lab_page, hw_page):
     for page in (lab_page, hw_page):
-        text = page.source_label.text()
+        text = page.source.source_label.text()
         assert "No measurements in this project" in text and "Measurement" in text
-        assert not page.run_button.isEnabled() and not page.is_complete()
+        assert not page.options.run_button.isEnabled() and not page.is_complete()
         assert not page.start_identification()
         assert "run the Measurement step" in page.status.text()
-    assert lab_page.ideal_button.isVisible() and lab_page.ideal_button.text() == IDEAL_BUTTON_TEXT
-    assert "synthetic" in lab_page.source_label.text()
-    assert not hw_page.ideal_button.isVisible()                  # hardware: no teaching shortcut
+    assert lab_page.source.ideal_button.isVisible() and lab_page.source.ideal_button.text() == IDEAL_BUTTON_TEXT
+    assert "synthetic" in lab_page.source.source_label.text()
+    assert not hw_page.source.ideal_button.isVisible()                  # hardware: no teaching shortcut
     assert not hw_page.use_ideal_measurements()
 
 
 # -- the whole step in the virtual lab ---------------------------------------------------------
 def test_ideal_measurements_identify_and_export(lab_page, qtbot, monkeypatch, tmp_path):
     page = lab_page
-    qtbot.mouseClick(page.ideal_button, Qt.MouseButton.LeftButton)
+    qtbot.mouseClick(page.source.ideal_button, Qt.MouseButton.LeftButton)
     wait_idle(qtbot, page)
     path = page.measurements_path()
     assert path.is_file() and is_synthetic(path)
     meas = read_measurements(path, page.state.robot)
     assert meas.n_poses == 50 and meas.target_names == ["marker"]
-    assert "SYNTHETIC" in page.source_label.text() and "50 poses" in page.source_label.text()
-    assert not page.ideal_button.isVisible() and page.run_button.isEnabled()
+    assert "SYNTHETIC" in page.source.source_label.text() and "50 poses" in page.source.source_label.text()
+    assert not page.source.ideal_button.isVisible() and page.options.run_button.isEnabled()
 
     with qtbot.waitSignal(page.completeChanged, timeout=30000):
-        qtbot.mouseClick(page.run_button, Qt.MouseButton.LeftButton)
+        qtbot.mouseClick(page.options.run_button, Qt.MouseButton.LeftButton)
     wait_idle(qtbot, page)
     result = page.result
     assert result is not None and page.is_complete()
@@ -107,7 +108,7 @@ def test_ideal_measurements_identify_and_export(lab_page, qtbot, monkeypatch, tm
     assert result.validation.method == "holdout" and result.validation.fraction == 0.25
 
     # the table: one row per parameter, the ones not estimated greyed and explained
-    table = page.table
+    table = page.results.table
     assert table.rowCount() == len(result.parameters)
     for r, row in enumerate(result.parameters):
         assert table.cell_text(r, 0) == row.name
@@ -118,30 +119,33 @@ def test_ideal_measurements_identify_and_export(lab_page, qtbot, monkeypatch, tm
         else:
             assert table.cell_text(r, 4).startswith("± ")
     assert any(table.is_greyed(r) for r in range(table.rowCount()))
-    assert "Not estimated" in page.explanation.text()
+    assert "Not estimated" in page.results.explanation.text()
     grey = next(r for r in range(table.rowCount()) if table.is_greyed(r))
     table.selectRow(grey)
-    assert result.parameters[grey].explanation in page.explanation.text()
+    assert result.parameters[grey].explanation in page.results.explanation.text()
 
     # the plots have the result's data
-    series = page.residuals.bars.series()
+    series = page.results.residuals.bars.series()
     assert len(series["pose"]) == result.n_poses
     assert np.allclose(series["before"], [p["error_mm"] for p in result.before.per_pose()])
-    assert page.residuals.histogram.counts["before"].sum() == result.n_points
-    assert page.residuals.histogram.counts["after"].sum() == result.n_points
-    assert len(page.convergence.x) >= 3 and page.convergence.y[0] > page.convergence.y[-1]
-    assert page.convergence.getPlotItem().ctrl.logYCheck.isChecked()
-    assert page.correlation.matrix.shape == (len(result.estimated),) * 2
-    assert page.correlation.hover_text(0, 1).startswith(f"{result.estimated[0]} (1) × {result.estimated[1]} (2)")
-    page.residuals.set_log(False)
-    assert not page.residuals.bars.log and np.allclose(page.residuals.bars.series()["before"], series["before"])
+    assert page.results.residuals.histogram.counts["before"].sum() == result.n_points
+    assert page.results.residuals.histogram.counts["after"].sum() == result.n_points
+    convergence = page.results.convergence
+    assert len(convergence.x) >= 3 and convergence.y[0] > convergence.y[-1]
+    assert page.results.convergence.getPlotItem().ctrl.logYCheck.isChecked()
+    assert page.results.correlation.matrix.shape == (len(result.estimated),) * 2
+    correlation = page.results.correlation
+    assert correlation.hover_text(0, 1).startswith(f"{result.estimated[0]} (1) × {result.estimated[1]} (2)")
+    page.results.residuals.set_log(False)
+    bars = page.results.residuals.bars
+    assert not bars.log and np.allclose(bars.series()["before"], series["before"])
 
     # validation figures and the accuracy against the lab's true robot
-    text = page.validation_view.toPlainText()
+    text = page.results.validation_view.toPlainText()
     assert "held-out poses" in text and "true robot" in text
     accuracy = page.state.accuracy
     assert accuracy.calibrated.rms_mm < 0.2 * accuracy.nominal.rms_mm
-    assert "against the true robot" in page.summary.text()
+    assert "against the true robot" in page.results.summary.text()
 
     # exports
     qtbot.mouseClick(page.save_button, Qt.MouseButton.LeftButton)
@@ -174,11 +178,11 @@ def test_options_reach_the_identification(hw_page, qtbot):
     page = hw_page
     write_synthetic(page)
     page.on_enter()
-    page.validation_combo.setCurrentIndex(2)
-    page.kfold_spin.setValue(3)
-    page.huber_check.setChecked(True)
-    page.huber_spin.setValue(2.5)
-    page.fix_edit.setText("j5.d, marker.z")           # case-insensitive, canonical names come back
+    page.options.validation_combo.setCurrentIndex(2)
+    page.options.kfold_spin.setValue(3)
+    page.options.huber_check.setChecked(True)
+    page.options.huber_spin.setValue(2.5)
+    page.options.fix_edit.setText("j5.d, marker.z")           # case-insensitive, canonical names come back
     assert page.fixed_names() == ["J5.d", "marker.z"]
     identify(qtbot, page)
     result = page.result
@@ -186,24 +190,24 @@ def test_options_reach_the_identification(hw_page, qtbot):
     assert result.huber == 2.5
     for name in ("J5.d", "marker.z"):
         r = [row.name for row in result.parameters].index(name)
-        assert result.parameters[r].status == FIXED_BY_USER and page.table.is_greyed(r)
+        assert result.parameters[r].status == FIXED_BY_USER and page.results.table.is_greyed(r)
     assert page.state.accuracy is None      # no true robot in hardware mode
-    assert "3-fold cross validation" in page.validation_view.toPlainText()
+    assert "3-fold cross validation" in page.results.validation_view.toPlainText()
 
 
 def test_fix_menu_and_text_agree(hw_page):
     page = hw_page
-    page.fix_edit.setText("J2.a")
-    page.fix_edit.textEdited.emit("J2.a")
-    assert page._fix_actions["J2.a"].isChecked()
-    page._fix_actions["base.rz"].setChecked(True)
-    assert page.fix_edit.text() == "J2.a, base.rz"
+    page.options.fix_edit.setText("J2.a")
+    page.options.fix_edit.textEdited.emit("J2.a")
+    assert page.options.fix_actions["J2.a"].isChecked()
+    page.options.fix_actions["base.rz"].setChecked(True)
+    assert page.options.fix_edit.text() == "J2.a, base.rz"
 
 
 def test_unknown_parameter_to_fix_is_refused_on_the_page(hw_page):
     write_synthetic(hw_page)
     hw_page.on_enter()
-    hw_page.fix_edit.setText("J9.a")
+    hw_page.options.fix_edit.setText("J9.a")
     assert not hw_page.start_identification()
     assert "unknown parameter 'J9.a'" in hw_page.status.text() and not hw_page.busy
 
@@ -213,12 +217,12 @@ def test_cancel_keeps_the_page_usable(hw_page, qtbot):
     write_synthetic(page)
     page.on_enter()
     assert page.start_identification()
-    assert page.cancel_button.isEnabled() and not page.run_button.isEnabled()
-    qtbot.mouseClick(page.cancel_button, Qt.MouseButton.LeftButton)
+    assert page.progress_row().cancel_button.isEnabled() and not page.options.run_button.isEnabled()
+    qtbot.mouseClick(page.progress_row().cancel_button, Qt.MouseButton.LeftButton)
     wait_idle(qtbot, page)
     assert page.status.text().startswith("Cancelled") and page.result is None
     assert not page.is_complete() and page.state.identification is None
-    assert page.run_button.isEnabled() and not page.cancel_button.isEnabled()
+    assert page.options.run_button.isEnabled() and not page.progress_row().cancel_button.isEnabled()
     identify(qtbot, page)                                  # and it still works afterwards
     assert page.is_complete()
 
@@ -233,8 +237,8 @@ def test_a_bad_measurements_file_gives_a_clear_message(hw_page, qtbot, content, 
     page = hw_page
     page.measurements_path().write_text(content)
     page.on_enter()
-    assert "cannot be used" in page.source_label.text() and expected in page.source_label.text()
-    assert not page.run_button.isEnabled()
+    assert "cannot be used" in page.source.source_label.text() and expected in page.source.source_label.text()
+    assert not page.options.run_button.isEnabled()
     assert page.start_identification()                    # the worker reads the file and reports
     wait_idle(qtbot, page)
     assert page.status.text().startswith("✗") and expected in page.status.text()
@@ -245,7 +249,7 @@ def test_a_bad_measurements_file_gives_a_clear_message(hw_page, qtbot, content, 
 def test_too_few_poses_is_reported_not_crashed(hw_page, qtbot):
     write_synthetic(hw_page, n_poses=3)
     hw_page.on_enter()
-    hw_page.validation_combo.setCurrentIndex(0)
+    hw_page.options.validation_combo.setCurrentIndex(0)
     identify(qtbot, hw_page)
     assert hw_page.status.text().startswith("✗") and hw_page.result is None
     assert "pose" in hw_page.status.text()
@@ -263,5 +267,5 @@ def test_a_new_project_clears_the_result(hw_page, qtbot, tmp_path):
     identify(qtbot, hw_page)
     assert hw_page.is_complete()
     hw_page.state.new_project(tmp_path / "other", mode=projects.HARDWARE)
-    assert not hw_page.is_complete() and hw_page.table.rowCount() == 0
-    assert "No measurements" in hw_page.source_label.text()
+    assert not hw_page.is_complete() and hw_page.results.table.rowCount() == 0
+    assert "No measurements" in hw_page.source.source_label.text()

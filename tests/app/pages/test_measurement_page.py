@@ -10,7 +10,8 @@ import pytest
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QApplication
 
-from app.pages.measurement_page import MEASURED, PENDING, REJECTED, MeasurementPage
+from app.jobs.measurement import MEASURED, PENDING, REJECTED
+from app.pages.measurement.page import MeasurementPage
 from app.pages.registry import PAGES
 from app.pages.steps import Step
 from app.worker import TaskRunner
@@ -77,25 +78,25 @@ def test_registered_for_the_measurement_step():
 def test_cancel_keeps_every_measurement_and_resume_continues(qtbot, page, boxes):
     assert page.poses is not None and len(page.rows) == N_POSES and not page.is_complete()
     assert page.n_min == 9                                  # 25 identifiable parameters, 3 equations per pose
-    assert "poses.csv" in page.source_label.text() and "stereo.yaml" in page.source_label.text()
-    assert page.start_button.text() == "Start"
-    qtbot.mouseClick(page.start_button, Qt.MouseButton.LeftButton)
-    assert page.busy and page.cancel_button.isEnabled() and page.pause_button.isEnabled()
+    assert "poses.csv" in page.controls.source_label.text() and "stereo.yaml" in page.controls.source_label.text()
+    assert page.controls.start_button.text() == "Start"
+    qtbot.mouseClick(page.controls.start_button, Qt.MouseButton.LeftButton)
+    assert page.busy and page.progress_row().cancel_button.isEnabled() and page.controls.pause_button.isEnabled()
     qtbot.waitUntil(lambda: len(page_ids(page)) >= 2, timeout=30000)
     # each pose shown as measured is already on disk (written and flushed per pose)
     assert set(page_ids(page)) <= set(measured_ids(page))
-    qtbot.mouseClick(page.cancel_button, Qt.MouseButton.LeftButton)
+    qtbot.mouseClick(page.progress_row().cancel_button, Qt.MouseButton.LeftButton)
     qtbot.waitUntil(lambda: not page.busy, timeout=30000)
     first = measured_ids(page)
     assert 2 <= len(first) < N_POSES
     assert sorted(page_ids(page)) == sorted(first)          # the table is the file
     assert page.result.cancelled and "Cancelled" in page.status.text() and "Resume" in page.status.text()
-    assert page.start_button.text() == "Resume" and page.start_button.isEnabled()
+    assert page.controls.start_button.text() == "Resume" and page.controls.start_button.isEnabled()
     pending = page_ids(page, PENDING)
     assert pending and len(pending) + len(first) + len(page_ids(page, REJECTED)) == N_POSES
     rows_before = {p: page.rows[page._row_of[p]].point.copy() for p in first}
     # resume: the rest is measured, nothing twice, nothing lost
-    qtbot.mouseClick(page.start_button, Qt.MouseButton.LeftButton)
+    qtbot.mouseClick(page.controls.start_button, Qt.MouseButton.LeftButton)
     qtbot.waitUntil(lambda: not page.busy, timeout=60000)
     r = page.result
     assert not r.cancelled and sorted(o.pose for o in r.skipped) == sorted(first)
@@ -106,11 +107,11 @@ def test_cancel_keeps_every_measurement_and_resume_continues(qtbot, page, boxes)
     for p in first:                                           # the earlier points are kept as they were
         np.testing.assert_allclose(page.rows[page._row_of[p]].point, rows_before[p], atol=1e-3)
     assert not page_ids(page, PENDING) and len(ids) >= N_POSES - 1
-    assert not page.start_button.isEnabled()                  # nothing left to measure
+    assert not page.controls.start_button.isEnabled()                  # nothing left to measure
     # the points drawn in both views, the current pair as a thumbnail, the summary
     for view in page.views.views:
         assert len(view.selected.data) == len(ids) and len(view.cameras.data) == 2
-    assert page.thumb.image_shape()[1] > 600
+    assert page.pair.thumb.image_shape()[1] > 600
     assert f"<b>{len(ids)}</b> measured" in page.summary.text()
     assert "Identification needs at least" in page.summary.text()
     assert page.state.measurements == page.measurements_path()
@@ -118,11 +119,11 @@ def test_cancel_keeps_every_measurement_and_resume_continues(qtbot, page, boxes)
 
 
 def test_pause_and_continue(qtbot, page):
-    assert page.start()
+    assert page.start_run()
     qtbot.waitUntil(lambda: len(page_ids(page)) >= 1, timeout=30000)
     page.pause()
-    assert page.paused and page.pause_button.text() == "Continue"
-    qtbot.waitUntil(lambda: "paused" in page.progress.format(), timeout=30000)
+    assert page.paused and page.controls.pause_button.text() == "Continue"
+    qtbot.waitUntil(lambda: "paused" in page.progress_row().bar.format(), timeout=30000)
     done = len(measured_ids(page))
     qtbot.wait(600)
     assert page.busy and len(measured_ids(page)) == done        # nothing measured while paused
@@ -138,10 +139,10 @@ def test_pose_outside_the_joint_limits_is_refused_and_reported(qtbot, page, q_fi
     path = tmp_path / "mixed.csv"
     write_poses(path, bad)
     assert page.load_csv(path)
-    assert len(page.rows) == 3 and "mixed.csv" in page.source_label.text()
+    assert len(page.rows) == 3 and "mixed.csv" in page.controls.source_label.text()
     robot = page.state.robot_connection
     moves = robot.move_count
-    assert page.start()
+    assert page.start_run()
     qtbot.waitUntil(lambda: not page.busy, timeout=60000)
     row = page.rows[1]
     assert row.status == REJECTED and "outside its limits" in row.reason and "not moved" in row.reason
@@ -154,7 +155,7 @@ def test_pose_outside_the_joint_limits_is_refused_and_reported(qtbot, page, q_fi
 
 
 def test_start_over_moves_the_files_aside(qtbot, page):
-    assert page.start()
+    assert page.start_run()
     qtbot.waitUntil(lambda: not page.busy, timeout=60000)
     n = len(measured_ids(page))
     assert page.start_over(confirm=False)
@@ -162,7 +163,7 @@ def test_start_over_moves_the_files_aside(qtbot, page):
     old = sorted(folder.glob("measurements.old-*.csv"))
     assert len(old) == 1 and len(read_measurements(old[0]).pose) == n         # kept, not deleted
     assert not page.measurements_path().exists()
-    assert all(r.status == PENDING for r in page.rows) and page.start_button.text() == "Start"
+    assert all(r.status == PENDING for r in page.rows) and page.controls.start_button.text() == "Start"
 
 
 def test_missing_inputs_are_said(qtbot, lab, q_file, boxes):
@@ -171,7 +172,7 @@ def test_missing_inputs_are_said(qtbot, lab, q_file, boxes):
         write_poses(state.project.path("poses"), q_file)
         page = MeasurementPage(state, tasks)
         qtbot.addWidget(page)
-        assert not page.start()
+        assert not page.start_run()
         assert "no trained marker" in page.status.text() and "step 3" in page.status.text()
     finally:
         tasks.shutdown()
@@ -188,7 +189,7 @@ def test_stop_key_stops_the_robot_and_the_run(qtbot, lab, trained, q_file, boxes
         win.show()
         page = win.go_to(Step.MEASUREMENT)
         robot = state.robot_connection
-        assert page.start()
+        assert page.start_run()
         qtbot.waitUntil(lambda: len(page_ids(page)) >= 1, timeout=30000)
         win.activateWindow()
         qtbot.waitUntil(lambda: QApplication.activeWindow() is win, timeout=5000)
@@ -201,9 +202,9 @@ def test_stop_key_stops_the_robot_and_the_run(qtbot, lab, trained, q_file, boxes
         first = measured_ids(page)
         assert first and sorted(first) == sorted(page_ids(page)) and page_ids(page, PENDING)
         # a stopped robot is not started again by the page
-        assert not page.start() and "stopped" in page.status.text()
+        assert not page.start_run() and "stopped" in page.status.text()
         win.resume_robot()
-        assert page.start()
+        assert page.start_run()
         qtbot.waitUntil(lambda: not page.busy, timeout=60000)
         ids = measured_ids(page)
         assert len(ids) == len(set(ids)) and set(first) <= set(ids) and not page_ids(page, PENDING)
@@ -227,7 +228,7 @@ def test_autopilot_measures_the_poses(qtbot, page):
 
 
 def test_measurements_of_another_pose_list_are_not_counted(qtbot, page, q_file):
-    assert page.start()
+    assert page.start_run()
     qtbot.waitUntil(lambda: not page.busy, timeout=60000)
     assert page.is_complete()
     other = np.array(q_file, dtype=float)
@@ -235,11 +236,11 @@ def test_measurements_of_another_pose_list_are_not_counted(qtbot, page, q_file):
     write_poses(page.state.project.path("poses"), other)
     page.on_enter()
     assert not page_ids(page) and not page.is_complete()
-    assert "another pose list" in page.status.text() and page.over_button.isEnabled()
-    assert page.start()                                       # the run refuses the file and says why
+    assert "another pose list" in page.status.text() and page.controls.over_button.isEnabled()
+    assert page.start_run()                                       # the run refuses the file and says why
     qtbot.waitUntil(lambda: not page.busy, timeout=60000)
     assert "another pose list" in page.status.text() and "Start over" in page.status.text()
-    assert page.start_over(confirm=False) and page.start()
+    assert page.start_over(confirm=False) and page.start_run()
     qtbot.waitUntil(lambda: not page.busy, timeout=60000)
     assert len(page_ids(page)) >= 9
 

@@ -1,0 +1,1 @@
+"""Step 6, Identification: the page (page.py) and its panels."""

@@ -1,0 +1,130 @@
+"""The identification's options: validation (hold-out or k-fold), robust Huber weights, the
+parameters kept at nominal; the Identify button and the progress row."""
+from __future__ import annotations
+
+from typing import Callable
+
+from PySide6.QtWidgets import (QCheckBox, QComboBox, QGridLayout, QGroupBox, QLabel, QLineEdit, QMenu,
+                               QSizePolicy, QToolButton)
+
+from app.pages.forms import button, double_spin, row, spin
+from core.errors import RoboCalError
+from core.identification.jacobian import all_parameters, resolve_names
+from widgets.progress_row import ProgressRow
+
+VALIDATION_NONE, VALIDATION_HOLDOUT, VALIDATION_KFOLD = range(3)
+
+
+class OptionsPanel(QGroupBox):
+    """`options()` gives identify()'s keyword arguments for the robot `robot()` returns;
+    `on_identify()` when Identify is clicked."""
+
+    def __init__(self, progress: ProgressRow, *, robot: Callable, on_identify: Callable, parent=None):
+        super().__init__("Options", parent)
+        self.fix_actions = {}                    # parameter name -> checkable QAction of the Choose menu
+        self.validation_combo = QComboBox()
+        self.validation_combo.addItems(["No validation", "Hold out poses", "k-fold cross validation"])
+        self.validation_combo.setCurrentIndex(VALIDATION_HOLDOUT)
+        self.holdout_spin = spin(25, 5, 50, suffix=" % of the poses")
+        self.kfold_spin = spin(5, 2, 20, suffix=" folds")
+        self.validation_combo.currentIndexChanged.connect(self._validation_changed)
+        self.huber_check = QCheckBox("Robust (Huber), k =")
+        self.huber_check.setToolTip("Down-weight points whose error is beyond k robust standard deviations "
+                                    "and flag outliers (a marker found in the wrong place).")
+        self.huber_spin = double_spin(3.0, 1.0, 10.0, step=0.5)
+        self.huber_spin.setEnabled(False)
+        self.huber_check.toggled.connect(self.huber_spin.setEnabled)
+        self.fix_edit = QLineEdit()
+        self.fix_edit.setObjectName("fixEdit")
+        self.fix_edit.setPlaceholderText("parameters kept at nominal, e.g. J6.d, marker.z")
+        self.fix_button = QToolButton()
+        self.fix_button.setText("Choose ▾")
+        self.fix_button.setPopupMode(QToolButton.ToolButtonPopupMode.InstantPopup)
+        self.fix_menu = QMenu(self)
+        self.fix_button.setMenu(self.fix_menu)
+        self.run_button = button("Identify", "identifyButton", on_click=on_identify)
+        self.run_button.setDefault(True)
+        self.progress = progress
+        self._robot = robot
+
+        grid = QGridLayout(self)
+        grid.setHorizontalSpacing(8)
+        grid.addWidget(QLabel("Validation:"), 0, 0)
+        validation = row(self.validation_combo, self.holdout_spin, self.kfold_spin, self.huber_check,
+                         self.huber_spin)
+        validation.insertSpacing(3, 12)
+        grid.addLayout(validation, 0, 1, 1, 3)
+        grid.addWidget(QLabel("Fix:"), 1, 0)
+        grid.addWidget(self.fix_edit, 1, 1)
+        grid.addWidget(self.fix_button, 1, 2)
+        grid.addWidget(self.run_button, 1, 3)
+        grid.addWidget(progress, 2, 0, 1, 4)
+        grid.setColumnStretch(1, 1)
+        self.setSizePolicy(QSizePolicy.Policy.Preferred, QSizePolicy.Policy.Maximum)
+        self.fix_edit.textEdited.connect(self._sync_fix_menu)
+        self._validation_changed()
+
+    def options(self) -> dict:
+        """identify()'s options chosen here (raises RoboCalError for unknown parameter names)."""
+        mode = self.validation_combo.currentIndex()
+        return {"huber": float(self.huber_spin.value()) if self.huber_check.isChecked() else None,
+                "holdout": self.holdout_spin.value() / 100.0 if mode == VALIDATION_HOLDOUT else None,
+                "kfold": self.kfold_spin.value() if mode == VALIDATION_KFOLD else None,
+                "fixed": self.fixed_names()}
+
+    def fixed_names(self) -> list[str]:
+        """The canonical names of the parameters typed in the Fix field (RoboCalError if unknown)."""
+        raw = [t for t in self.fix_edit.text().replace(";", ",").replace(" ", ",").split(",") if t.strip()]
+        if not raw:
+            return []
+        robot = self._robot()
+        return resolve_names(raw, all_parameters(robot, list(robot.targets)), robot)
+
+    def set_busy(self, busy: bool) -> None:
+        for w in (self.validation_combo, self.holdout_spin, self.kfold_spin, self.huber_check, self.fix_edit,
+                  self.fix_button):
+            w.setEnabled(not busy)
+        self.huber_spin.setEnabled(not busy and self.huber_check.isChecked())
+        self.progress.bar.setVisible(busy)
+        self.progress.reset()
+
+    def _validation_changed(self, *_):
+        mode = self.validation_combo.currentIndex()
+        self.holdout_spin.setVisible(mode == VALIDATION_HOLDOUT)
+        self.kfold_spin.setVisible(mode == VALIDATION_KFOLD)
+
+    def rebuild_fix_menu(self) -> None:
+        """The Choose menu: every parameter of the robot, grouped by joint (empty without one)."""
+        robot = self._robot()
+        self.fix_menu.clear()
+        self.fix_actions.clear()
+        if robot is None:
+            return
+        try:
+            params = all_parameters(robot, list(robot.targets))
+        except RoboCalError:
+            return
+        groups: dict[str, list] = {}
+        for p in params:
+            groups.setdefault(p.name.split(".")[0], []).append(p)
+        for group, members in groups.items():
+            sub = self.fix_menu.addMenu(group)
+            for p in members:
+                action = sub.addAction(p.name)
+                action.setCheckable(True)
+                action.toggled.connect(self._fix_toggled)
+                self.fix_actions[p.name] = action
+        self._sync_fix_menu()
+
+    def _fix_toggled(self, *_):
+        self.fix_edit.setText(", ".join(n for n, a in self.fix_actions.items() if a.isChecked()))
+
+    def _sync_fix_menu(self, *_):
+        try:
+            names = set(self.fixed_names())
+        except RoboCalError:
+            return
+        for name, action in self.fix_actions.items():
+            action.blockSignals(True)
+            action.setChecked(name in names)
+            action.blockSignals(False)

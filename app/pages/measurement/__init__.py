@@ -1,0 +1,1 @@
+"""Step 5, Measurement: the page (page.py) and its panels."""

@@ -1,0 +1,64 @@
+"""The Measurement page's top rows: where the inputs come from, Load poses, Start / Resume,
+Pause / Continue, the progress row with Cancel, Start over."""
+from __future__ import annotations
+
+from typing import Callable
+
+from PySide6.QtCore import Qt
+from PySide6.QtWidgets import QGridLayout, QLabel, QWidget
+
+from app.pages.forms import button
+from widgets.progress_row import ProgressRow
+
+
+class RunControls(QWidget):
+    """The run's buttons around the page's `progress` row. `on_load()`, `on_start()`,
+    `on_pause(on)` and `on_start_over()` are the page's handlers."""
+
+    def __init__(self, progress: ProgressRow, *, on_load: Callable, on_start: Callable,
+                 on_pause: Callable[[bool], None], on_start_over: Callable, parent: QWidget | None = None):
+        super().__init__(parent)
+        self.progress = progress
+        self.source_label = QLabel()
+        self.source_label.setObjectName("sourceLabel")
+        self.source_label.setWordWrap(True)
+        self.source_label.setTextFormat(Qt.TextFormat.RichText)
+        self.load_button = button("Load poses CSV…", "loadPosesButton", on_click=on_load,
+                                  tooltip="Measure the poses of another file (pose,q1,...,qn; degrees, mm for "
+                                          "prismatic joints) instead of the Pose sequence step's")
+        self.start_button = button("Start", "startButton", on_click=on_start)
+        self.pause_button = button("Pause", "pauseButton",
+                                   tooltip="Wait after the current pose (the robot stays where it is)")
+        self.pause_button.setCheckable(True)
+        self.pause_button.toggled.connect(on_pause)
+        self.pause_button.toggled.connect(lambda on: self.pause_button.setText("Continue" if on else "Pause"))
+        self.over_button = button("Start over…", "startOverButton", on_click=on_start_over,
+                                  tooltip="Move the measurements taken so far aside (renamed, not deleted) and "
+                                          "measure every pose again")
+        progress.cancel_button.setToolTip("Stop the run after the current pose; Resume continues from there")
+        progress.bar.setObjectName("runProgress")
+
+        grid = QGridLayout(self)
+        grid.setContentsMargins(0, 0, 0, 0)
+        grid.setHorizontalSpacing(8)
+        grid.setVerticalSpacing(4)
+        grid.addWidget(self.source_label, 0, 0, 1, 4)
+        grid.addWidget(self.load_button, 0, 4)
+        grid.addWidget(self.start_button, 1, 0)
+        grid.addWidget(self.pause_button, 1, 1)
+        grid.addWidget(progress, 1, 2, 1, 2)
+        grid.addWidget(self.over_button, 1, 4)
+        grid.setColumnStretch(3, 1)
+
+    def set_buttons(self, *, busy: bool, can_start: bool, resume: bool, can_start_over: bool) -> None:
+        """Enable what makes sense now; Start reads Resume when poses are left after a run."""
+        self.start_button.setEnabled(not busy and can_start)
+        self.start_button.setText("Resume" if resume else "Start")
+        self.pause_button.setEnabled(busy)
+        self.over_button.setEnabled(not busy and can_start_over)
+        self.load_button.setEnabled(not busy)
+
+    def show_done(self, done: int, total: int) -> None:
+        """The bar after a run: `done` of `total` poses measured or rejected."""
+        self.progress.bar.setValue(int(round(1000 * done / max(total, 1))))
+        self.progress.bar.setFormat(f"{done} of {total} poses done")
