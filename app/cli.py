@@ -31,6 +31,7 @@ COMMANDS = {
     "export": "export",
     "import-measurements": "import_measurements",
     "robot-import": "robot_import",
+    "report": "report",
 }
 
 
