@@ -150,8 +150,9 @@ def _figure_html(fig: Figure, src: str | None, scale: float) -> str:
     if src is None:
         return f"<p class='grey'><b>{esc(fig.title)}</b>: figure not drawn.</p>"
     w, h = round(fig.size[0] * scale), round(fig.size[1] * scale)
-    return (f"<p><b>{esc(fig.title)}</b><br><img src='{esc(src)}' width='{w}' height='{h}' alt='{esc(fig.key)}'>"
-            f"<br><span class='caption'>{esc(fig.caption)}</span></p>")
+    # the title goes with the caption under the image: a printed page may break before the image
+    return (f"<p><img src='{esc(src)}' width='{w}' height='{h}' alt='{esc(fig.key)}'>"
+            f"<br><b>{esc(fig.title)}.</b> <span class='caption'>{esc(fig.caption)}</span></p>")
 
 
 def render_html(report: Report, images: Mapping[str, str] | None = None, *, page_breaks: bool = False,
