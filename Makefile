@@ -1,11 +1,13 @@
 # RoboCal: `make demo` opens the wizard on the virtual lab, `make test` runs the suite,
 # `make bench` prints measured figures beside their targets. Each bootstraps .venv itself.
+# `make package` builds the desktop bundle dist/robocal/ (PyInstaller), `make package-check` runs
+# it as a user would, `make install-desktop` adds its menu entry and icon under ~/.local/share.
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test bench check-libs clean
+.PHONY: demo test bench check-libs clean package package-check install-desktop
 
 $(STAMP): pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV) || { \
@@ -26,6 +28,26 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	QT_QPA_PLATFORM=offscreen $(BIN)/python -m bench $(BENCH_ARGS)
+
+DIST     := dist/robocal
+DATA_DIR ?= $(HOME)/.local/share
+
+package: $(STAMP)
+	@$(BIN)/python -c "import PyInstaller" 2>/dev/null || $(BIN)/python -m pip install -q "pyinstaller>=6.10"
+	$(BIN)/python -m PyInstaller packaging/robocal.spec --noconfirm --clean --log-level WARN \
+	  --distpath dist --workpath build/pyinstaller
+
+package-check:
+	@test -x $(DIST)/robocal || { echo "No bundle in $(DIST): run make package first."; exit 1; }
+	env -u PYTHONPATH -u VIRTUAL_ENV -u PYTHONHOME python3 packaging/check_bundle.py $(DIST)
+
+install-desktop:
+	@test -x $(DIST)/robocal || { echo "No bundle in $(DIST): run make package first."; exit 1; }
+	install -d $(DATA_DIR)/applications $(DATA_DIR)/icons/hicolor/scalable/apps
+	install -m 644 resources/icons/robocal.svg $(DATA_DIR)/icons/hicolor/scalable/apps/robocal.svg
+	sed -e 's|^Exec=robocal|Exec=$(abspath $(DIST))/robocal|' -e 's|^TryExec=robocal|TryExec=$(abspath $(DIST))/robocal|' \
+	  packaging/robocal.desktop > $(DATA_DIR)/applications/robocal.desktop
+	@echo "Installed $(DATA_DIR)/applications/robocal.desktop (runs $(abspath $(DIST))/robocal)."
 
 clean:
 	rm -rf $(VENV) build dist *.egg-info .pytest_cache

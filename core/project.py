@@ -5,6 +5,7 @@ my-robot/
   project.json        {"format": "robocal.project/1", "name", "robot", "mode", "created", ...}
   robot.json          the nominal robot model (Setup)
   stereo.yaml         stereo calibration (Stereo calibration)
+  stereo.json         its details: per-pair errors, residuals, parameters with σ (for the report)
   poses.csv           pose sequence (Pose sequence)
   measurements.csv    measured marker positions (Measurement)
   calibrated.json     identified robot model (Identification)
@@ -37,6 +38,7 @@ MODES = (VIRTUAL_LAB, HARDWARE)
 OUTPUT_FILES = {
     "robot": "robot.json",
     "stereo": "stereo.yaml",
+    "stereo_details": "stereo.json",
     "poses": "poses.csv",
     "measurements": "measurements.csv",
     "calibrated": "calibrated.json",

@@ -3,7 +3,8 @@
 --demo        start on the virtual lab with a temporary project and the educational 6R arm
 --autopilot   run every page on its own, in order, and exit (0 when all finished, 1 if not)
 --screenshots save DIR/NN-<step>.png of the whole window for every page shown
-PROJECT       a project folder to open (with --demo, created there if it is not a project)
+PROJECT       a project folder to open (with --demo, created there if it is not a project, and kept:
+              `robocal report PROJECT` makes the demo's report afterwards); also --project PROJECT
 
 Qt is imported only when the command runs, so the other subcommands never load it.
 """
@@ -20,6 +21,8 @@ HELP = "Open the wizard (--demo: on the virtual lab; --autopilot: run every page
 
 def add_arguments(parser) -> None:
     parser.add_argument("project", nargs="?", metavar="PROJECT", help="project folder to open")
+    parser.add_argument("--project", dest="project_option", metavar="DIR",
+                        help="the same as PROJECT; with --demo the demo runs in DIR and is kept there")
     parser.add_argument("--demo", action="store_true",
                         help="start on the virtual lab with a temporary project and the educational 6R arm")
     parser.add_argument("--autopilot", action="store_true",
@@ -46,6 +49,10 @@ def _prepare_state(state, args) -> None:
 
 
 def run(args) -> CommandResult:
+    if args.project_option:
+        if args.project and args.project != args.project_option:
+            raise UsageError("give the project folder once, as PROJECT or as --project")
+        args.project = args.project_option
     screenshots = Path(args.screenshots) if args.screenshots else None
     if screenshots is not None:
         from core.files import ensure_writable_dir

@@ -18,12 +18,12 @@ from app.html import esc
 from app.pages import forms
 from app.pages.base import WizardPage
 from app.pages.steps import Step
+from app.report.render import write_report
 from core.errors import RoboCalError
 from core.identification.exports import export_model
-from core.files import atomic_write_bytes, atomic_write_text, ensure_writable_dir
+from core.files import atomic_write_bytes, ensure_writable_dir
 from core.identification.solver import write_calibrated_model
 from core.robot.model import RobotModel
-from core.report import calibration_report
 from core.robot.file import read_robot
 from core.stereo import file as stereo_file
 
@@ -63,10 +63,10 @@ class ExportPage(WizardPage):
             ExportItem("stereo", "Stereo camera files (OpenCV + ROS camera_info)",
                        "stereo.yaml (OpenCV FileStorage) and left.yaml / right.yaml (ROS camera_info, metres).",
                        ("stereo.yaml", "left.yaml", "right.yaml"), self._write_stereo, self._missing_stereo),
-            ExportItem("report", "Report (HTML)",
-                       "The figures of every step: stereo reprojection errors, measurements, identification "
-                       "(errors before/after, validation, condition number, parameters).",
-                       ("report.html",), self._write_report, self._missing_report),
+            ExportItem("report", "Report (HTML and PDF)",
+                       "A summary and the figures of every step: stereo reprojection errors, marker, poses, "
+                       "measured points, identification (errors before/after, validation, parameters).",
+                       ("report.html", "report.pdf"), self._write_report, self._missing_report),
         ]
 
         # -- folder --------------------------------------------------------------------
@@ -211,9 +211,8 @@ class ExportPage(WizardPage):
         return out
 
     def _write_report(self, folder: Path) -> list[Path]:
-        text = calibration_report(self.state.project, robot=self.state.robot, identification=self._result(),
-                                  accuracy=self.state.accuracy)
-        return [atomic_write_text(folder / "report.html", text)]
+        return write_report(self.state.project, [folder / "report.html", folder / "report.pdf"],
+                            robot=self.state.robot, identification=self._result(), accuracy=self.state.accuracy)
 
     # -- actions -------------------------------------------------------------------------
     def item(self, key: str) -> ExportItem:

@@ -149,6 +149,7 @@ class Validation:
 
     def summary(self) -> dict:
         out = {"method": self.method, "seed": self.seed, "n_test_poses": len(self.test_poses),
+               "test_poses": [int(p) for p in self.test_poses],
                "before": self.before.summary(), "after": self.after.summary()}
         if self.fraction is not None:
             out["fraction"] = self.fraction
@@ -267,6 +268,7 @@ class IdentificationResult:
             "mean_after_mm": self.after.mean_mm, "max_after_mm": self.after.max_mm,
             "sigma_hat": self.sigma_hat, "sigma_hat_unit": "1" if self.weighted else "mm", "dof": self.dof,
             "iterations": self.n_iterations, "converged": self.converged,
+            "cost_per_iteration": strict_json([float(c) for c in self.costs]),
             "rank": self.rank, "n_parameters": len(self.estimated),
             "condition_number": strict_json(self.condition_number),
             "observability": {k: strict_json(v) for k, v in self.observability.as_dict().items()},

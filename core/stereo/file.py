@@ -330,7 +330,8 @@ def write_ros_camera_info(folder: str | Path, data, names: tuple[str, str] = ("l
 def stereo_json(data, result=None) -> dict:
     """The JSON export: the stereo.yaml fields, plus the calibration details when `result`
     (a StereoCalibrationResult) is given: summary, parameter table with standard
-    deviations, per-view errors."""
+    deviations, the outlier threshold, per-view errors and every corner's residual
+    (observed − projected, px)."""
     if result is None and not isinstance(data, StereoFile):
         result = data
     d = _as_file(data).to_dict()
@@ -338,9 +339,12 @@ def stereo_json(data, result=None) -> dict:
         d["calibration"] = result.summary()
         d["parameters"] = [{"group": r.group, "name": r.name, "value": r.value, "std": r.std,
                             "unit": r.unit, "fixed": r.fixed} for r in result.parameters]
+        d["outlier_threshold_px"] = float(result.outlier_threshold)
         d["views"] = [{"pair": int(i) + 1, "files": name, "rms_left": float(result.per_view_rms_left[k]),
                        "rms_right": float(result.per_view_rms_right[k]), "rms": float(result.per_view_rms[k]),
-                       "outlier": int(i) in result.outliers}
+                       "outlier": int(i) in result.outliers,
+                       "residuals_left_px": np.round(result.fit.residuals_left[k], 4).tolist(),
+                       "residuals_right_px": np.round(result.fit.residuals_right[k], 4).tolist()}
                       for k, (i, name) in enumerate(zip(result.view_indices, result.view_names))]
     return strict_json(json.loads(json.dumps(d, default=json_default)))
 

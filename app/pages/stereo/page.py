@@ -300,8 +300,8 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, WizardPage):
 
     # -- save and exports ---------------------------------------------------------------------------
     def save_stereo(self) -> Path | None:
-        """Accept the calibration: stereo.yaml into the project (atomic) and the result into
-        the wizard's state."""
+        """Accept the calibration: stereo.yaml and its details (stereo.json, for the report)
+        into the project (atomic) and the result into the wizard's state."""
         r, project = self.result, self.state.project
         if r is None or project is None:
             self._set_status("Nothing to save: calibrate first." if project is not None
@@ -310,6 +310,7 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, WizardPage):
         path = project.path("stereo")
         try:
             write_stereo_yaml(path, r)
+            write_stereo_json(project.path("stereo_details"), r)
         except RoboCalError as exc:
             self._set_status(f"stereo.yaml was not written: {exc.message}", ok=False)
             return None

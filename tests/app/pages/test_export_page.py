@@ -96,10 +96,10 @@ def test_export_all_writes_every_available_file(page, calibration, qtbot):
     with qtbot.waitSignal(page.completeChanged):
         qtbot.mouseClick(page.all_button, Qt.MouseButton.LeftButton)
     folder = page.state.project.folder / "export"
-    assert sorted(p.name for p in folder.iterdir()) == sorted(MODEL_FILES + ["report.html"])
+    assert sorted(p.name for p in folder.iterdir()) == sorted(MODEL_FILES + ["report.html", "report.pdf"])
     assert page.is_complete()
     status = page.status.text()
-    assert "4 file(s) written" in status and "Stereo camera files" in status and "Skipped" in status
+    assert "5 file(s) written" in status and "Stereo camera files" in status and "Skipped" in status
 
     model = read_robot(folder / "calibrated.json")
     assert model.calibration["statistics"]["rms_after_mm"] == pytest.approx(result.after.rms_mm)
@@ -180,7 +180,7 @@ def test_autopilot_exports_everything_available(page, calibration):
     page.autopilot(lambda ok=True, message="": done.append((ok, message)))
     assert done == [(True, "")]
     folder = page.state.project.folder / "export"
-    assert sorted(p.name for p in folder.iterdir()) == sorted(MODEL_FILES + ["report.html"])
+    assert sorted(p.name for p in folder.iterdir()) == sorted(MODEL_FILES + ["report.html", "report.pdf"])
 
 
 def test_a_new_project_resets_the_page(page, calibration, tmp_path):

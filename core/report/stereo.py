@@ -1,0 +1,105 @@
+"""The report's stereo calibration section, from stereo.yaml and its details stereo.json
+(per-pair errors, residuals, parameters with σ). Image errors in px, lengths in mm."""
+from __future__ import annotations
+
+import numpy as np
+
+from core.errors import RoboCalError
+from core.files import read_json
+from core.project import Project
+from core.report.document import (Figure, Section, esc, not_done, num, pairs_table, panel, series, sig, table,
+                                  unreadable)
+
+TITLE = "Stereo calibration"
+NO_DETAILS = ("the project has stereo.yaml but not its details stereo.json, which the Stereo calibration "
+              "step saves with it; calibrate again to get this figure")
+
+
+def stereo_section(project: Project, facts: dict, problems: list[str]) -> Section:
+    """The section; puts 'stereo_rms', 'cameras' and 'stereo' (the StereoFile) into `facts`."""
+    path = project.path("stereo")
+    if not path.is_file():
+        return Section(TITLE, [not_done("no stereo.yaml in the project")], done=False)
+    try:
+        from core.stereo.file import read_stereo_yaml
+        sf = read_stereo_yaml(path)
+    except RoboCalError as exc:
+        problems.append(f"stereo.yaml: {exc.message}")
+        return Section(TITLE, [unreadable("stereo.yaml", exc.message)], done=False)
+    w, h = sf.image_size
+    facts["stereo"] = sf
+    facts["stereo_rms"] = sf.rms_stereo
+    facts["cameras"] = (f"two cameras, {w} × {h} px, focal length {num(sf.K1[0, 0], 0)} / {num(sf.K2[0, 0], 0)} px, "
+                        f"baseline {num(sf.baseline_mm, 1)} mm")
+    rows = [("image size", f"{w} × {h} px"),
+            ("reprojection error, left camera", f"{num(sf.rms_left)} px RMS"),
+            ("reprojection error, right camera", f"{num(sf.rms_right)} px RMS"),
+            ("reprojection error, stereo", f"{num(sf.rms_stereo)} px RMS"),
+            ("baseline", f"{num(sf.baseline_mm, 2)} mm"),
+            ("focal lengths (left)", f"{num(sf.K1[0, 0], 1)}, {num(sf.K1[1, 1], 1)} px"),
+            ("focal lengths (right)", f"{num(sf.K2[0, 0], 1)}, {num(sf.K2[1, 1], 1)} px"),
+            ("checkerboard", f"{sf.board.cols} × {sf.board.rows} inner corners, {num(sf.board.square, 2)} mm")]
+    if "epipolar_rms" in sf.extras:
+        rows.append(("epipolar error after rectification", f"{num(sf.extras['epipolar_rms'])} px RMS"))
+    if "cross_validation_px" in sf.extras:
+        rows.append(("cross validation (pairs left out)", f"{num(sf.extras['cross_validation_px'])} px RMS"))
+    blocks: list = [pairs_table(rows)]
+    blocks += _details(project, problems)
+    return Section(TITLE, blocks)
+
+
+def _details(project: Project, problems: list[str]) -> list:
+    path = project.path("stereo_details")
+    titles = ("Reprojection error per pair", "Corner residuals")
+    if not path.is_file():
+        return [Figure("stereo_pairs", titles[0], "", unavailable=NO_DETAILS),
+                Figure("stereo_residuals", titles[1], "", unavailable=NO_DETAILS)]
+    try:
+        data = read_json(path)
+        views = data["views"]
+        pairs = [int(v["pair"]) for v in views]
+        left = [float(v["rms_left"]) for v in views]
+        right = [float(v["rms_right"]) for v in views]
+        flagged = [v for v in views if v.get("outlier")]
+        threshold = data.get("outlier_threshold_px")
+        res_l = [np.asarray(v["residuals_left_px"], dtype=float).reshape(-1, 2) for v in views
+                 if "residuals_left_px" in v]
+        res_r = [np.asarray(v["residuals_right_px"], dtype=float).reshape(-1, 2) for v in views
+                 if "residuals_right_px" in v]
+        params = data.get("parameters") or []
+    except (RoboCalError, KeyError, TypeError, ValueError) as exc:
+        message = exc.message if isinstance(exc, RoboCalError) else f"unexpected content ({type(exc).__name__}: {exc})"
+        problems.append(f"stereo.json: {message}")
+        return [unreadable("stereo.json", message)]
+    blocks: list = []
+    hlines = [(threshold, f"drop threshold {num(threshold)} px")] if threshold is not None else []
+    x = np.asarray(pairs, dtype=float)
+    bars = [series("left camera", x - 0.2, left, color=0, bars=True),
+            series("right camera", x + 0.2, right, color=1, bars=True)]
+    caption = (f"RMS reprojection error of each checkerboard pair used ({len(pairs)} pairs), per camera. "
+               + (f"A pair above the threshold ({num(threshold)} px) is flagged for removal"
+                  + (f": pairs {', '.join(str(v['pair']) for v in flagged)}." if flagged else "; none is.")
+                  if threshold is not None else ""))
+    blocks.append(Figure("stereo_pairs", titles[0], caption,
+                         [panel("points", "", "pair", "RMS reprojection error (px)", bars, hlines=hlines,
+                                x_ticks=pairs)]))
+    if res_l and res_r:
+        L, R = np.concatenate(res_l), np.concatenate(res_r)
+        blocks.append(Figure("stereo_residuals", titles[1],
+                             f"Observed − projected position of every checkerboard corner ({len(L)} per camera), "
+                             "in image pixels.",
+                             [panel("points", "left camera", "residual u (px)", "residual v (px)",
+                                    [series("left", L[:, 0], L[:, 1], color=0)], equal_aspect=True),
+                              panel("points", "right camera", "residual u (px)", "residual v (px)",
+                                    [series("right", R[:, 0], R[:, 1], color=1)], equal_aspect=True)],
+                             size=(900, 430)))
+    else:
+        blocks.append(Figure("stereo_residuals", titles[1], "",
+                             unavailable="stereo.json has no residuals (written by an older version)"))
+    if params:
+        rows = [[esc(p.get("group", "")), esc(p.get("name", "")), num(p.get("value"), 4),
+                 "fixed" if p.get("fixed") else ("—" if p.get("std") is None else sig(p.get("std"), 2)),
+                 esc(p.get("unit", ""))] for p in params]
+        blocks.append("<h3>Camera parameters ± σ</h3>"
+                      + table(["group", "parameter", "value", "± σ", "unit"], rows, numeric={2, 3}))
+    return blocks

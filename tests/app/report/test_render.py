@@ -1,0 +1,118 @@
+"""The report drawn with Qt: figures as images, the self-contained HTML, the PDF (pages,
+page numbers, page sizes), `robocal report`, and a failing writer leaving the previous report."""
+from __future__ import annotations
+
+import errno
+import os
+import re
+import shutil
+import subprocess
+
+import pytest
+from PySide6.QtGui import QImage
+
+from app.cli import main
+from app.report.render import draw_figures, pdf_document, write_report
+from core.errors import RoboCalError
+from core.project import create_project, open_project
+from core.report import build_report
+from tests.core.report.sample_project import make_project
+
+HAVE_POPPLER = shutil.which("pdftotext") is not None and shutil.which("pdfinfo") is not None
+
+
+@pytest.fixture(scope="module")
+def project(tmp_path_factory):
+    return make_project(tmp_path_factory.mktemp("render") / "project")[0]
+
+
+def pdf_text(path) -> str:
+    text = subprocess.run(["pdftotext", "-layout", str(path), "-"], capture_output=True, text=True,
+                          check=True).stdout
+    return text.replace("\ufb01", "fi").replace("\ufb02", "fl")        # the font's ligatures
+
+
+def pdf_pages(path) -> tuple[int, str]:
+    info = subprocess.run(["pdfinfo", str(path)], capture_output=True, text=True, check=True).stdout
+    return int(re.search(r"Pages:\s+(\d+)", info).group(1)), re.search(r"Page size:\s+(.*)", info).group(1)
+
+
+def test_every_drawable_figure_is_an_image_with_ink(qapp, project):
+    report = build_report(open_project(project.folder))
+    images = draw_figures(report)
+    drawable = [f.key for f in report.figures() if not f.unavailable]
+    assert sorted(images) == sorted(drawable) and len(images) >= 9
+    for key, img in images.items():
+        assert isinstance(img, QImage) and img.width() >= 2000, key
+        # not blank: a white background with something drawn on it
+        small = img.scaled(60, 30)
+        colours = {small.pixel(x, y) for x in range(60) for y in range(30)}
+        assert len(colours) > 5, key
+
+
+def test_html_is_self_contained(qapp, project, tmp_path):
+    out = write_report(open_project(project.folder), [tmp_path / "r.html"])[0]
+    text = out.read_text()
+    assert text.count("<img src='data:image/png;base64,") == 9
+    assert "src='figure:" not in text and "file:" not in text
+
+
+@pytest.mark.skipif(not HAVE_POPPLER, reason="poppler-utils (pdftotext, pdfinfo) not installed")
+@pytest.mark.parametrize("size, points", [("a4", "595 x 842 pts"), ("letter", "612 x 792 pts")])
+def test_pdf_has_pages_numbers_and_sections(qapp, project, tmp_path, size, points):
+    out = tmp_path / "r.pdf"
+    out.write_bytes(pdf_document(build_report(open_project(project.folder)),
+                                 draw_figures(build_report(open_project(project.folder))), size))
+    pages, page_size = pdf_pages(out)
+    assert pages > 5 and page_size.startswith(points)
+    text = pdf_text(out)
+    for i in range(1, pages + 1):
+        assert f"page {i} of {pages}" in text
+    for title in ("Stereo calibration", "Pose sequence", "Measurements", "Identification", "Reprojection error per pair",
+                  "Error per pose, before and after"):
+        assert title in text, title
+    # a page per section: each step's title at the top of its own page
+    tops = [p.strip().splitlines()[0] for p in text.split("\f") if p.strip()]
+    for title in ("Stereo calibration", "Marker", "Pose sequence", "Measurements", "Identification"):
+        assert title in tops, (title, tops)
+
+
+@pytest.mark.skipif(not HAVE_POPPLER, reason="poppler-utils (pdftotext, pdfinfo) not installed")
+def test_cli_report_of_a_project_with_steps_not_done(qapp, tmp_path, capsys):
+    folder = create_project(tmp_path / "fresh").folder
+    (folder / "stereo.yaml").write_text("not: [an, opencv, file\n")
+    code = main(["report", str(folder), "--out", str(tmp_path / "r.pdf"), "--out", str(tmp_path / "r.html")])
+    assert code == 0, capsys.readouterr().err
+    text = pdf_text(tmp_path / "r.pdf")
+    assert "Not done: Stereo calibration, Marker, Pose sequence, Measurements, Identification" in " ".join(
+        text.split())
+    assert "stereo.yaml cannot be read" in text
+    assert "Not done (no calibrated.json" in (tmp_path / "r.html").read_text()
+
+
+def test_cli_refuses_another_suffix_and_a_missing_folder(qapp, tmp_path, capsys):
+    folder = create_project(tmp_path / "p").folder
+    assert main(["report", str(folder), "--out", str(tmp_path / "r.docx")]) == 2
+    assert "--out must end in .html or .pdf" in capsys.readouterr().err
+    assert main(["report", str(tmp_path / "nowhere"), "--out", str(tmp_path / "r.pdf")]) == 2
+    assert not (tmp_path / "r.pdf").exists()
+
+
+def test_a_full_disk_keeps_the_previous_report(qapp, project, tmp_path, monkeypatch):
+    html, pdf = tmp_path / "r.html", tmp_path / "r.pdf"
+    html.write_text("previous html")
+    pdf.write_bytes(b"previous pdf")
+    real_fsync, calls = os.fsync, []
+
+    def fsync(fd):               # the second file's data does not fit on the disk
+        calls.append(fd)
+        if len(calls) == 2:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real_fsync(fd)
+
+    monkeypatch.setattr(os, "fsync", fsync)
+    with pytest.raises(RoboCalError) as caught:
+        write_report(open_project(project.folder), [html, pdf])
+    assert "No space left on device" in caught.value.message and "no output was changed" in caught.value.message
+    assert html.read_text() == "previous html" and pdf.read_bytes() == b"previous pdf"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.html", "r.pdf"]

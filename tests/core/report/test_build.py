@@ -1,0 +1,105 @@
+"""The report as data: every section and figure a full project allows, steps not done listed,
+unreadable files named (never a crash), the summary's numbers."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from core.project import create_project, open_project
+from core.report import build_report, calibration_report, render_html
+from tests.core.report.sample_project import THRESHOLD_PX, make_project
+
+STEPS = ["Stereo calibration", "Marker", "Pose sequence", "Measurements", "Identification"]
+DRAWN = ["stereo_pairs", "stereo_residuals", "poses_joints", "poses_index", "poses_views", "measurement_points",
+         "identification_per_pose", "identification_histograms", "identification_convergence"]
+
+
+@pytest.fixture(scope="module")
+def sample(tmp_path_factory):
+    return make_project(tmp_path_factory.mktemp("report") / "project")
+
+
+def figures(report) -> dict:
+    return {f.key: f for f in report.figures()}
+
+
+def test_a_full_project_has_every_section_and_figure(sample):
+    project, result = sample
+    report = build_report(open_project(project.folder))
+    assert [s.title for s in report.sections] == ["Project files"] + STEPS
+    assert report.not_done() == ["Marker"] and report.problems == []
+    figs = figures(report)
+    for key in DRAWN:
+        assert key in figs and figs[key].unavailable is None and figs[key].panels, key
+    assert figs["identification_correlation"].unavailable
+
+
+def test_figure_data_are_the_project_numbers(sample):
+    project, result = sample
+    figs = figures(build_report(open_project(project.folder)))
+    pairs = figs["stereo_pairs"].panels[0]
+    assert pairs["hlines"][0][0] == THRESHOLD_PX and "px" in pairs["ylabel"]
+    assert pairs["series"][0]["y"][-1] == pytest.approx(0.9)
+    per_pose = {s["name"]: s for s in figs["identification_per_pose"].panels[0]["series"]}
+    held = per_pose["after, held-out pose"]
+    assert sorted(int(x) for x in held["x"]) == sorted(result.validation.test_poses)
+    # the held-out errors drawn are those the identification reported (files hold 1e-6 mm / deg digits)
+    def rms(s):
+        return float(np.sqrt(np.mean(np.square(s["y"]))))
+    assert rms(held) == pytest.approx(result.validation.after.rms_mm, rel=1e-4)
+    assert rms(per_pose["before, held-out pose"]) == pytest.approx(result.validation.before.rms_mm, rel=1e-4)
+    assert "mm" in figs["identification_per_pose"].panels[0]["ylabel"]
+    n_iter = len(result.costs)
+    assert len(figs["identification_convergence"].panels[0]["series"][0]["y"]) == n_iter
+
+
+def test_summary_numbers_and_verdict(sample):
+    project, result = sample
+    report = build_report(open_project(project.folder))
+    v = result.validation
+    factor = v.before.rms_mm / v.after.rms_mm
+    assert f"{v.after.rms_mm:.3f}" in report.summary and f"{factor:.1f}×" in report.summary
+    assert "Educational" in report.summary or result.model.name in report.summary
+    assert "0.310 px RMS" in report.summary and "more accurate" in report.summary
+
+
+def test_an_empty_project_lists_every_step_as_not_done(tmp_path):
+    project = create_project(tmp_path / "empty")
+    report = build_report(project)
+    assert report.not_done() == STEPS
+    assert "Not calibrated yet" in report.summary and "Not done:" in report.summary
+    text = render_html(report)
+    assert text.count("Not done (no ") == len(STEPS)
+
+
+@pytest.mark.parametrize("name, content, needle", [
+    ("calibrated.json", '{"format": "robocal.robot/1", "name": "x", "joi', "calibrated.json"),
+    ("stereo.yaml", "not: [an, opencv, file\n", "stereo.yaml"),
+    ("stereo.json", '{"views": [{"pair": "one"}]}', "stereo.json"),
+    ("measurements.csv", "pose,target\n0,marker\n", "measurements.csv"),
+])
+def test_an_unreadable_file_is_named_and_the_rest_is_reported(sample, tmp_path, name, content, needle):
+    import shutil
+    project, _ = sample
+    copy = shutil.copytree(project.folder, tmp_path / "copy")
+    (copy / name).write_text(content)
+    report = build_report(open_project(copy))
+    assert any(p.startswith(needle) for p in report.problems), report.problems
+    assert needle in report.summary and "could not be read" in report.summary
+    assert f"{needle} cannot be read" in render_html(report)
+    assert len(report.sections) == 6
+
+
+def test_calibration_report_is_html_naming_undrawn_figures(sample):
+    project, _ = sample
+    text = calibration_report(open_project(project.folder))
+    assert text.startswith("<!DOCTYPE html>") and "figure not drawn" in text
+
+
+def test_the_saved_validation_records_its_poses(sample):
+    project, result = sample
+    saved = json.loads(project.path("calibrated").read_text())["calibration"]["statistics"]
+    assert saved["validation"]["test_poses"] == result.validation.test_poses
+    assert saved["cost_per_iteration"] == pytest.approx(result.costs)
