@@ -57,8 +57,8 @@ class RunMixin:
             self._set_status(f"Cannot measure: {exc.message}. {exc.hint or ''}".strip(), False)
             return False
         if not self.state.virtual:
-            self._set_status("Capturing from real cameras arrives with the hardware issue. Meanwhile save the "
-                             "pairs with your camera software and use `robocal measure`.", False)
+            self._set_status("This page measures in the virtual lab. With your own cameras, save each pose's "
+                             "image pair with the camera software and run `robocal measure` on the folder.", False)
             return False
         if not self._robot_ready():
             return False
