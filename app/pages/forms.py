@@ -27,13 +27,7 @@ def spin(value: int, lo: int, hi: int, *, name: str = "", suffix: str = "", tool
     s.setRange(lo, hi)
     s.setValue(value)
     s.setSingleStep(step)
-    if name:
-        s.setObjectName(name)
-    if suffix:
-        s.setSuffix(suffix)
-    if tooltip:
-        s.setToolTip(tooltip)
-    return s
+    return _labelled(s, name, suffix, tooltip)
 
 
 def double_spin(value: float, lo: float, hi: float, *, decimals: int = 2, step: float = 0.1, name: str = "",
@@ -44,6 +38,11 @@ def double_spin(value: float, lo: float, hi: float, *, decimals: int = 2, step: 
     s.setRange(lo, hi)
     s.setSingleStep(step)
     s.setValue(value)
+    return _labelled(s, name, suffix, tooltip)
+
+
+def _labelled(s, name: str, suffix: str, tooltip: str):
+    """The spin box `s` with its object name, unit suffix and tooltip (each when given)."""
     if name:
         s.setObjectName(name)
     if suffix:

@@ -281,12 +281,7 @@ class SerialRobot(RobotDriver):
                 raise RobotFault(f"no reply to {what} within {timeout:.3g} s", source=self.name,
                                  hint="Check that the controller is on and speaks this protocol.")
             kind, text = event
-            if kind == DISCONNECTED:
-                raise RobotFault(f"the connection is lost ({text})", source=self.name,
-                                 hint="Check the cable, reconnect, then resume the run.")
-            if kind == GARBAGE:
-                raise RobotFault(f"unreadable bytes from the controller {text}", source=self.name,
-                                 hint="Check the baud rate and the cable, then reconnect.")
+            self._check_line(kind, text)
             for name, pat in patterns.items():
                 m = pat.match(text) if pat is not None else None
                 if m:
@@ -307,17 +302,21 @@ class SerialRobot(RobotDriver):
             raise RobotFault(f"unexpected reply '{text[:80]}' while waiting for {what}", source=self.name,
                              hint="Check that the controller speaks this protocol.")
 
+    def _check_line(self, kind: str, text: str) -> None:
+        """A lost link or unreadable bytes are a fault; a line is left to the caller."""
+        if kind == DISCONNECTED:
+            raise RobotFault(f"the connection is lost ({text})", source=self.name,
+                             hint="Check the cable, reconnect, then resume the run.")
+        if kind == GARBAGE:
+            raise RobotFault(f"unreadable bytes from the controller {text}", source=self.name,
+                             hint="Check the baud rate and the cable, then reconnect.")
+
     def _raise_stale(self) -> None:
         """Lines that came between exchanges: an error, garbage or a lost link is a fault;
         anything else the profile does not ignore too."""
         link = self._link
         for kind, text in link.discard_pending() if link is not None else ():
-            if kind == DISCONNECTED:
-                raise RobotFault(f"the connection is lost ({text})", source=self.name,
-                                 hint="Check the cable, reconnect, then resume the run.")
-            if kind == GARBAGE:
-                raise RobotFault(f"unreadable bytes from the controller {text}", source=self.name,
-                                 hint="Check the baud rate and the cable, then reconnect.")
+            self._check_line(kind, text)
             if any(i.match(text) for i in self.profile.ignore):
                 continue
             m = self.profile.error.match(text)
