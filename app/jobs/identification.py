@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from app.lab import DEFAULT_POSES, DEFAULT_SIGMA_MM, ideal_lab_measurements, write_ideal_measurements
+from core.identification.prior import PriorOptions
 from core.identification.model_comparison import TruthAccuracy, identification_accuracy
 from core.identification.solver import IdentificationResult, identify
 from core.measurement.file import Measurements, read_measurements
@@ -32,8 +33,9 @@ class IdentificationRun:
 
 
 def run_identification(robot: RobotModel, path: str | Path, *, fixed=(), huber: float | None = None,
-                       holdout: float | None = None, kfold: int | None = None, seed: int = 0,
-                       lab=None, truth_poses: int = TRUTH_POSES, progress=None, cancelled=None) -> IdentificationRun:
+                       holdout: float | None = None, kfold: int | None = None, prior: PriorOptions | None = None,
+                       seed: int = 0, lab=None, truth_poses: int = TRUTH_POSES, progress=None,
+                       cancelled=None) -> IdentificationRun:
     """Read the measurements at `path`, identify `robot`'s parameters, and with a virtual `lab`
     compare the nominal and the calibrated model with its true robot at `truth_poses` fresh
     visible poses (drawn from `seed`)."""
@@ -42,8 +44,8 @@ def run_identification(robot: RobotModel, path: str | Path, *, fixed=(), huber: 
     monitor.step(0.0, "reading the measurements")
     meas = read_measurements(path, robot)
     fit = monitor.sub(0.02, 0.85 if lab is not None else 1.0)
-    result = identify(robot, meas, fixed=list(fixed), huber=huber, holdout=holdout, kfold=kfold, seed=seed,
-                      progress=fit, cancelled=cancelled)
+    result = identify(robot, meas, fixed=list(fixed), huber=huber, holdout=holdout, kfold=kfold, prior=prior,
+                      seed=seed, progress=fit, cancelled=cancelled)
     accuracy = None
     if lab is not None:
         monitor.step(0.95, "virtual lab: comparing with the true robot")

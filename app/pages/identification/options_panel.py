@@ -1,5 +1,5 @@
-"""The identification's options: validation (hold-out or k-fold), robust Huber weights, the
-parameters kept at nominal; the Identify button and the progress row."""
+"""The identification's options: validation (hold-out or k-fold), robust Huber weights, a prior
+toward nominal, the parameters kept at nominal; the Identify button and the progress row."""
 from __future__ import annotations
 
 from typing import Callable
@@ -10,6 +10,7 @@ from PySide6.QtWidgets import (QCheckBox, QComboBox, QGridLayout, QGroupBox, QLa
 from app.pages.forms import button, double_spin, row, spin
 from core.errors import RoboCalError
 from core.identification.jacobian import all_parameters, resolve_names
+from core.identification.prior import PriorOptions
 from widgets.progress_row import ProgressRow
 
 VALIDATION_NONE, VALIDATION_HOLDOUT, VALIDATION_KFOLD = range(3)
@@ -34,6 +35,11 @@ class OptionsPanel(QGroupBox):
         self.huber_spin = double_spin(3.0, 1.0, 10.0, step=0.5)
         self.huber_spin.setEnabled(False)
         self.huber_check.toggled.connect(self.huber_spin.setEnabled)
+        self.prior_check = QCheckBox("Prior toward nominal")
+        self.prior_check.setObjectName("priorCheck")
+        self.prior_check.setToolTip("Estimate the parameters the poses barely determine with a pull toward their "
+                                    "nominal values instead of keeping them at nominal; the pull's weight is "
+                                    "chosen by cross validation, and is zero when it does not predict better.")
         self.fix_edit = QLineEdit()
         self.fix_edit.setObjectName("fixEdit")
         self.fix_edit.setPlaceholderText("parameters kept at nominal, e.g. J6.d, marker.z")
@@ -51,7 +57,7 @@ class OptionsPanel(QGroupBox):
         grid.setHorizontalSpacing(8)
         grid.addWidget(QLabel("Validation:"), 0, 0)
         validation = row(self.validation_combo, self.holdout_spin, self.kfold_spin, self.huber_check,
-                         self.huber_spin)
+                         self.huber_spin, self.prior_check)
         validation.insertSpacing(3, 12)
         grid.addLayout(validation, 0, 1, 1, 3)
         grid.addWidget(QLabel("Fix:"), 1, 0)
@@ -70,7 +76,8 @@ class OptionsPanel(QGroupBox):
         return {"huber": float(self.huber_spin.value()) if self.huber_check.isChecked() else None,
                 "holdout": self.holdout_spin.value() / 100.0 if mode == VALIDATION_HOLDOUT else None,
                 "kfold": self.kfold_spin.value() if mode == VALIDATION_KFOLD else None,
-                "fixed": self.fixed_names()}
+                "fixed": self.fixed_names(),
+                "prior": PriorOptions() if self.prior_check.isChecked() else None}
 
     def fixed_names(self) -> list[str]:
         """The canonical names of the parameters typed in the Fix field (RoboCalError if unknown)."""
@@ -81,8 +88,8 @@ class OptionsPanel(QGroupBox):
         return resolve_names(raw, all_parameters(robot, list(robot.targets)), robot)
 
     def set_busy(self, busy: bool) -> None:
-        for w in (self.validation_combo, self.holdout_spin, self.kfold_spin, self.huber_check, self.fix_edit,
-                  self.fix_button):
+        for w in (self.validation_combo, self.holdout_spin, self.kfold_spin, self.huber_check, self.prior_check,
+                  self.fix_edit, self.fix_button):
             w.setEnabled(not busy)
         self.huber_spin.setEnabled(not busy and self.huber_check.isChecked())
         self.progress.bar.setVisible(busy)

@@ -59,16 +59,29 @@ def _fit_part(r) -> list[str]:
              stats_rows([("before (nominal, base registered)", r.before), ("after (calibrated)", r.after)]),
              "<h3>Fit</h3><ul>"
              f"<li>{r.n_iterations} iterations, {'converged' if r.converged else 'NOT converged'}; "
-             f"σ̂ = {r.sigma_hat_text} ({r.dof} degrees of freedom)</li>"
+             f"estimated σ = {r.sigma_hat_text} ({r.dof} degrees of freedom)</li>"
              f"<li>{len(r.estimated)} parameters estimated, rank {r.rank}; "
              f"condition number κ = {r.condition_number:.4g} of the column-scaled Φ</li>"
              f"<li>observability O1 = {obs.o1:.3g}, O2 = 1/κ = {obs.o2:.3g}, O3 = σ<sub>min</sub> = {obs.o3:.3g}</li>"
              f"<li>{len(r.unidentifiable)} parameters not identifiable (kept at nominal)"
              + (f"; {len(r.outliers)} outlier point(s), Huber k = {r.huber:g}" if r.huber else "")
              + "</li></ul>"]
+    if r.prior is not None:
+        parts += _prior_part(r.prior)
     if r.warnings:
         parts.append("<h3>Warnings</h3><ul>" + "".join(f"<li>{esc(w)}</li>" for w in r.warnings) + "</ul>")
     return parts
+
+
+def _prior_part(p) -> list[str]:
+    if p.weight <= 0:
+        return [f"<h3>Prior toward nominal</h3><p>Weight 0 ({esc(p.chosen_by)}): a pull toward the nominal "
+                "values did not predict the poses left out better, so the fit is the plain one.</p>"]
+    dominated = ", ".join(p.dominated) or "none"
+    return [f"<h3>Prior toward nominal</h3><p>Weight {p.weight:g} ({esc(p.chosen_by)}): a DH length may move "
+            f"about {number(p.std_length_mm, 3, 'mm')} and an angle about {p.std_angle_deg:.3g}° from nominal "
+            f"before the pull outweighs the measurements. Decided mostly by the prior (data share below 0.5): "
+            f"{esc(dominated)}.</p>"]
 
 
 def validation_html(run: IdentificationRun) -> str:

@@ -269,3 +269,16 @@ def test_a_new_project_clears_the_result(hw_page, qtbot, tmp_path):
     hw_page.state.new_project(tmp_path / "other", mode=projects.HARDWARE)
     assert not hw_page.is_complete() and hw_page.results.table.rowCount() == 0
     assert "No measurements" in hw_page.source.source_label.text()
+
+
+def test_prior_option_reaches_the_identification_and_is_reported(hw_page, qtbot):
+    page = hw_page
+    write_synthetic(page)
+    page.on_enter()
+    assert page.options.options()["prior"] is None
+    page.options.prior_check.setChecked(True)
+    identify(qtbot, page)
+    prior = page.result.prior
+    assert prior is not None and prior.chosen_by.endswith("cross validation")
+    text = page.results.validation_view.toPlainText()
+    assert "Prior toward nominal" in text and f"Weight {prior.weight:g}" in text
