@@ -13,7 +13,7 @@ from PySide6.QtWidgets import QFileDialog, QTabWidget, QVBoxLayout
 
 from app.html import number
 from app.jobs.marker import (Comparison, LiveResult, Training, TrainingImage, VerificationResult,
-                             capture_training_image, live_pair, load_training_image, recorded_verification,
+                             camera_live_pair, camera_training_image, capture_training_image, live_pair, load_training_image, recorded_verification,
                              run_comparison, run_verification, save_trained, train_job, write_verification)
 from app.lab import VirtualLab
 from app.pages.base import WizardPage
@@ -54,6 +54,7 @@ class MarkerPage(WizardPage):
         self._verify_count = 0
         self._build()
         state.projectChanged.connect(self._context_changed)
+        state.camerasChanged.connect(lambda *_: self._update_buttons())
         state.robotChanged.connect(self._context_changed)
         state.stereoChanged.connect(lambda *_: self._refresh_stereo())
         self._context_changed()
@@ -224,15 +225,18 @@ class MarkerPage(WizardPage):
         busy = self.busy or self._lab_pending
         has_project = self.state.project is not None
         virtual = self.state.virtual and self.state.robot is not None
+        live = self.state.cameras is not None
         tp = self.training_panel
         tp.load_button.setEnabled(not busy and has_project)
-        tp.capture_button.setEnabled(not busy and has_project and virtual)
+        tp.capture_button.setEnabled(not busy and has_project and (virtual or live))
+        tp.set_source(live)
+        self.live_panel.set_source(live)
         tp.crop_check.setEnabled(not busy and tp.image is not None)
         tp.train_button.setEnabled(not busy and has_project and tp.image is not None)
         self.stereo_bar.preview_button.setEnabled(not busy)
-        ready = self.trained is not None and self.stereo.rect is not None and virtual
-        self.live_panel.next_button.setEnabled(not busy and ready)
-        self.verification_panel.verify_button.setEnabled(not busy and ready)
+        ready = self.trained is not None and self.stereo.rect is not None
+        self.live_panel.next_button.setEnabled(not busy and ready and (virtual or live))
+        self.verification_panel.verify_button.setEnabled(not busy and ready and virtual)
         self.compare_panel.compare_button.setEnabled(not busy and virtual)
 
     def _with_lab(self, go: Callable[[VirtualLab], bool]) -> bool:
@@ -303,9 +307,14 @@ class MarkerPage(WizardPage):
         return True
 
     def capture_training(self, then=None) -> bool:
+        """From the left camera of the cameras opened on the Setup page; else the virtual lab's."""
+        if self.state.cameras is not None:
+            return self.start(camera_training_image, self.state.cameras, on_done=self._set_training_image,
+                              label="Training image", then=then,
+                              status="Taking the training image with the left camera…")
         if not self.state.virtual or self.state.robot is None:
-            self._set_status("Capture needs the virtual lab (live cameras arrive with the hardware issue); "
-                             "load an image of the marker instead.", False)
+            self._set_status("Open the two cameras on the Setup page to capture, or load an image of the marker.",
+                             False)
             return False
         return self._with_lab(lambda lab: self.start(
             capture_training_image, lab, on_done=self._set_training_image, label="Training image", then=then,
@@ -363,6 +372,11 @@ class MarkerPage(WizardPage):
         locator = self._ready_locator()
         if locator is None:
             return False
+        if self.state.cameras is not None:
+            self._live_count += 1
+            return self.start(camera_live_pair, self.state.cameras, locator, self._live_count,
+                              self.state.robot_connection, on_done=self._live_done, label="Live pair", then=then,
+                              status="Capturing a pair from the cameras and locating…")
 
         def go(lab: VirtualLab) -> bool:
             self._live_count += 1
@@ -379,8 +393,13 @@ class MarkerPage(WizardPage):
         if loc.ok:
             self._mark_verified({"kind": "live pair", "poses": 1, "located": 1,
                                  "error_mm": None if not math.isfinite(live.error) else round(live.error, 6)})
-            self._set_status(f"✓ Located in {1000 * loc.timings.get('total', live.seconds):.0f} ms: error against "
-                             f"the truth {live.error:.3f} mm. Next pose for another, or run a verification.", True)
+            took = f"✓ Located in {1000 * loc.timings.get('total', live.seconds):.0f} ms"
+            if live.truth is None:
+                self._set_status(f"{took} at ({', '.join(f'{v:.1f}' for v in loc.point)}) mm. Move the marker and "
+                                 "capture again for another.", True)
+            else:
+                self._set_status(f"{took}: error against the truth {live.error:.3f} mm. Next pose for another, "
+                                 "or run a verification.", True)
         else:
             self._set_status(f"Not located: {loc.reason}", False)
         self.tabs.setCurrentIndex(TAB_LIVE)
@@ -394,6 +413,11 @@ class MarkerPage(WizardPage):
         locator = self._ready_locator()
         if locator is None:
             return False
+        if self.state.cameras is not None:
+            self._live_count += 1
+            return self.start(camera_live_pair, self.state.cameras, locator, self._live_count,
+                              self.state.robot_connection, on_done=self._live_done, label="Live pair", then=then,
+                              status="Capturing a pair from the cameras and locating…")
 
         def go(lab: VirtualLab) -> bool:
             n = self.verification_panel.verify_spin.value()
