@@ -31,8 +31,9 @@ def shrink(image: np.ndarray, width: int) -> np.ndarray:
 
 class PreviewPump(QObject):
     """`framesReady(left, right)` on the GUI thread with the newest shrunk pair;
-    `failed(message)` when the cameras stop giving images. `shown` counts the pairs shown,
-    `fps()` is their rate since `start()`."""
+    `failed(message)` when the cameras stop giving images. `grabbed` counts the pairs the
+    worker took, `shown` those shown (the others were dropped); `fps()` is the shown rate
+    since `start()`. `max_fps` paces the worker (0: as fast as the cameras give frames)."""
 
     framesReady = Signal(object, object)
     failed = Signal(str)
@@ -44,6 +45,7 @@ class PreviewPump(QObject):
         self.width = int(width)
         self.max_fps = float(max_fps)
         self.shown = 0
+        self.grabbed = 0
         self._latest = None              # (sequence, left, right)
         self._error: str | None = None
         self._seen = 0
@@ -63,7 +65,8 @@ class PreviewPump(QObject):
         if self._thread is not None:
             return
         self._halt.clear()
-        self.shown, self._seen, self._latest, self._error = 0, 0, None, None
+        self.shown = self.grabbed = self._seen = 0
+        self._latest, self._error = None, None
         self._started = time.perf_counter()
         self._thread = threading.Thread(target=self._grab_loop, name="camera-preview", daemon=True)
         self._thread.start()
@@ -97,6 +100,7 @@ class PreviewPump(QObject):
             seq += 1
             with self._lock:
                 self._latest = (seq, *pair)
+                self.grabbed = seq
             rest = period - (time.perf_counter() - t0)
             if rest > 0:
                 self._halt.wait(rest)
