@@ -17,6 +17,7 @@ from app.jobs.marker import (Comparison, LiveResult, Training, TrainingImage, Ve
                              run_comparison, run_verification, save_trained, train_job, write_verification)
 from app.lab import VirtualLab
 from app.pages.base import WizardPage
+from app.safety import motion_refused
 from app.pages.marker.compare_panel import ComparePanel
 from app.pages.marker.live_panel import LivePanel
 from app.pages.marker.stereo_bar import StereoBar
@@ -384,7 +385,17 @@ class MarkerPage(WizardPage):
                               self.state.robot_connection, on_done=self._live_done, label="Live pair", then=then,
                               status="Moving to a random visible pose, capturing and locating…")
 
+        if not self._robot_may_move():
+            return False
         return self._with_lab(go)
+
+    def _robot_may_move(self) -> bool:
+        """A real robot moves only when app.safety allows it (connected, not stopped, its first
+        motion confirmed); the simulated robot always may."""
+        refused = motion_refused(self, self.state) if self.state.real_robot else None
+        if refused:
+            self._set_status(refused, False)
+        return refused is None
 
     def _live_done(self, live: LiveResult) -> None:
         self.live = live
@@ -413,11 +424,8 @@ class MarkerPage(WizardPage):
         locator = self._ready_locator()
         if locator is None:
             return False
-        if self.state.cameras is not None:
-            self._live_count += 1
-            return self.start(camera_live_pair, self.state.cameras, locator, self._live_count,
-                              self.state.robot_connection, on_done=self._live_done, label="Live pair", then=then,
-                              status="Capturing a pair from the cameras and locating…")
+        if not self._robot_may_move():
+            return False
 
         def go(lab: VirtualLab) -> bool:
             n = self.verification_panel.verify_spin.value()

@@ -69,3 +69,37 @@ def test_training_image_and_live_pair_from_the_cameras(page, qtbot, lab, tmp_pat
     assert not page.verification_panel.verify_button.isEnabled()           # verification needs the lab's truth
     words = " ".join(w.text() + " " + w.toolTip() for w in (tp.capture_button, lp.next_button)).lower()
     assert "issue" not in words and "not yet" not in words
+
+
+def test_next_pose_moves_a_serial_robot_only_once_its_first_motion_is_confirmed(qtbot, lab, monkeypatch):
+    from app import safety
+    from app.hardware import RobotChoice, open_serial_robot
+    from core.marker.training import train_marker
+    from core.robot.controller_sim import ControllerSim
+    from tests.app.virtual_inputs import lab_state
+
+    state, tasks = lab_state(lab), TaskRunner()
+    train_marker(lab.render_training_image(), outer_size=lab.marker.outer_size).save(
+        state.project.folder / "marker.npz")
+    with ControllerSim(lab.true_robot, time_scale=0.01) as sim:
+        choice = RobotChoice("serial", sim.port)
+        state.use_serial_robot(open_serial_robot(state.robot, choice, reply_timeout=5.0), choice)
+        page = MarkerPage(state, tasks)
+        qtbot.addWidget(page)
+        page.on_enter()
+        try:
+            answers = [False, True]
+            monkeypatch.setattr(safety, "confirm", lambda *a, **k: answers.pop(0))
+            assert not page.next_pose()
+            assert "not confirmed" in page.status.text()
+            assert not any(line.startswith("MOVE") for line in sim.received)
+            assert page.next_pose()
+            qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+            assert sum(line.startswith("MOVE") for line in sim.received) == 1
+            assert page.live.location.ok and page.live.error < 1.0          # rendered at the reported joints
+            assert page.next_pose()                                           # asked once per connection
+            qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+            assert sum(line.startswith("MOVE") for line in sim.received) == 2 and answers == []
+        finally:
+            tasks.shutdown()
+            state.close()
