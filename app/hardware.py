@@ -22,6 +22,7 @@ from core.robot.joint_map import JointMap
 from core.robot.model import RobotModel
 from core.robot.profile import builtin_names, builtin_profile, read_profile
 from core.robot.serial_robot import DEFAULT_SPEED, SerialRobot
+from core.robot.simulated import SimulatedRobot
 
 VIRTUAL, SERIAL, SOURCES = "virtual", "serial", "sources"
 
@@ -143,6 +144,4 @@ class LiveCameras:
 
 def is_real(driver) -> bool:
     """A driver that moves a physical robot (anything but the virtual lab's simulated robot)."""
-    from core.robot.simulated import SimulatedRobot
-
     return driver is not None and not isinstance(driver, SimulatedRobot)

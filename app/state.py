@@ -50,7 +50,8 @@ class WizardState(QObject):
     """Shared state of one wizard window.
 
     Signals: `projectChanged(Project | None)`, `robotChanged(RobotModel | None)`,
-    `connectionChanged(RobotDriver | None)`, `labChanged(VirtualLab | None)`, and one per
+    `connectionChanged(RobotDriver | None)`, `camerasChanged(LiveCameras | None)`,
+    `stoppedChanged(bool)` (Stop / Resume), `labChanged(VirtualLab | None)`, and one per
     step result (`stereoChanged`, `markerChanged`, `posesChanged`, `measurementsChanged`,
     `identificationChanged`) with the new value.
     """
@@ -217,9 +218,9 @@ class WizardState(QObject):
         """The two cameras to capture from (None: the virtual lab's); the old ones are closed."""
         old, self.cameras = self.cameras, cameras
         self.camera_choice = choice or (cameras.choice if cameras is not None else None) or CameraChoice()
+        self.camerasChanged.emit(cameras)          # previews of the old cameras stop first
         if old is not None and old is not cameras:
             old.close()
-        self.camerasChanged.emit(cameras)
 
     def stop_robot(self) -> bool:
         """Stop the robot now (the Stop key). Returns True if there was a robot to stop."""
@@ -357,8 +358,7 @@ class WizardState(QObject):
             self.robot_connection.stop()
             self.robot_connection.disconnect()
         if self.cameras is not None:
-            self.cameras.close()
-            self.cameras = None
+            self.set_cameras(None)
         for folder in self._temp_dirs:
             shutil.rmtree(folder, ignore_errors=True)
         self._temp_dirs.clear()

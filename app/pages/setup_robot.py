@@ -16,6 +16,7 @@ from app.html import esc
 from app.jobs.robot import Connected, connect_serial, move_and_read, read_joints
 from app.pages import forms
 from app.safety import motion_refused
+from core.errors import RoboCalError
 from core.robot.profile import builtin_names
 from core.robot.serial_robot import DEFAULT_SPEED
 
@@ -205,8 +206,8 @@ class RobotPanel(QGroupBox):
     def resume_robot(self) -> None:
         try:
             self.state.resume_robot()
-        except Exception as exc:                          # noqa: BLE001 - a controller refusing to unlock
-            self.page._set_status(f"Cannot resume: {getattr(exc, 'message', exc)}", False)
+        except RoboCalError as exc:                       # a controller refusing to unlock
+            self.page._set_status(f"Cannot resume: {exc.message}", False)
             return
         self.page._set_status("Robot ready.", True)
 
