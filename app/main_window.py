@@ -18,6 +18,7 @@ from app.pages.registry import create_pages
 from app.pages.steps import Step
 from app.state import WizardState
 from app.worker import TaskHandle, TaskRunner
+from core.errors import RoboCalError
 from core.resources import resource_path
 from widgets.explain_panel import ExplainPanel
 from widgets.step_list import StepList, StepState
@@ -100,6 +101,7 @@ class MainWindow(QMainWindow):
         self.state.projectChanged.connect(self._update_title)
         self.state.robotChanged.connect(self._update_mode_label)
         self.state.connectionChanged.connect(self._update_mode_label)
+        self.state.stoppedChanged.connect(self._update_mode_label)
         self.tasks.progress.connect(self._on_progress)
         self.tasks.busyChanged.connect(self._on_busy)
         self.tasks.unhandledError.connect(lambda msg, label: show_error(self, msg, f"RoboCal: {label}"))
@@ -175,8 +177,22 @@ class MainWindow(QMainWindow):
         self.next_button.clicked.connect(self.next)
         self.step_counter = QLabel()
         self.step_counter.setObjectName("hint")
+        # a real robot connected: Stop is a big red button on every page (and Esc)
+        self.stop_button = QPushButton("■  Stop robot (Esc)")
+        self.stop_button.setObjectName("stopRobotButton")
+        self.stop_button.setStyleSheet("QPushButton { color: white; background: #c5221f; font-weight: 600; "
+                                       "padding: 4px 14px; }")
+        self.stop_button.setToolTip("Stop the robot now and cancel the running task (Esc or Ctrl+.)")
+        self.stop_button.clicked.connect(self.stop_robot)
+        self.resume_button = QPushButton("Resume robot")
+        self.resume_button.setObjectName("resumeRobotButton")
+        self.resume_button.setToolTip("Accept motion again after a stop, once the way is clear")
+        self.resume_button.clicked.connect(self.resume_robot)
         nav = QHBoxLayout()
         nav.addWidget(self.step_counter)
+        nav.addSpacing(12)
+        nav.addWidget(self.stop_button)
+        nav.addWidget(self.resume_button)
         nav.addStretch(1)
         nav.addWidget(self.back_button)
         nav.addWidget(self.next_button)
@@ -369,7 +385,11 @@ class MainWindow(QMainWindow):
         conn = self.state.robot_connection
         mode = "Virtual lab" if self.state.virtual else "Hardware"
         robot = "no robot" if conn is None else ("robot stopped" if conn.stopped else "robot ready")
+        if self.state.real_robot:
+            robot = f"{conn.name} · {robot}"
         self.mode_label.setText(f"  {mode} · {robot}  ")
+        self.stop_button.setVisible(self.state.real_robot)
+        self.resume_button.setVisible(conn is not None and conn.stopped)
 
     # -- robot safety --------------------------------------------------------------------
     def stop_robot(self) -> None:
@@ -386,9 +406,12 @@ class MainWindow(QMainWindow):
         self._update_mode_label()
 
     def resume_robot(self) -> None:
-        if self.state.robot_connection is not None:
-            self.state.robot_connection.resume()
-            self.statusBar().showMessage("Robot ready.", 3000)
+        """Accept motion again after a stop (the technician checked that the way is clear)."""
+        try:
+            if self.state.resume_robot():
+                self.statusBar().showMessage("Robot ready.", 3000)
+        except RoboCalError as exc:
+            show_error(self, f"The robot cannot resume: {exc.message}", "RoboCal: robot")
         self._update_mode_label()
 
     # -- tasks ---------------------------------------------------------------------------
@@ -420,7 +443,6 @@ class MainWindow(QMainWindow):
         """The whole window as a PNG, written atomically (RoboCalError if it cannot be)."""
         from PySide6.QtCore import QBuffer, QByteArray, QIODevice
 
-        from core.errors import RoboCalError
         from core.files import atomic_write_bytes
 
         data = QByteArray()

@@ -31,6 +31,20 @@ def show_info(parent: QWidget | None, message: str, title: str = "RoboCal") -> N
     QMessageBox.information(parent, title, message)
 
 
+def confirm(parent: QWidget | None, question: str, title: str = "RoboCal", *, yes: str = "Yes",
+            non_interactive_answer: bool = True) -> bool:
+    """Ask a yes/no question (No is the default button). When nobody is there to click
+    (autopilot, tests) the question goes to stderr and `non_interactive_answer` is taken."""
+    if NON_INTERACTIVE:
+        sys.stderr.write(f"robocal gui: {title}: {question} -> {'yes' if non_interactive_answer else 'no'}\n")
+        return bool(non_interactive_answer)
+    box = QMessageBox(QMessageBox.Icon.Question, title, question, parent=parent)
+    ok = box.addButton(yes, QMessageBox.ButtonRole.AcceptRole)
+    box.setDefaultButton(box.addButton(QMessageBox.StandardButton.No))
+    box.exec()
+    return box.clickedButton() is ok
+
+
 def install_excepthook(parent_getter=lambda: None, on_fatal=None):
     """Route uncaught exceptions (e.g. in a slot) to a message box instead of killing the app.
 

@@ -13,6 +13,13 @@ hand on are typed attributes, each with its signal and its setter:
     state.set_identification(result, accuracy)   # identificationChanged(result)
 
 The virtual lab is built once, on a worker thread, by `request_lab(callback)`.
+
+The hardware chosen on the Setup page: `robot_choice` (app.hardware.RobotChoice) and
+`robot_connection` (the driver every page moves: the virtual lab's SimulatedRobot, or a
+connected SerialRobot given by `use_serial_robot`), `camera_choice` and `cameras`
+(app.hardware.LiveCameras, None for the virtual lab's cameras; `set_cameras`,
+`camerasChanged`). `motion_confirmed`: the technician confirmed the first motion of this
+real robot connection (app.safety).
 """
 from __future__ import annotations
 
@@ -23,6 +30,7 @@ from typing import Callable
 
 from PySide6.QtCore import QObject, Signal
 
+from app.hardware import CameraChoice, LiveCameras, RobotChoice, is_real
 from app.lab import VirtualLab, build_lab
 from app.worker import TaskRunner
 from core import project as projects
@@ -42,7 +50,8 @@ class WizardState(QObject):
     """Shared state of one wizard window.
 
     Signals: `projectChanged(Project | None)`, `robotChanged(RobotModel | None)`,
-    `connectionChanged(RobotDriver | None)`, `labChanged(VirtualLab | None)`, and one per
+    `connectionChanged(RobotDriver | None)`, `camerasChanged(LiveCameras | None)`,
+    `stoppedChanged(bool)` (Stop / Resume), `labChanged(VirtualLab | None)`, and one per
     step result (`stereoChanged`, `markerChanged`, `posesChanged`, `measurementsChanged`,
     `identificationChanged`) with the new value.
     """
@@ -50,6 +59,8 @@ class WizardState(QObject):
     projectChanged = Signal(object)
     robotChanged = Signal(object)
     connectionChanged = Signal(object)
+    camerasChanged = Signal(object)
+    stoppedChanged = Signal(bool)
     labChanged = Signal(object)
     stereoChanged = Signal(object)
     markerChanged = Signal(object)
@@ -63,6 +74,10 @@ class WizardState(QObject):
         self.robot: RobotModel | None = None
         self.robot_source: str | None = None     # "preset:ur5" or a file path
         self.robot_connection: RobotDriver | None = None
+        self.robot_choice = RobotChoice()
+        self.motion_confirmed = False
+        self.camera_choice = CameraChoice()
+        self.cameras: LiveCameras | None = None
         self.seed = seed                          # virtual lab: same seed, same lab
         self.noise = noise                        # virtual lab: sensor noise (grey levels)
         self.stereo: StereoCalibrationResult | None = None
@@ -151,12 +166,16 @@ class WizardState(QObject):
 
     # -- robot connection ----------------------------------------------------------------
     def _update_connection(self) -> None:
-        """Virtual lab mode: a simulated robot over the lab's true geometry once the lab
-        exists (over the nominal model before). A hardware project has no connection: RoboCal
-        drives the virtual lab."""
+        """The simulated robot chosen, in virtual lab mode: a SimulatedRobot over the lab's
+        true geometry once the lab exists (over the nominal model before). A serial robot
+        stays connected while its model is the robot; another robot disconnects it (connect
+        again on the Setup page)."""
         old = self.robot_connection
         new: RobotDriver | None = None
-        if self.robot is not None and self.virtual:
+        if self.robot_choice.real:
+            if old is not None and is_real(old) and old.model is self.robot:
+                return
+        elif self.robot is not None and self.virtual:
             truth = getattr(self._lab, "true_robot", None) if self._lab is not None else None
             new = SimulatedRobot(truth if isinstance(truth, RobotModel) else self.robot)
             new.connect()
@@ -168,11 +187,59 @@ class WizardState(QObject):
         self.robot_connection = new
         self.connectionChanged.emit(new)
 
+    @property
+    def real_robot(self) -> bool:
+        """A physical robot is connected (not the virtual lab's simulated robot)."""
+        return is_real(self.robot_connection)
+
+    def use_serial_robot(self, driver: RobotDriver, choice: RobotChoice) -> None:
+        """Make a connected serial robot the robot connection (the old one is stopped and
+        disconnected); its first motion will be confirmed again."""
+        old = self.robot_connection
+        self.robot_choice = choice
+        self.motion_confirmed = False
+        if old is not None and old is not driver:
+            old.stop()
+            old.disconnect()
+        self.robot_connection = driver
+        self.connectionChanged.emit(driver)
+
+    def use_virtual_robot(self) -> None:
+        """Back to the virtual lab's simulated robot (a serial robot is stopped and disconnected)."""
+        self.robot_choice = RobotChoice()
+        old = self.robot_connection
+        if old is not None and is_real(old):
+            old.stop()
+            old.disconnect()
+            self.robot_connection = None
+        self._update_connection()
+
+    def set_cameras(self, cameras: LiveCameras | None, choice: CameraChoice | None = None) -> None:
+        """The two cameras to capture from (None: the virtual lab's); the old ones are closed."""
+        old, self.cameras = self.cameras, cameras
+        self.camera_choice = choice or (cameras.choice if cameras is not None else None) or CameraChoice()
+        self.camerasChanged.emit(cameras)          # previews of the old cameras stop first
+        if old is not None and old is not cameras:
+            old.close()
+
     def stop_robot(self) -> bool:
         """Stop the robot now (the Stop key). Returns True if there was a robot to stop."""
         if self.robot_connection is None:
             return False
         self.robot_connection.stop()
+        self.stoppedChanged.emit(True)
+        return True
+
+    def resume_robot(self) -> bool:
+        """Accept motion again after a stop (the technician checked that the way is clear).
+        Returns True if there was a robot to resume. May raise RobotFault (a controller that
+        refuses to unlock)."""
+        if self.robot_connection is None:
+            return False
+        try:
+            self.robot_connection.resume()
+        finally:
+            self.stoppedChanged.emit(self.robot_connection.stopped)
         return True
 
     # -- virtual lab ---------------------------------------------------------------------
@@ -290,6 +357,8 @@ class WizardState(QObject):
         if self.robot_connection is not None:
             self.robot_connection.stop()
             self.robot_connection.disconnect()
+        if self.cameras is not None:
+            self.set_cameras(None)
         for folder in self._temp_dirs:
             shutil.rmtree(folder, ignore_errors=True)
         self._temp_dirs.clear()

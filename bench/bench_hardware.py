@@ -1,4 +1,5 @@
-"""Hardware path: capture latency, serial round trip over a pty, a measurement run over sim-robot."""
+"""Hardware path: capture latency, the Setup page's preview rate, serial round trip over a pty,
+a measurement run over sim-robot."""
 from __future__ import annotations
 
 import tempfile
@@ -37,6 +38,34 @@ def _mean_capture(source, n: int) -> float:
     return float(np.mean(times))
 
 
+def _preview_fps(left: Path, right: Path, seconds: float = 3.0) -> tuple[float, float]:
+    """(worker rate, shown rate) in pairs/s of the Setup page's preview of two video files: the
+    worker grabs, decodes and shrinks both (unpaced), the Qt timer shows the newest pair."""
+    from PySide6.QtCore import QCoreApplication, QEventLoop, QTimer
+
+    from app.hardware import CameraChoice, LiveCameras
+    from app.preview import PreviewPump
+
+    QCoreApplication.instance() or QCoreApplication([])
+    cams = LiveCameras.open(CameraChoice("sources", str(left), str(right)))
+    try:
+        pump = PreviewPump(cams, max_fps=0)
+        grabbed = []
+        pump.framesReady.connect(lambda *_: grabbed.append(1))
+        t = time.perf_counter()
+        pump.start()
+        loop = QEventLoop()
+        QTimer.singleShot(int(seconds * 1000), loop.quit)
+        loop.exec()
+        pump.stop()
+        elapsed = time.perf_counter() - t
+        worker = pump.grabbed / elapsed
+        shown = pump.shown / elapsed
+    finally:
+        cams.close()
+    return worker, shown
+
+
 def run(report) -> None:
     lab = VirtualLab.create(seed=0)
     q = lab.random_visible_poses(1, np.random.default_rng(5))[0]
@@ -51,6 +80,10 @@ def run(report) -> None:
         with StereoSource(open_camera(str(left)), open_camera(str(right))) as source:
             report.add("capture latency, two 1280x1024 MJPG video files (grab + retrieve)",
                        _mean_capture(source, 30), "<=", 0.05, "s")
+        worker_fps, shown_fps = _preview_fps(left, right)
+        report.info("preview worker: grab + decode + shrink two 1280x1024 videos", worker_fps, "pairs/s")
+        report.add("Setup preview of two 1280x1024 MJPG video files, pairs shown", shown_fps, ">=", 10.0,
+                   "fps")
 
         model = lab.true_robot
         with ControllerSim(model, time_scale=1.0) as sim:

@@ -98,6 +98,20 @@ def train_job(image: np.ndarray, box, outer_size: float, source: str, *, progres
     return Training(trained, offset, box)
 
 
+def camera_training_image(cameras, *, progress=None, cancelled=None) -> TrainingImage:
+    """The training image from the left camera of the chosen cameras (app.hardware.LiveCameras):
+    the marker plate held facing it."""
+    monitor = Monitor(progress, cancelled)
+    monitor.step(0.3, "taking the training image")
+    image = _grey(cameras.capture().left)
+    outline, problem = auto_outline(image)
+    return TrainingImage(image, "left camera", outline, problem, None)
+
+
+def _grey(image: np.ndarray) -> np.ndarray:
+    return cv2.cvtColor(image, cv2.COLOR_BGR2GRAY) if image.ndim == 3 else image
+
+
 # -- live pair ---------------------------------------------------------------------------------
 @dataclass
 class LiveResult:
@@ -141,6 +155,26 @@ def live_pair(lab: VirtualLab, locator: MarkerLocator, index: int, seed: int, dr
         sweep = locator.window_sweep(left, right, location)
     monitor.step(1.0, "done")
     return LiveResult(index, q, left, right, location, sweep, lab.marker_position(q), time.perf_counter() - t0)
+
+
+def camera_live_pair(cameras, locator: MarkerLocator, index: int, driver=None, *, progress=None,
+                     cancelled=None) -> LiveResult:
+    """A pair from the chosen cameras with the robot where it is (its joints read when a robot
+    is connected, else NaN): locate the marker, sweep the window. No truth to compare with."""
+    monitor = Monitor(progress, cancelled)
+    t0 = time.perf_counter()
+    q = driver.current_joints() if driver is not None and driver.connected else np.full(0, np.nan)
+    monitor.step(0.1, "capturing the pair")
+    frames = cameras.capture()
+    left, right = _grey(frames.left), _grey(frames.right)
+    monitor.step(0.3, "locating the marker")
+    location = locator.locate(left, right)
+    sweep = None
+    if location.left_rectified is not None:
+        monitor.step(0.85, "window-size sweep")
+        sweep = locator.window_sweep(left, right, location)
+    monitor.step(1.0, "done")
+    return LiveResult(index, q, left, right, location, sweep, None, time.perf_counter() - t0)
 
 
 # -- verification ------------------------------------------------------------------------------

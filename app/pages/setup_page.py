@@ -1,21 +1,23 @@
 """Step 1, Setup: project folder, robot model (DH table), robot connection, cameras.
 
-RoboCal drives the virtual lab: the simulated robot and its two simulated cameras are the
-connection and the cameras offered here. A project made for real hardware still opens; the
-page then says that it drives the virtual lab only."""
+The robot is the virtual lab's simulated robot or a controller on a serial port, tested here
+(setup_robot.py); the cameras are the virtual lab's or two live cameras, video files or image
+folders, previewed here (setup_cameras.py). A hardware project offers only real hardware."""
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
 from PySide6.QtCore import Qt
-from PySide6.QtWidgets import (QComboBox, QFileDialog, QGroupBox, QHBoxLayout, QLabel, QRadioButton,
-                               QVBoxLayout)
+from PySide6.QtWidgets import (QComboBox, QFileDialog, QFrame, QGroupBox, QHBoxLayout, QLabel, QScrollArea,
+                               QVBoxLayout, QWidget)
 
 from app import project_actions
 from app.html import esc
 from app.pages import forms
 from app.pages.base import WizardPage
+from app.pages.setup_cameras import CameraPanel
+from app.pages.setup_robot import RobotPanel
 from app.pages.steps import Step
 from core import project as projects
 from core.errors import RoboCalError
@@ -24,7 +26,6 @@ from core.robot.model import RobotModel, preset_names, robot_path
 from widgets.dh_table import DHTable
 
 DEMO_PRESET = "educational_6r"
-VIRTUAL_ONLY = "RoboCal drives the virtual lab's simulated robot and cameras"
 
 
 def preset_title(name: str) -> str:
@@ -100,41 +101,27 @@ class SetupPage(WizardPage):
         rl.addWidget(self.robot_summary)
 
         # -- connection and cameras ----------------------------------------------------
-        self.virtual_robot = QRadioButton("Virtual lab (simulated robot)")
-        self.connection_status = QLabel()
-        self.connection_status.setObjectName("hint")
-        self.connection_status.setWordWrap(True)
-        connection_box = QGroupBox("Robot connection")
-        cl = QVBoxLayout(connection_box)
-        cl.addWidget(self.virtual_robot)
-        cl.addWidget(self.connection_status)
+        self.robot_panel = RobotPanel(self)
+        self.camera_panel = CameraPanel(self)
+        self.camera_panel.preview.setMinimumHeight(220)
 
-        self.virtual_cameras = QRadioButton("Virtual lab cameras (simulated stereo pair)")
-        self.camera_status = QLabel("Two simulated cameras with parallel optical axes look at "
-                                    "the robot; the marker is rendered where the robot puts it.")
-        self.camera_status.setObjectName("hint")
-        self.camera_status.setWordWrap(True)
-        camera_box = QGroupBox("Cameras")
-        kl = QVBoxLayout(camera_box)
-        kl.addWidget(self.virtual_cameras)
-        kl.addWidget(self.camera_status)
-
-        for b in (self.virtual_robot, self.virtual_cameras):   # they show the project's mode: a click changes nothing
-            b.setAutoExclusive(False)
-            b.clicked.connect(self._refresh)
-
-        hw = QHBoxLayout()
-        hw.addWidget(connection_box, 1)
-        hw.addWidget(camera_box, 1)
-
+        content = QWidget()
+        inner = QVBoxLayout(content)
+        inner.setContentsMargins(0, 0, 6, 0)
+        inner.addWidget(project_box)
+        inner.addWidget(robot_box)
+        inner.addWidget(self.robot_panel)
+        inner.addWidget(self.camera_panel, 1)
+        scroll = self.scroll = QScrollArea()
+        scroll.setWidgetResizable(True)
+        scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+        scroll.setFrameShape(QFrame.Shape.NoFrame)
+        scroll.setWidget(content)
 
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
-        layout.addWidget(project_box)
-        layout.addWidget(robot_box)
-        layout.addLayout(hw)
+        layout.addWidget(scroll, 1)
         layout.addWidget(self.status)
-        layout.addStretch(1)
 
         state.projectChanged.connect(self._refresh)
         state.robotChanged.connect(self._refresh)
@@ -183,6 +170,14 @@ class SetupPage(WizardPage):
 
     def on_enter(self) -> None:
         self._refresh()
+        self.camera_panel.start_preview()
+
+    def on_leave(self) -> None:
+        self.camera_panel.stop_preview()
+
+    def on_busy_changed(self) -> None:
+        self.robot_panel.refresh()
+        self.camera_panel.refresh()
 
     def autopilot(self, done) -> None:
         try:
@@ -237,16 +232,13 @@ class SetupPage(WizardPage):
             self.robot_summary.setText(robot_summary(model))
 
         hardware = project is not None and project.mode == projects.HARDWARE
-        self.virtual_robot.setChecked(not hardware)
-        self.virtual_cameras.setChecked(not hardware)
-        conn = state.robot_connection
-        if hardware:
-            self.connection_status.setText(f"This project is for real hardware; {VIRTUAL_ONLY} only.")
-        elif conn is None:
-            self.connection_status.setText("Choose a robot model to connect the simulated robot.")
-        else:
-            self.connection_status.setText(f"{conn.name}: {'connected' if conn.connected else 'not connected'}. "
-                                           "Stop: Esc or Ctrl+. at any time.")
+        for virtual, real in ((self.robot_panel.virtual_radio, self.robot_panel.serial_radio),
+                              (self.camera_panel.virtual_radio, self.camera_panel.sources_radio)):
+            virtual.setEnabled(not hardware)
+            if hardware and virtual.isChecked():
+                real.setChecked(True)
+        self.robot_panel.refresh()
+        self.camera_panel.refresh()
 
         missing = []
         if project is None:

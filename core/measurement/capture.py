@@ -88,6 +88,11 @@ class Camera(ABC):
     @abstractmethod
     def retrieve(self) -> np.ndarray: ...
 
+    def rewind(self) -> bool:
+        """Start again from the first frame (a video file or an image folder, for a preview
+        that loops); False for a live camera, which has no start."""
+        return False
+
     def close(self) -> None:
         pass
 
@@ -173,6 +178,9 @@ class VideoCamera(Camera):
             raise RoboCalError("no image to retrieve (end of the video?)", source=self.spec)
         return frame
 
+    def rewind(self) -> bool:
+        return not self.live and bool(self._cap.set(cv2.CAP_PROP_POS_FRAMES, 0))
+
     def close(self) -> None:
         self._cap.release()
 
@@ -207,6 +215,10 @@ class FolderCamera(Camera):
         if image is None:
             raise RoboCalError("not a readable image", source=self._current)
         return image
+
+    def rewind(self) -> bool:
+        self._next, self._current = 0, None
+        return True
 
 
 def open_camera(spec, settings: CameraSettings | None = None) -> Camera:

@@ -146,27 +146,7 @@ class RobotDriver(ABC):
     def check_joints(self, q) -> np.ndarray:
         """`q` as a float array of the robot's size, finite and inside the joint limits,
         or a RoboCalError naming the joint, its value and its limits (file units)."""
-        try:
-            q = np.asarray(q, dtype=float).reshape(-1)
-        except (TypeError, ValueError) as exc:
-            raise RoboCalError(f"joint values must be numbers, got {q!r}", source=self.name) from exc
-        n = self.model.dof
-        if q.shape != (n,):
-            raise RoboCalError(f"expected {n} joint values, got {q.size}", source=self.name)
-        lo, hi = self.model.limits()
-        tol = 1e-9
-        for i, joint in enumerate(self.model.joints):
-            unit = "°" if joint.revolute else " mm"
-            to_file = np.rad2deg if joint.revolute else (lambda v: v)
-            label = joint.name or f"J{i + 1}"
-            if not np.isfinite(q[i]):
-                raise RoboCalError(f"joint {label}: value {q[i]} is not a finite number", source=self.name)
-            if q[i] < lo[i] - tol or q[i] > hi[i] + tol:
-                raise RoboCalError(
-                    f"joint {label}: {to_file(q[i]):.3f}{unit} is outside its limits "
-                    f"[{to_file(lo[i]):.3f}{unit}, {to_file(hi[i]):.3f}{unit}]; the robot was not moved",
-                    source=self.name, hint="Choose a configuration inside the joint limits.")
-        return q
+        return check_joint_values(self.model, q, self.name)
 
     # -- context manager -----------------------------------------------------------------
     def __enter__(self) -> "RobotDriver":
@@ -178,3 +158,29 @@ class RobotDriver(ABC):
             self.stop()
         finally:
             self.disconnect()
+
+
+def check_joint_values(model: RobotModel, q, source: str = "robot") -> np.ndarray:
+    """`q` (internal units) as a float array of the model's size, finite and inside its joint
+    limits, or a RoboCalError naming the joint, its value and its limits (deg / mm)."""
+    try:
+        q = np.asarray(q, dtype=float).reshape(-1)
+    except (TypeError, ValueError) as exc:
+        raise RoboCalError(f"joint values must be numbers, got {q!r}", source=source) from exc
+    n = model.dof
+    if q.shape != (n,):
+        raise RoboCalError(f"expected {n} joint values, got {q.size}", source=source)
+    lo, hi = model.limits()
+    tol = 1e-9
+    for i, joint in enumerate(model.joints):
+        unit = "°" if joint.revolute else " mm"
+        to_file = np.rad2deg if joint.revolute else (lambda v: v)
+        label = joint.name or f"J{i + 1}"
+        if not np.isfinite(q[i]):
+            raise RoboCalError(f"joint {label}: value {q[i]} is not a finite number", source=source)
+        if q[i] < lo[i] - tol or q[i] > hi[i] + tol:
+            raise RoboCalError(
+                f"joint {label}: {to_file(q[i]):.3f}{unit} is outside its limits "
+                f"[{to_file(lo[i]):.3f}{unit}, {to_file(hi[i]):.3f}{unit}]; the robot was not moved",
+                source=source, hint="Choose a configuration inside the joint limits.")
+    return q

@@ -4,12 +4,14 @@ The page is page.py, one panel per tab (*_panel.py) and the stereo line (stereo_
 work it runs on worker threads is app/jobs/marker.py. The chapter's chain, one tab each:
 
 1. **Training** (core.marker.training.train_marker, worker thread): a training image loaded
-   from a file or taken with the virtual lab's camera; the outer black square is found
+   from a file or taken with the left camera (cameras opened on the Setup page) or the virtual
+   lab's camera; the outer black square is found
    automatically (drawn dashed) or inside a crop rectangle the user drags; SIFT keypoints,
    the fitted outline and its reference point (the intersection of the diagonals) are drawn.
    The marker goes into the project (marker.npz, marker_training.png) and to
    ``state.marker``.
-2. **Live pair** (virtual lab: the robot at a random visible pose, "Next pose"): in both
+2. **Live pair** (virtual lab: the robot at a random visible pose, "Next pose"; with cameras:
+   "Capture pair", the robot where it is): in both
    images the SIFT matches (agreeing / not), the homography's outline, the region of
    interest, the Canny edge pixels and the fitted outline, the reference point; the 3D point
    (mm, left camera frame) with its σ and, in the virtual lab, its error against the truth.

@@ -94,6 +94,17 @@ def draw_detection(view: MarkerImageView, det, missing: str = "") -> None:
 class LivePanel(QWidget):
     """The Live pair tab; the page connects `next_button` and calls `draw(live, stereo)`."""
 
+    def set_source(self, cameras: bool) -> None:
+        """Capture from the cameras opened on the Setup page (True) or the virtual lab's."""
+        if cameras:
+            self.next_button.setText("Capture pair")
+            self.next_button.setToolTip("Capture a pair from the two cameras, the robot where it is, and locate "
+                                        "the marker")
+        else:
+            self.next_button.setText("Next pose")
+            self.next_button.setToolTip("Move the (virtual) robot to a random pose where both cameras see the "
+                                        "marker, capture a pair and locate the marker")
+
     def __init__(self, parent: QWidget | None = None):
         super().__init__(parent)
         self.next_button = button("Next pose", "nextPoseButton",

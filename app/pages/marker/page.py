@@ -13,10 +13,11 @@ from PySide6.QtWidgets import QFileDialog, QTabWidget, QVBoxLayout
 
 from app.html import number
 from app.jobs.marker import (Comparison, LiveResult, Training, TrainingImage, VerificationResult,
-                             capture_training_image, live_pair, load_training_image, recorded_verification,
+                             camera_live_pair, camera_training_image, capture_training_image, live_pair, load_training_image, recorded_verification,
                              run_comparison, run_verification, save_trained, train_job, write_verification)
 from app.lab import VirtualLab
 from app.pages.base import WizardPage
+from app.safety import motion_refused
 from app.pages.marker.compare_panel import ComparePanel
 from app.pages.marker.live_panel import LivePanel
 from app.pages.marker.stereo_bar import StereoBar
@@ -52,6 +53,7 @@ class MarkerPage(WizardPage):
         self._verify_count = 0
         self._build()
         state.projectChanged.connect(self._context_changed)
+        state.camerasChanged.connect(lambda *_: self._update_buttons())
         state.robotChanged.connect(self._context_changed)
         state.stereoChanged.connect(lambda *_: self._refresh_stereo())
         self._context_changed()
@@ -220,15 +222,18 @@ class MarkerPage(WizardPage):
         busy = self.busy
         has_project = self.state.project is not None
         virtual = self.state.virtual and self.state.robot is not None
+        live = self.state.cameras is not None
         tp = self.training_panel
         tp.load_button.setEnabled(not busy and has_project)
-        tp.capture_button.setEnabled(not busy and has_project and virtual)
+        tp.capture_button.setEnabled(not busy and has_project and (virtual or live))
+        tp.set_source(live)
+        self.live_panel.set_source(live)
         tp.crop_check.setEnabled(not busy and tp.image is not None)
         tp.train_button.setEnabled(not busy and has_project and tp.image is not None)
         self.stereo_bar.preview_button.setEnabled(not busy)
-        ready = self.trained is not None and self.stereo.rect is not None and virtual
-        self.live_panel.next_button.setEnabled(not busy and ready)
-        self.verification_panel.verify_button.setEnabled(not busy and ready)
+        ready = self.trained is not None and self.stereo.rect is not None
+        self.live_panel.next_button.setEnabled(not busy and ready and (virtual or live))
+        self.verification_panel.verify_button.setEnabled(not busy and ready and virtual)
         self.compare_panel.compare_button.setEnabled(not busy and virtual)
 
     # -- stereo preview -----------------------------------------------------------------------
@@ -267,9 +272,14 @@ class MarkerPage(WizardPage):
         return True
 
     def capture_training(self, then=None) -> bool:
+        """From the left camera of the cameras opened on the Setup page; else the virtual lab's."""
+        if self.state.cameras is not None:
+            return self.start(camera_training_image, self.state.cameras, on_done=self._set_training_image,
+                              label="Training image", then=then,
+                              status="Taking the training image with the left camera…")
         if not self.state.virtual or self.state.robot is None:
-            self._set_status("Capture needs the virtual lab (live cameras arrive with the hardware issue); "
-                             "load an image of the marker instead.", False)
+            self._set_status("Open the two cameras on the Setup page to capture, or load an image of the marker.",
+                             False)
             return False
         return self.with_lab(lambda lab: self.start(
             capture_training_image, lab, on_done=self._set_training_image, label="Training image", then=then,
@@ -327,6 +337,11 @@ class MarkerPage(WizardPage):
         locator = self._ready_locator()
         if locator is None:
             return False
+        if self.state.cameras is not None:
+            self._live_count += 1
+            return self.start(camera_live_pair, self.state.cameras, locator, self._live_count,
+                              self.state.robot_connection, on_done=self._live_done, label="Live pair", then=then,
+                              status="Capturing a pair from the cameras and locating…")
 
         def go(lab: VirtualLab) -> bool:
             self._live_count += 1
@@ -334,7 +349,17 @@ class MarkerPage(WizardPage):
                               self.state.robot_connection, on_done=self._live_done, label="Live pair", then=then,
                               status="Moving to a random visible pose, capturing and locating…")
 
+        if not self._robot_may_move():
+            return False
         return self.with_lab(go)
+
+    def _robot_may_move(self) -> bool:
+        """A real robot moves only when app.safety allows it (connected, not stopped, its first
+        motion confirmed); the simulated robot always may."""
+        refused = motion_refused(self, self.state) if self.state.real_robot else None
+        if refused:
+            self._set_status(refused, False)
+        return refused is None
 
     def _live_done(self, live: LiveResult) -> None:
         self.live = live
@@ -343,8 +368,13 @@ class MarkerPage(WizardPage):
         if loc.ok:
             self._mark_verified({"kind": "live pair", "poses": 1, "located": 1,
                                  "error_mm": None if not math.isfinite(live.error) else round(live.error, 6)})
-            self._set_status(f"✓ Located in {1000 * loc.timings.get('total', live.seconds):.0f} ms: error against "
-                             f"the truth {live.error:.3f} mm. Next pose for another, or run a verification.", True)
+            took = f"✓ Located in {1000 * loc.timings.get('total', live.seconds):.0f} ms"
+            if live.truth is None:
+                self._set_status(f"{took} at ({', '.join(f'{v:.1f}' for v in loc.point)}) mm. Move the marker and "
+                                 "capture again for another.", True)
+            else:
+                self._set_status(f"{took}: error against the truth {live.error:.3f} mm. Next pose for another, "
+                                 "or run a verification.", True)
         else:
             self._set_status(f"Not located: {loc.reason}", False)
         self.tabs.setCurrentIndex(TAB_LIVE)
@@ -357,6 +387,8 @@ class MarkerPage(WizardPage):
     def verify(self, then=None) -> bool:
         locator = self._ready_locator()
         if locator is None:
+            return False
+        if not self._robot_may_move():
             return False
 
         def go(lab: VirtualLab) -> bool:

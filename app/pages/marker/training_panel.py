@@ -78,6 +78,16 @@ class TrainingPanel(QWidget):
         layout.addWidget(self.training_view, 1)
         layout.addWidget(self.training_info)
 
+    def set_source(self, cameras: bool) -> None:
+        """Capture from the cameras opened on the Setup page (True) or the virtual lab's."""
+        if cameras:
+            self.capture_button.setText("Capture (left camera)")
+            self.capture_button.setToolTip("Hold the marker plate facing the left camera, flat and sharp, then "
+                                           "capture")
+        else:
+            self.capture_button.setText("Capture (virtual lab)")
+            self.capture_button.setToolTip("A frontal image of the marker plate with the virtual lab's camera")
+
     def crop_box(self) -> tuple[int, int, int, int] | None:
         """The crop rectangle (x0, y0, x1, y1) px when cropping is ticked, else None."""
         return self.training_view.crop_box() if self.crop_check.isChecked() else None

@@ -2,8 +2,9 @@
 
 Pairs come from two folders (left, right; matched by sorted file name), from the virtual
 lab (N pairs at well-spread board poses, rendered and saved as PNGs into the project's
-checkerboard/left|right), or from the cameras (live cameras arrive with the hardware issue;
-in the virtual lab, one pair from the lab's cameras at a random board pose). Detection runs
+checkerboard/left|right), or from the cameras (the two opened on the Setup page, one pair
+saved into checkerboard/left|right, live_capture.py; without them in the virtual lab, one pair
+from the lab's cameras at a random board pose). Detection runs
 on the worker thread in small batches (app/jobs/stereo.py), so thumbnails and the ROS-style
 coverage bars fill while pairs are added. Calibration (core.stereo.calibration.calibrate_stereo)
 runs on the worker thread too; the page then draws what it returns (results_panel.py).
@@ -30,7 +31,8 @@ from app.pages.stereo.options_panel import OptionsPanel
 from app.pages.stereo.pairs_panel import VIRTUAL_PAIRS, PairsActions, PairsPanel
 from app.pages.stereo.job_queue import Job, JobQueueMixin
 from app.pages.stereo.results_panel import ResultsActions, ResultsPanel
-from app.pages.stereo.texts import CAMERA_TOOLTIP_HARDWARE, CAMERA_TOOLTIP_VIRTUAL, VIRTUAL_TOOLTIP
+from app.pages.stereo.texts import (CAMERA_TOOLTIP_HARDWARE, CAMERA_TOOLTIP_LIVE, CAMERA_TOOLTIP_VIRTUAL,
+                                    VIRTUAL_TOOLTIP)
 from core.errors import RoboCalError
 from core.stereo.board import Board
 from core.stereo.calibration import StereoCalibrationResult, calibrate_stereo
@@ -61,6 +63,7 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, WizardPage):
         self._board = self._default_board()
         self._build()
         state.projectChanged.connect(self._context_changed)
+        state.camerasChanged.connect(lambda *_: self.on_busy_changed())
         self._context_changed()
 
     def _build(self) -> None:
@@ -236,10 +239,13 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, WizardPage):
         self.progress_row().bar.setVisible(busy)
         for w in (p.folders_button, p.cols_spin, p.rows_spin, p.square_spin):
             w.setEnabled(not busy and has_project)
-        for w in (p.virtual_button, p.virtual_count, p.capture_button):
+        live = self.state.cameras is not None
+        for w in (p.virtual_button, p.virtual_count):
             w.setEnabled(not busy and has_project and virtual)
+        p.capture_button.setEnabled(not busy and has_project and (virtual or live))
         p.virtual_button.setToolTip(VIRTUAL_TOOLTIP if virtual else "Only in a virtual-lab project")
-        p.capture_button.setToolTip(CAMERA_TOOLTIP_VIRTUAL if virtual else CAMERA_TOOLTIP_HARDWARE)
+        p.capture_button.setToolTip(CAMERA_TOOLTIP_LIVE if live else CAMERA_TOOLTIP_VIRTUAL if virtual
+                                    else CAMERA_TOOLTIP_HARDWARE)
         p.remove_button.setEnabled(not busy and bool(p.strip.selectedItems()))
         p.clear_button.setEnabled(not busy and bool(self.items))
         self._calibrate_button_state(busy)

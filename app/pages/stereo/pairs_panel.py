@@ -14,6 +14,7 @@ from PySide6.QtWidgets import QFileDialog, QGroupBox, QLabel, QVBoxLayout
 from app.html import esc
 from app.jobs.stereo import THUMB_WIDTH, AddedPair, board_poses, detect_files, next_free_number, render_pairs
 from app.pages.forms import button, double_spin, row, spin
+from app.pages.stereo.live_capture import capture_live_pair
 from app.pages.stereo.texts import BAR_TIPS, CAMERA_TOOLTIP_HARDWARE, short_reason
 from core.errors import RoboCalError
 from core.stereo.board import Board
@@ -208,8 +209,10 @@ class PairsActions:
         return True
 
     def capture_pair(self) -> bool:
-        """Live cameras arrive with the hardware issue; the virtual lab's cameras take one pair
-        with the board at a random pose."""
+        """One pair from the cameras opened on the Setup page (live_capture.py); without them,
+        in the virtual lab, one pair from the lab's cameras with the board at a random pose."""
+        if self.state.cameras is not None:
+            return capture_live_pair(self)
         if not self.state.virtual:
             self._set_status(CAMERA_TOOLTIP_HARDWARE, ok=False)
             return False

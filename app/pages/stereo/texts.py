@@ -9,10 +9,12 @@ from core.stereo.calibration import StereoCalibrationResult
 
 VIRTUAL_TOOLTIP = ("The virtual lab's cameras see its checkerboard at well-spread poses; the images are "
                    "saved into the project (checkerboard/left, checkerboard/right)")
-CAMERA_TOOLTIP_HARDWARE = ("Live cameras arrive with the hardware issue. Meanwhile, save pairs with your "
-                           "camera software and use Add from folders.")
+CAMERA_TOOLTIP_HARDWARE = ("Open the two cameras on the Setup page first (or add pairs from folders); each "
+                           "capture is saved into the project (checkerboard/left, checkerboard/right).")
 CAMERA_TOOLTIP_VIRTUAL = ("Virtual lab: take one pair with the lab's two cameras, the board held at a random "
-                          "pose. (Live cameras arrive with the hardware issue.)")
+                          "pose. With cameras opened on the Setup page, the pair comes from them.")
+CAMERA_TOOLTIP_LIVE = ("Take one pair from the two cameras, saved into the project (checkerboard/left, "
+                       "checkerboard/right, numbered); hold the board still, in view of both cameras.")
 BAR_TIPS = {"X": "Spread of the board's horizontal position over the images (ROS camera_calibration's X)",
             "Y": "Spread of the board's vertical position over the images (ROS's Y)",
             "size": "How large the board appears, up to filling the images (ROS's size)",

@@ -148,25 +148,27 @@ def screen_words(page) -> str:
     return " ".join(f"{w.title() if isinstance(w, QGroupBox) else w.text()} {w.toolTip()}" for w in widgets)
 
 
-def test_connection_and_cameras_are_the_virtual_lab(page):
-    assert page.virtual_robot.isChecked() and page.virtual_cameras.isChecked()
-    # only what RoboCal drives is offered: no choice that cannot be chosen
+def test_connection_and_cameras_offer_the_virtual_lab_and_hardware(page):
+    robot, cams = page.robot_panel, page.camera_panel
+    assert robot.virtual_radio.isChecked() and cams.virtual_radio.isChecked()
     assert [b.text() for b in page.findChildren(QRadioButton)] == [
-        "Virtual lab (simulated robot)", "Virtual lab cameras (simulated stereo pair)"]
+        "Virtual lab (simulated robot)", "Serial robot", "Virtual lab cameras (simulated stereo pair)",
+        "Cameras or recordings"]
     assert all(b.isEnabled() for b in page.findChildren(QRadioButton))
-    assert "Choose a robot model to connect the simulated robot" in page.connection_status.text()
+    assert "Choose a robot model to connect the simulated robot" in robot.info_label.text()
     page.choose_preset("ur5")
-    assert "connected" in page.connection_status.text()
+    assert "connected" in robot.info_label.text()
     assert page.state.robot_connection.connected
     words = screen_words(page).lower()
     assert "not yet" not in words and "issue" not in words and "arrives with" not in words
 
 
-def test_a_hardware_project_says_robocal_drives_the_virtual_lab(page, tmp_path):
+def test_a_hardware_project_offers_real_hardware_only(page, tmp_path):
     page.state.new_project(tmp_path, mode=projects.HARDWARE)
-    assert not page.virtual_robot.isChecked() and not page.virtual_cameras.isChecked()
-    assert "This project is for real hardware" in page.connection_status.text()
-    assert "RoboCal drives the virtual lab" in page.connection_status.text()
+    robot, cams = page.robot_panel, page.camera_panel
+    assert robot.serial_radio.isChecked() and cams.sources_radio.isChecked()
+    assert not robot.virtual_radio.isEnabled() and not cams.virtual_radio.isEnabled()
+    assert page.state.robot_connection is None
     assert "not yet" not in screen_words(page).lower()
 
 
@@ -181,7 +183,7 @@ def test_autopilot_sets_up_a_demo(page):
     assert not folder.exists()                       # temporary demo folders are removed
 
 
-def test_the_connection_choice_shows_the_project_mode(page, qtbot):
-    qtbot.mouseClick(page.virtual_robot, Qt.MouseButton.LeftButton)
-    assert page.virtual_robot.isChecked()                # a click does not uncheck the only choice
-    assert page.state.robot_connection is None           # nor connects anything without a robot
+def test_choosing_the_virtual_robot_without_a_model_connects_nothing(page, qtbot):
+    qtbot.mouseClick(page.robot_panel.virtual_radio, Qt.MouseButton.LeftButton)
+    assert page.robot_panel.virtual_radio.isChecked()
+    assert page.state.robot_connection is None           # nothing to connect without a robot

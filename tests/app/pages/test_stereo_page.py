@@ -167,11 +167,11 @@ def test_capture_takes_one_virtual_pair(page, qtbot):
     assert names == ["pair_000.png", "pair_001.png"]
 
 
-def test_capture_is_disabled_for_hardware_until_the_hardware_issue(qtbot, tmp_path):
+def test_capture_is_disabled_for_hardware_until_cameras_are_opened(qtbot, tmp_path):
     page = make_page(qtbot, tmp_path, mode=HARDWARE)
     try:
         assert not page.pairs.capture_button.isEnabled() and not page.pairs.virtual_button.isEnabled()
-        assert "hardware issue" in page.pairs.capture_button.toolTip()
+        assert "Open the two cameras on the Setup page" in page.pairs.capture_button.toolTip()
         assert page.pairs.folders_button.isEnabled()
         assert page.board == Board(9, 6, 24.0)
     finally:

@@ -72,3 +72,15 @@ def test_rendered_pair_source():
     pair = (np.zeros((4, 4), np.uint8), np.ones((4, 4), np.uint8))
     frames = RenderedSource(lambda: pair).capture()
     assert frames.left is pair[0] and frames.right is pair[1] and frames.grab_gap_s == 0.0
+
+
+def test_video_files_and_folders_rewind_to_their_first_frame(tmp_path):
+    video = open_camera(str(write_video(tmp_path / "v.avi", LEVELS)))
+    folder = open_camera(write_folder(tmp_path / "f", LEVELS))
+    for cam in (video, folder):
+        while cam.grab():
+            cam.retrieve()
+        assert cam.rewind()
+        assert cam.grab()
+        assert abs(float(cam.retrieve().mean()) - LEVELS[0]) < 3
+        cam.close()

@@ -1,0 +1,156 @@
+"""The Measurement step over the chosen hardware (worker-thread functions the Measurement page
+calls; plain Python, no widgets are touched).
+
+`measure_hardware(...)`: core.measurement.run.run_measurements over the robot connection
+(any RobotDriver: the virtual lab's simulated robot or a SerialRobot) and a capture source
+(`capture_source(...)`: the two chosen cameras, app.hardware.LiveCameras, or the virtual
+lab's cameras rendering the marker at the joints the robot reports). Pause, cancel and the
+robot's Stop end it between poses; a robot or connection fault stops the robot, keeps every
+measurement and comes back in `result.fault`; running it again resumes at the first pose not
+measured.
+
+Teach mode, for a robot RoboCal does not drive: the technician brings the robot to the next
+pose with its own pendant (or by hand); `record_taught_pose(...)` reads the joints from the
+controller (or takes the values the technician typed), checks them against the joint limits
+and the planned pose (a warning above `tolerance` deg / mm), captures, locates, and writes
+the pose to the same measurements file (or the rejects file, with the reason).
+
+Joint values: internal units (rad / mm) unless named `_file` (deg / mm). Points: mm, left
+camera frame.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from core.errors import RoboCalError
+from core.measurement.capture import RenderedSource
+from core.measurement.file import read_measurements
+from core.measurement.run import MeasurementRunResult, PoseOutcome, poses_from_internal, run_measurements
+from core.poses.file import PoseList
+from core.robot.driver import RobotDriver, check_joint_values
+from core.robot.model import RobotModel
+from widgets.marker_views import marker_pair_thumbnail
+
+THUMB_WIDTH = 400            # px per camera in the thumbnail handed to `report`
+TEACH_TOLERANCE = 1.0        # deg / mm: a taught pose further than this from the plan is warned about
+
+
+def capture_source(cameras=None, *, lab=None, driver: RobotDriver | None = None, seed: int = 0):
+    """What the run captures from: the chosen cameras when there are any (LiveCameras), else the
+    virtual lab's cameras rendering the marker where the robot is now (its reported joints)."""
+    if cameras is not None:
+        return cameras
+    if lab is None or driver is None:
+        raise RoboCalError("no cameras to capture from", hint="Open the cameras on the Setup page.")
+    rng = np.random.default_rng([int(seed), 41])
+    return RenderedSource(lambda: lab.render_marker_pair(driver.current_joints(), rng))
+
+
+class _Recorder:
+    """Keeps the last pair and location so `report(outcome, thumbnail)` can draw them."""
+
+    def __init__(self, source, locator, report: Callable | None):
+        self.source, self.locator, self.report = source, locator, report
+        self.pair = self.location = None
+
+    def capture(self):
+        frames = self.source.capture()
+        self.pair, self.location = (frames.left, frames.right), None
+        return frames
+
+    def locate(self, left, right):
+        self.location = self.locator.locate(left, right)
+        return self.location
+
+    def on_pose(self, outcome: PoseOutcome) -> None:
+        if self.report is not None:
+            self.report(outcome, self.thumbnail(outcome.status == "measured"))
+        self.pair = self.location = None
+
+    def thumbnail(self, ok: bool):
+        if self.pair is None:
+            return None
+        loc = self.location
+        dl, dr = (loc.left, loc.right) if loc is not None else (None, None)
+        good = [d if d is not None and d.ok else None for d in (dl, dr)]
+        return marker_pair_thumbnail(self.pair[0], self.pair[1],
+                                     good[0].outline.corners if good[0] else None,
+                                     good[1].outline.corners if good[1] else None,
+                                     good[0].reference if good[0] else None,
+                                     good[1].reference if good[1] else None, ok=ok, width=THUMB_WIDTH)
+
+
+def _locator(trained, rect):
+    from core.marker.location import MarkerLocator
+
+    return MarkerLocator(trained, rect)
+
+
+def measure_hardware(poses: PoseList, out: str | Path, trained, rect, driver: RobotDriver, source, *,
+                     paused=None, report: Callable | None = None, progress=None,
+                     cancelled=None) -> MeasurementRunResult:
+    """Move `driver` through `poses`, capture from `source` once the robot settled, locate the
+    marker (`trained`, stereo rectification `rect`), write each pose at once to `out` (and its
+    rejects file). `report(outcome, thumbnail)` after each pose (worker thread). Resumes after
+    the poses already in the files. A robot stopped meanwhile ends the run before the next pose
+    (like a cancel); a fault comes back in `result.fault`."""
+    rec = _Recorder(source, _locator(trained, rect), report)
+
+    def stop_requested() -> bool:
+        return bool((cancelled is not None and cancelled()) or driver.stopped)
+
+    return run_measurements(poses, out, locate=rec.locate, source=rec, driver=driver, resume=True,
+                            keep_locations=False, on_pose=rec.on_pose, progress=progress,
+                            cancelled=stop_requested, paused=paused)
+
+
+@dataclass
+class TaughtPose:
+    """A pose recorded in teach mode."""
+
+    outcome: PoseOutcome
+    q_file: np.ndarray                  # the joint values recorded (deg / mm)
+    warnings: list[str] = field(default_factory=list)
+    thumbnail: np.ndarray | None = None
+
+
+def record_taught_pose(pose: int, q_planned_file, out: str | Path, trained, rect, source, model: RobotModel, *,
+                       driver: RobotDriver | None = None, q_typed_file=None, tolerance: float = TEACH_TOLERANCE,
+                       target: str = "marker", progress=None, cancelled=None) -> TaughtPose:
+    """Record pose `pose` where the technician put the robot: its joints read from `driver`
+    (or `q_typed_file`, deg / mm, when no driver can read them), checked against the joint
+    limits (RoboCalError naming the joint) and against the plan (a warning per joint further
+    than `tolerance`), then captured from `source`, located and written to `out`."""
+    if driver is not None:
+        q = driver.current_joints()
+    elif q_typed_file is not None:
+        q = model.q_from_file(np.asarray(q_typed_file, dtype=float).reshape(-1))
+    else:
+        raise RoboCalError("no joint values: connect a robot whose joints can be read, or type them",
+                           field="joints")
+    try:
+        q = check_joint_values(model, q, "the joint values")
+    except RoboCalError as exc:
+        raise RoboCalError(exc.problem.replace("; the robot was not moved", ""), source=exc.source,
+                           hint="Move the robot inside its joint limits, or correct the typed values.") from None
+    out = Path(out)
+    if out.is_file() and out.read_bytes().strip() and pose in {int(p) for p in read_measurements(out).pose}:
+        raise RoboCalError(f"pose {pose} is already measured", source=out, hint="Go on with the next pose.")
+    q_file = np.asarray(model.q_to_file(q), dtype=float)
+    planned = np.asarray(q_planned_file, dtype=float).reshape(-1)
+    warnings = []
+    for i, joint in enumerate(model.joints):
+        off = abs(q_file[i] - planned[i])
+        if off > tolerance:
+            unit = "°" if joint.revolute else " mm"
+            warnings.append(f"{joint.name or f'J{i + 1}'} is {off:.2f}{unit} from the planned pose")
+    rec = _Recorder(source, _locator(trained, rect), None)
+    result = run_measurements(poses_from_internal(q[None, :], model, ids=[pose]), out, locate=rec.locate,
+                              source=rec, target=target, resume=True, retry_rejected=True, keep_locations=False,
+                              progress=progress, cancelled=cancelled)
+    outcome = result.outcomes[0] if result.outcomes else PoseOutcome(0, pose, q_file, "skipped", "cancelled")
+    return TaughtPose(outcome, q_file, warnings, rec.thumbnail(outcome.status == "measured"))
