@@ -58,3 +58,40 @@ def test_log_ticks_of_many_decades_stay_under_ten_labels():
     major, minor = log_ticks([1e-6, 1e9])
     assert 4 <= len(major) <= 10 and minor == []
     assert log_ticks([0.0, -1.0, float("nan")]) == ([], [])
+
+
+def test_a_worker_gets_figures_drawn_on_the_gui_thread(qapp, qtbot):
+    import threading
+
+    from PySide6.QtCore import QThread
+
+    from app.report import gui_drawer
+    from app.report.gui_drawer import GuiDrawer
+    from core.errors import Cancelled
+
+    fig = Figure("k", "t", "c", [panel("points", "", "x (mm)", "y (mm)", [series("a", [1, 2], [1, 2])])],
+                 size=(300, 200))
+    drawer, gui = GuiDrawer(), QThread.currentThread()
+    threads, out = [], {}
+    real = gui_drawer.render_png
+
+    def spy(f):
+        threads.append(QThread.currentThread())
+        return real(f)
+
+    def work():
+        out["image"] = drawer.draw(fig)
+        try:
+            drawer.draw(fig, cancelled=lambda: True)
+        except Cancelled:
+            out["cancelled"] = True
+
+    gui_drawer.render_png = spy
+    try:
+        worker = threading.Thread(target=work)
+        worker.start()
+        qtbot.waitUntil(lambda: not worker.is_alive(), timeout=20000)
+    finally:
+        gui_drawer.render_png = real
+    assert out["image"].width() == int(300 * figures.SCALE) and out.get("cancelled")
+    assert threads and all(t is gui for t in threads)
