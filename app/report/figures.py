@@ -20,6 +20,7 @@ from core.report.document import PALETTE, Figure
 
 SCALE = 2.5           # PNG pixels per figure pixel: 900 px wide figures become 2250 px (about 240 dpi at 24 cm)
 MAX_TICKS = 25
+MATRIX_COLORMAP = "CET-D1"     # blue – white – red, as the Identification page's correlation view
 LEGEND_PT = 9         # legend text, as the tick labels (axis labels: 10 pt)
 _SYMBOLS = {"o": "o", "t": "t", "s": "s", "+": "+", "x": "x", "": None}
 
@@ -46,7 +47,8 @@ def _style_axes(plot: pg.PlotItem, p: dict) -> None:
 
 def _ticks(plot: pg.PlotItem, ticks: list) -> None:
     step = max(1, math.ceil(len(ticks) / MAX_TICKS))
-    plot.getAxis("bottom").setTicks([[(float(t), str(t)) for t in ticks[::step]], []])
+    pairs = [tuple(t) if isinstance(t, (tuple, list)) else (t, t) for t in ticks]
+    plot.getAxis("bottom").setTicks([[(float(v), str(label)) for v, label in pairs[::step]], []])
 
 
 def log_ticks(values) -> tuple[list[float], list[float]]:
@@ -169,7 +171,29 @@ def _draw_image(plot: pg.PlotItem, p: dict) -> list:
     return _draw_points(plot, {**p, "equal_aspect": True})
 
 
-_DRAW = {"points": _draw_points, "histogram": _draw_histogram, "image": _draw_image}
+def _draw_matrix(plot: pg.PlotItem, p: dict) -> list:
+    """A correlation-like matrix: blue (−1), white (0), red (+1), cells numbered from 1."""
+    m = np.asarray(p["matrix"], dtype=float)
+    img = pg.ImageItem(np.nan_to_num(m, nan=0.0), axisOrder="row-major")
+    img.setRect(0.5, 0.5, m.shape[1], m.shape[0])
+    img.setLevels((-1.0, 1.0))
+    plot.addItem(img)
+    plot.getViewBox().invertY(True)
+    plot.getViewBox().setAspectLocked(True)
+    bar = pg.ColorBarItem(values=(-1.0, 1.0), colorMap=pg.colormap.get(MATRIX_COLORMAP), interactive=False,
+                          width=14)
+    bar.setImageItem(img, insert_in=plot)
+    axis = bar.getAxis("right")
+    axis.setTextPen(pg.mkPen("#202124"))
+    step = max(1, math.ceil(len(m) / MAX_TICKS))
+    ticks = [(float(i), str(i)) for i in range(1, len(m) + 1, step)]
+    for name in ("bottom", "left"):
+        plot.getAxis(name).setTicks([ticks, []])
+    plot.showGrid(x=False, y=False)
+    return []
+
+
+_DRAW = {"points": _draw_points, "histogram": _draw_histogram, "image": _draw_image, "matrix": _draw_matrix}
 
 
 def _widget(fig: Figure) -> pg.GraphicsLayoutWidget:

@@ -42,9 +42,11 @@ def test_every_drawable_figure_is_an_image_with_ink(qapp, project):
     report = build_report(open_project(project.folder))
     images = draw_figures(report)
     drawable = [f.key for f in report.figures() if not f.unavailable]
-    assert sorted(images) == sorted(drawable) and len(images) >= 9
+    assert sorted(images) == sorted(drawable) and len(images) >= 12
+    sizes = {f.key: f.size for f in report.figures()}
     for key, img in images.items():
-        assert isinstance(img, QImage) and img.width() >= 2000, key
+        # print resolution: 2.5 image px per figure px (a 900 px figure, 24 cm wide, at about 240 dpi)
+        assert isinstance(img, QImage) and img.width() == int(sizes[key][0] * 2.5) >= 1400, key
         # not blank: a white background with something drawn on it
         small = img.scaled(60, 30)
         colours = {small.pixel(x, y) for x in range(60) for y in range(30)}
@@ -54,7 +56,7 @@ def test_every_drawable_figure_is_an_image_with_ink(qapp, project):
 def test_html_is_self_contained(qapp, project, tmp_path):
     out = write_report(open_project(project.folder), [tmp_path / "r.html"])[0]
     text = out.read_text()
-    assert text.count("<img src='data:image/png;base64,") == 9
+    assert text.count("<img src='data:image/png;base64,") == 12
     assert "src='figure:" not in text and "file:" not in text
 
 
