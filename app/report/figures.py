@@ -74,14 +74,24 @@ def log_ticks(values) -> tuple[list[float], list[float]]:
     return major, minor
 
 
-def _tick_text(value: float) -> str:
-    return f"{value:.10g}" if 1e-4 <= value < 1e6 else f"{value:.0e}"
+_SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
+
+
+def tick_text(value: float, powers: bool = False) -> str:
+    """A log axis label: plain below 10⁴ and from 0.001 (unless `powers`), else a power of ten
+    (10⁵, 2×10⁻⁴)."""
+    if not powers and 1e-3 <= value < 1e4:
+        return f"{value:.10g}"
+    k = math.floor(math.log10(value) + 1e-9)
+    m = round(value / 10.0 ** k)
+    return ("" if m == 1 else f"{m}×") + "10" + str(k).translate(_SUPERSCRIPT)
 
 
 def _log_ticks(plot: pg.PlotItem, values) -> None:
     major, minor = log_ticks(values)
     if major:
-        plot.getAxis("left").setTicks([[(math.log10(v), _tick_text(v)) for v in major],
+        powers = not all(1e-3 <= v < 1e4 for v in major)          # one notation on an axis
+        plot.getAxis("left").setTicks([[(math.log10(v), tick_text(v, powers)) for v in major],
                                        [(math.log10(v), "") for v in minor]])
 
 
@@ -131,8 +141,11 @@ def _draw_points(plot: pg.PlotItem, p: dict) -> list:
     for value, label in p.get("hlines", []):
         line = pg.InfiniteLine(pos=math.log10(value) if log_y and value > 0 else value, angle=0,
                                pen=pg.mkPen("#b00020", width=2, style=Qt.PenStyle.DashLine),
-                               label=label, labelOpts={"position": 0.85, "color": "#b00020", "anchors": [(1, 1), (1, 1)]})
+                               label=label, labelOpts={"position": 0.01, "color": "#b00020", "anchors": [(0, 1), (0, 1)]})
         plot.addItem(line)
+    ys = [v for s in p["series"] for v in s.get("y", []) if np.isfinite(v)] + [v for v, _ in p.get("hlines", [])]
+    if p.get("hlines") and not log_y and not p.get("equal_aspect") and max(ys) > 0:
+        plot.setYRange(min(0.0, min(ys)), max(ys) * 1.15, padding=0)     # room for the lines' labels
     if p.get("x_ticks"):
         _ticks(plot, p["x_ticks"])
     if p.get("equal_aspect"):

@@ -198,7 +198,7 @@ def _convergence(stats: dict) -> Figure:
     return Figure("identification_convergence", title,
                   "Least-squares cost (sum of squared, weighted residuals) after each iteration of the fit; "
                   "iteration 0 is the start (nominal model).",
-                  [panel("points", "", "iteration", "cost (weighted residuals², dimensionless)",
+                  [panel("points", "", "iteration", "cost (dimensionless)",
                          [series("cost", np.arange(len(costs)), costs, color=0, line=True)], log_y=True,
                          x_ticks=list(range(len(costs))) if len(costs) <= 30 else None)],
                   size=(900, 300))

@@ -124,7 +124,7 @@ def _coverage(cov) -> Figure:
         f"How much of the possible range the {cov.get('pairs', '?')} accepted pairs span (ROS camera_calibration's "
         "measures, worse camera of the two; 1 = the full range): position left–right (X) and up–down (Y) in "
         "the image, size (distance) and skew (tilt). " + verdict,
-        [panel("points", "", "measure", "coverage (fraction of the full range)",
+        [panel("points", "", "measure", "coverage (0–1)",
                [series("coverage", range(len(values)), values, color=0, bars=True)],
                hlines=[(1.0, "full range")], x_ticks=[(i, f"{k} ({what})") for i, (k, what) in
                                                      enumerate(COVERAGE_BARS)])],

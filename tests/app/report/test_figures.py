@@ -95,3 +95,13 @@ def test_a_worker_gets_figures_drawn_on_the_gui_thread(qapp, qtbot):
         gui_drawer.render_png = real
     assert out["image"].width() == int(300 * figures.SCALE) and out.get("cancelled")
     assert threads and all(t is gui for t in threads)
+
+
+@pytest.mark.parametrize("value, text", [(20.0, "20"), (0.01, "0.01"), (1e6, "10⁶"), (1e-5, "10⁻⁵"),
+                                         (2e5, "2×10⁵")])
+def test_log_tick_text_is_short(value, text):
+    assert figures.tick_text(value) == text
+
+
+def test_one_notation_per_log_axis():
+    assert [figures.tick_text(v, powers=True) for v in (100.0, 1e4)] == ["10²", "10⁴"]
