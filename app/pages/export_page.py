@@ -18,6 +18,7 @@ from app.html import esc
 from app.pages import forms
 from app.pages.base import WizardPage
 from app.pages.steps import Step
+from app.report.gui_drawer import GuiDrawer
 from app.report.render import write_report
 from core.errors import RoboCalError
 from core.identification.exports import export_model
@@ -47,6 +48,7 @@ class ExportPage(WizardPage):
         super().__init__(state, tasks, **kwargs)
         self.exported: dict[str, list[Path]] = {}
         self._folder: Path | None = None         # chosen by the user; None: project/export
+        self._drawer = GuiDrawer(self)           # the report's figures, drawn here for its worker
 
         self.items = [
             ExportItem("calibrated", "Calibrated robot model (RoboCal JSON)",
@@ -120,6 +122,7 @@ class ExportPage(WizardPage):
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(folder_box)
         layout.addWidget(items_box)
+        layout.addWidget(self.progress_row())
         layout.addWidget(self.status)
         layout.addStretch(1)
 
@@ -150,6 +153,7 @@ class ExportPage(WizardPage):
         return Path(chosen)
 
     def _project_changed(self, *_):
+        self.forget_task()
         self._folder = None
         self.exported.clear()
         self.refresh()
@@ -218,53 +222,120 @@ class ExportPage(WizardPage):
     def item(self, key: str) -> ExportItem:
         return next(i for i in self.items if i.key == key)
 
-    def export(self, key: str) -> list[Path]:
-        """Write one export into the folder; the outcome is shown in its row."""
+    def export(self, key: str, *, finished: Callable[[list[Path]], None] | None = None) -> list[Path]:
+        """Write one export into the folder; the outcome is shown in its row. The report is
+        written on a worker (figures drawn on the GUI thread one at a time): `export` returns []
+        at once and `finished(written)` follows ([] on failure or Cancel)."""
         item = self.item(key)
-        row = self.rows[key]
         missing = item.missing()
         if missing:
             self._row_status(key, f"Not available: {missing}.", ok=False)
-            return []
+            return self._finished(finished, [])
         try:
             folder = ensure_writable_dir(self.folder())
+            if key == "report":
+                self._start_report(folder, finished)
+                return []
             written = item.write(folder)
         except RoboCalError as exc:
-            self._row_status(key, f"✗ {exc.message}", ok=False)
-            self._set_status(f"✗ {item.title}: {exc.message}", ok=False)
-            return []
+            self._export_failed(key, exc.message)
+            return self._finished(finished, [])
         except OSError as exc:
             self._row_status(key, f"✗ cannot read the input ({exc.strerror})", ok=False)
-            return []
-        self.exported[key] = written
-        row["status"].setProperty("done", True)
-        self._row_status(key, "✓ Exported: " + ", ".join(p.name for p in written), ok=True)
-        self._set_status(f"✓ {item.title} written to {folder}", ok=True)
-        self.notify_complete()
+            return self._finished(finished, [])
+        self._exported(key, written, folder)
+        return self._finished(finished, written)
+
+    @staticmethod
+    def _finished(finished, written: list[Path]) -> list[Path]:
+        if finished is not None:
+            finished(written)
         return written
 
-    def export_all(self) -> dict[str, list[Path]]:
-        """Every available export into the folder; says what was skipped and why."""
-        done, skipped, failed = {}, [], []
+    def _start_report(self, folder: Path, finished: Callable[[list[Path]], None] | None) -> None:
+        def failed(message: str) -> None:
+            self.progress_row().reset()
+            self._export_failed("report", message)
+            self._finished(finished, [])
+
+        def cancelled() -> None:
+            self.progress_row().reset()
+            self._row_status("report", "Cancelled: the previous report (if any) is kept.", ok=False)
+            self._set_status("Report cancelled.", ok=False)
+            self._finished(finished, [])
+
+        def done(written: list[Path]) -> None:
+            self._exported("report", written, folder)
+            self._finished(finished, written)
+
+        if self.start(write_report, self.state.project, [folder / "report.html", folder / "report.pdf"],
+                      robot=self.state.robot, identification=self._result(), accuracy=self.state.accuracy,
+                      draw=self._drawer.draw, on_done=done, on_failed=failed, on_cancelled=cancelled,
+                      label="report", status="Writing the report…"):
+            self.progress_row().set_progress(0.0, "reading the project")
+            self._row_status("report", "Writing…", ok=None)
+        else:
+            self._finished(finished, [])
+
+    def _export_failed(self, key: str, message: str) -> None:
+        self._row_status(key, f"✗ {message}", ok=False)
+        self._set_status(f"✗ {self.item(key).title}: {message}", ok=False)
+
+    def _exported(self, key: str, written: list[Path], folder: Path) -> None:
+        self.exported[key] = written
+        self.rows[key]["status"].setProperty("done", True)
+        self._row_status(key, "✓ Exported: " + ", ".join(p.name for p in written), ok=True)
+        self._set_status(f"✓ {self.item(key).title} written to {folder}", ok=True)
+        self.notify_complete()
+
+    def export_all(self, finished: Callable[[dict, list[str]], None] | None = None) -> None:
+        """Every available export into the folder, one after the other; says what was skipped
+        and why. `finished(done, failed)` once all are done (the report last, on a worker)."""
+        done: dict[str, list[Path]] = {}
+        skipped: list[str] = []
+        failed: list[str] = []
+        todo = []
         for item in self.items:
             missing = item.missing()
             if missing:
                 skipped.append(f"{item.title} ({missing})")
                 self._row_status(item.key, f"Not available: {missing}.", ok=False)
-                continue
-            written = self.export(item.key)
-            if written:
-                done[item.key] = written
             else:
-                failed.append(item.title)
-        n = sum(len(v) for v in done.values())
-        text = f"✓ {n} file(s) written to {self.folder()}." if done else "Nothing was exported."
-        if failed:
-            text += " Failed: " + "; ".join(failed) + " (see the rows above)."
-        if skipped:
-            text += " Skipped: " + "; ".join(skipped) + "."
-        self._set_status(text, ok=bool(done) and not failed)
-        return done
+                todo.append(item)
+
+        def next_one(_written=None) -> None:
+            if not todo:
+                summary()
+                return
+            item = todo.pop(0)
+
+            def one_done(written: list[Path]) -> None:
+                if written:
+                    done[item.key] = written
+                else:
+                    failed.append(item.title)
+                next_one()
+            self.export(item.key, finished=one_done)
+
+        def summary() -> None:
+            n = sum(len(v) for v in done.values())
+            text = f"✓ {n} file(s) written to {self.folder()}." if done else "Nothing was exported."
+            if failed:
+                text += " Failed: " + "; ".join(failed) + " (see the rows above)."
+            if skipped:
+                text += " Skipped: " + "; ".join(skipped) + "."
+            self._set_status(text, ok=bool(done) and not failed)
+            if finished is not None:
+                finished(done, failed)
+
+        next_one()
+
+    def on_busy_changed(self) -> None:
+        busy = self.busy
+        self.all_button.setEnabled(not busy and any(i.missing() is None for i in self.items))
+        self.folder_button.setEnabled(not busy and self.state.project is not None)
+        for item in self.items:
+            self.rows[item.key]["button"].setEnabled(not busy and item.missing() is None)
 
     # -- WizardPage ----------------------------------------------------------------------
     def on_enter(self) -> None:
@@ -278,25 +349,23 @@ class ExportPage(WizardPage):
             done(False, "no project (Setup step)")
             return
         self._folder = None
-        written = self.export_all()
-        failed = [i.title for i in self.items if not i.missing() and i.key not in written]
-        if not written:
-            done(False, self.status.text())
-        elif failed:
-            done(False, "export failed: " + ", ".join(failed))
-        else:
-            done(True, "")
+
+        def finished(written: dict, failed: list[str]) -> None:
+            if not written:
+                done(False, self.status.text())
+            elif failed:
+                done(False, "export failed: " + ", ".join(failed))
+            else:
+                done(True, "")
+        self.export_all(finished)
 
     # -- display -------------------------------------------------------------------------
     def refresh(self) -> None:
         folder = self.folder()
         self.folder_edit.setText(str(folder) if folder else "")
-        self.folder_button.setEnabled(self.state.project is not None)
-        any_available = False
         for item in self.items:
             row = self.rows[item.key]
             missing = item.missing()
-            any_available |= missing is None
             where = ", ".join(item.files)
             if folder is not None:
                 where = f"→ {folder / item.files[0]}" + (f" (+ {', '.join(item.files[1:])})" if len(item.files) > 1
@@ -306,7 +375,8 @@ class ExportPage(WizardPage):
                 source = (" · from this session's identification" if self.calibrated_source() == "result"
                           else " · from the project's calibrated.json")
             row["target"].setText(where + source)
-            row["button"].setEnabled(missing is None)
+            if self.busy and item.key == "report":
+                continue                                  # its row says "Writing…"
             if missing:
                 self._row_status(item.key, f"Not available: {missing}.", ok=False)
             elif item.key in self.exported:
@@ -314,7 +384,7 @@ class ExportPage(WizardPage):
                                  ok=True)
             else:
                 self._row_status(item.key, "Ready.", ok=None)
-        self.all_button.setEnabled(any_available)
+        self.on_busy_changed()
         if self.state.project is None:
             self._set_status("Create or open a project first (Setup step).", ok=False)
         elif not self.exported:

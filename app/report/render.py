@@ -16,8 +16,9 @@ from PySide6.QtGui import QFont, QPageLayout, QPageSize, QPainter, QPdfWriter, Q
 
 from app.report.figures import png_bytes, render_png
 from core.errors import UsageError
-from core.files import atomic_write_many
+from core.files import atomic_write_many, ensure_writable_dir
 from core.report import Report, build_report, render_html
+from core.task import Monitor
 
 PAGE_SIZES = {"a4": QPageSize.PageSizeId.A4, "letter": QPageSize.PageSizeId.Letter}
 SUFFIXES = (".html", ".htm", ".pdf")
@@ -28,9 +29,18 @@ FIGURE_FULL_WIDTH = 900       # figure px that fill the text width
 SCREEN_DPI = 96               # QTextDocument sizes images in 96 dpi pixels, scaled to the paint device
 
 
-def draw_figures(report: Report) -> dict:
-    """Figure key -> QImage of every figure that has something to draw."""
-    return {f.key: render_png(f) for f in report.figures() if not f.unavailable and f.panels}
+def draw_figures(report: Report, *, draw=None, progress=None, cancelled=None) -> dict:
+    """Figure key -> QImage of every figure that has something to draw. `draw(figure,
+    cancelled)`: how to draw one (default: here, on the GUI thread; a worker passes
+    `GuiDrawer.draw`)."""
+    monitor = Monitor(progress, cancelled)
+    todo = [f for f in report.figures() if not f.unavailable and f.panels]
+    images = {}
+    for i, fig in enumerate(todo):
+        monitor.step(i / max(len(todo), 1), f"drawing figure {i + 1} of {len(todo)}: {fig.title}")
+        images[fig.key] = draw(fig, cancelled) if draw is not None else render_png(fig)
+    monitor.step(1.0, "figures drawn")
+    return images
 
 
 def html_document(report: Report, images: dict) -> str:
@@ -99,14 +109,21 @@ def check_report_path(path: str | Path, option: str = "--out") -> Path:
 
 
 def write_report(project, outputs, *, robot=None, identification=None, accuracy=None, page_size: str = "a4",
-                 figures_dir: str | Path | None = None) -> list[Path]:
+                 figures_dir: str | Path | None = None, draw=None, progress=None, cancelled=None) -> list[Path]:
     """Build the report of `project` and write it to each path of `outputs` (.html or .pdf) as one
-    atomic write; with `figures_dir`, also every figure as PNG there."""
+    atomic write; with `figures_dir`, also every figure as PNG there. Runs on a worker when
+    `draw` is a `GuiDrawer.draw` (app/report/gui_drawer.py); without it, on the GUI thread.
+    Output folders are checked before any work: one that cannot be written to is named at once."""
+    monitor = Monitor(progress, cancelled)
     outputs = [check_report_path(p) for p in outputs]
+    for folder in {p.parent for p in outputs} | ({Path(figures_dir)} if figures_dir is not None else set()):
+        ensure_writable_dir(folder)
+    monitor.step(0.0, "reading the project")
     report = build_report(project, robot=robot, identification=identification, accuracy=accuracy)
-    images = draw_figures(report)
+    images = draw_figures(report, draw=draw, progress=monitor.sub(0.05, 0.7), cancelled=cancelled)
     files: dict = {}
-    for path in outputs:
+    for i, path in enumerate(outputs):
+        monitor.step(0.7 + 0.25 * i / len(outputs), f"writing {path.name}")
         files[path] = (pdf_document(report, images, page_size) if path.suffix.lower() == ".pdf"
                        else html_document(report, images))
     if figures_dir is not None:
@@ -114,4 +131,5 @@ def write_report(project, outputs, *, robot=None, identification=None, accuracy=
         for fig in report.figures():
             if fig.key in images:
                 files[folder / f"{fig.key}.png"] = png_bytes(images[fig.key])
+    monitor.step(0.95, "saving")
     return atomic_write_many(files)

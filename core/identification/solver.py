@@ -287,6 +287,8 @@ class IdentificationResult:
             "unidentifiable": [{"name": r.name, "reason": r.explanation} for r in self.unidentifiable],
             "fixed": [r.name for r in self.parameters if r.status == FIXED_BY_USER],
             "warnings": list(self.warnings),
+            "correlation": {"parameters": list(self.estimated),       # of the estimated parameters
+                            "matrix": strict_json(np.round(np.asarray(self.correlation, dtype=float), 3).tolist())},
         }
 
     def summary(self) -> dict:

@@ -61,8 +61,10 @@ def series(name: str, x=None, y=None, *, values=None, color: int | None = None, 
 def panel(kind: str, title: str, xlabel: str, ylabel: str, data: list[dict], *, hlines=(), log_y=False,
           equal_aspect=False, bins: int = 20, x_ticks: list | None = None) -> dict:
     """One plot: `kind` "points" (markers/lines/bars from x, y), "histogram" (of each series'
-    values, `bins` shared bins) or "image" (the panel's "image" array with the series drawn over
-    it, in its pixel coordinates, y down). `hlines`: (value, label) drawn across; labels carry units."""
+    values, `bins` shared bins), "image" (the panel's "image" array with the series drawn over
+    it, in its pixel coordinates, y down) or "matrix" (the panel's "matrix" array, values in
+    [-1, 1], in diverging colours with a colour bar; row 0 at the top). `hlines`: (value, label)
+    drawn across; labels carry units. `x_ticks`: values, or (value, label) pairs."""
     return {"kind": kind, "title": title, "xlabel": xlabel, "ylabel": ylabel, "series": data,
             "hlines": [(float(v), str(label)) for v, label in hlines], "log_y": log_y,
             "equal_aspect": equal_aspect, "bins": bins, "x_ticks": x_ticks}

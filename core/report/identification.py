@@ -97,10 +97,38 @@ def _blocks(calibration: dict, model: RobotModel, source: str, robot, accuracy, 
              panel("histogram", "calibrated model", "error (mm)", "points",
                    [series("calibrated", values=accuracy.calibrated.errors, color=0)])]))
     blocks.append(_parameters(calibration))
-    blocks.append(Figure("identification_correlation", "Parameter correlation matrix", "",
-                         unavailable="the parameters' covariance is not saved in calibrated.json; the "
-                                     "Identification step shows it"))
+    blocks.append(_correlation(calibration))
     return blocks
+
+
+STRONG_CORRELATION = 0.9        # |r| above this: the two parameters are hard to tell apart
+
+
+def _correlation(calibration: dict) -> Figure:
+    """The correlation matrix of the estimated parameters (calibrated.json's 'correlation')."""
+    title = "Parameter correlation matrix"
+    c = calibration.get("correlation")
+    if not isinstance(c, dict):
+        return Figure("identification_correlation", title, "",
+                      unavailable="calibrated.json does not record the parameters' correlation (written by an "
+                                  "older version); the Identification step shows it")
+    names = [str(n) for n in c["parameters"]]
+    m = np.array([[np.nan if v is None else float(v) for v in row] for row in c["matrix"]], dtype=float)
+    if m.shape != (len(names), len(names)):
+        raise ValueError(f"correlation matrix of shape {m.shape} for {len(names)} parameters")
+    strong = [(abs(m[i, j]), names[i], names[j], m[i, j]) for i in range(len(m)) for j in range(i)
+              if np.isfinite(m[i, j]) and abs(m[i, j]) > STRONG_CORRELATION]
+    strong.sort(reverse=True)
+    key = ", ".join(f"{i + 1} {n}" for i, n in enumerate(names))
+    caption = (f"Correlation between the estimates of the {len(names)} estimated parameters (blue −1, white 0, "
+               f"red +1); row and column i are parameter i: {key}. ")
+    caption += ("Pairs above ±" + f"{STRONG_CORRELATION}: " + "; ".join(f"{a}–{b} {r:+.3f}" for _, a, b, r in strong[:8])
+                + (f" and {len(strong) - 8} more" if len(strong) > 8 else "")
+                + ": the data hardly tell these apart." if strong
+                else f"No pair is above ±{STRONG_CORRELATION}: every estimate is well separated from the others.")
+    return Figure("identification_correlation", title, caption,
+                  [{**panel("matrix", "", "parameter (number)", "parameter (number)", []), "matrix": m}],
+                  size=(620, 540))
 
 
 def _error_figures(model: RobotModel, robot: RobotModel | None, validation, meas) -> list:
@@ -170,7 +198,7 @@ def _convergence(stats: dict) -> Figure:
     return Figure("identification_convergence", title,
                   "Least-squares cost (sum of squared, weighted residuals) after each iteration of the fit; "
                   "iteration 0 is the start (nominal model).",
-                  [panel("points", "", "iteration", "cost (weighted residuals², dimensionless)",
+                  [panel("points", "", "iteration", "cost (dimensionless)",
                          [series("cost", np.arange(len(costs)), costs, color=0, line=True)], log_y=True,
                          x_ticks=list(range(len(costs))) if len(costs) <= 30 else None)],
                   size=(900, 300))

@@ -44,11 +44,11 @@ def stereo_section(project: Project, facts: dict, problems: list[str]) -> Sectio
     if "cross_validation_px" in sf.extras:
         rows.append(("cross validation (pairs left out)", f"{num(sf.extras['cross_validation_px'])} px RMS"))
     blocks: list = [pairs_table(rows)]
-    blocks += _details(project, problems)
+    blocks += _details(project, problems, sf.rms_stereo)
     return Section(TITLE, blocks)
 
 
-def _details(project: Project, problems: list[str]) -> list:
+def _details(project: Project, problems: list[str], rms_stereo: float) -> list:
     path = project.path("stereo_details")
     titles = ("Reprojection error per pair", "Corner residuals")
     if not path.is_file():
@@ -96,6 +96,9 @@ def _details(project: Project, problems: list[str]) -> list:
     else:
         blocks.append(Figure("stereo_residuals", titles[1], "",
                              unavailable="stereo.json has no residuals (written by an older version)"))
+    summary = data.get("calibration") if isinstance(data.get("calibration"), dict) else {}
+    blocks.append(_coverage(summary.get("coverage")))
+    blocks.append(_cross_validation(summary.get("cross_validation"), rms_stereo))
     if params:
         rows = [[esc(p.get("group", "")), esc(p.get("name", "")), num(p.get("value"), 4),
                  "fixed" if p.get("fixed") else ("—" if p.get("std") is None else sig(p.get("std"), 2)),
@@ -103,3 +106,50 @@ def _details(project: Project, problems: list[str]) -> list:
         blocks.append("<h3>Camera parameters ± σ</h3>"
                       + table(["group", "parameter", "value", "± σ", "unit"], rows, numeric={2, 3}))
     return blocks
+
+
+COVERAGE_BARS = (("X", "left–right"), ("Y", "up–down"), ("size", "near–far"), ("skew", "tilt"))
+
+
+def _coverage(cov) -> Figure:
+    title = "Coverage of the image by the checkerboard"
+    if not isinstance(cov, dict):
+        return Figure("stereo_coverage", title, "", unavailable="stereo.json does not record the coverage "
+                                                                "(written by an older version)")
+    values = [float(cov[k]) for k, _ in COVERAGE_BARS]
+    verdict = ("Enough varied views." if cov.get("enough") else
+               "Not enough varied views: " + "; ".join(str(a) for a in cov.get("advice") or []) + ".")
+    return Figure(
+        "stereo_coverage", title,
+        f"How much of the possible range the {cov.get('pairs', '?')} accepted pairs span (ROS camera_calibration's "
+        "measures, worse camera of the two; 1 = the full range): position left–right (X) and up–down (Y) in "
+        "the image, size (distance) and skew (tilt). " + verdict,
+        [panel("points", "", "measure", "coverage (0–1)",
+               [series("coverage", range(len(values)), values, color=0, bars=True)],
+               hlines=[(1.0, "full range")], x_ticks=[(i, f"{k} ({what})") for i, (k, what) in
+                                                     enumerate(COVERAGE_BARS)])],
+        size=(900, 300))
+
+
+def _cross_validation(cv, rms_stereo) -> Figure:
+    title = "Cross-validation: two halves of the pairs calibrated alone"
+    if not isinstance(cv, dict):
+        return Figure("stereo_cross_validation", title, "",
+                      unavailable="stereo.json does not record a cross-validation (too few pairs to split, or "
+                                  "written by an older version)")
+    bars = [("observed area", cv["rms_observed_px"]), ("whole image", cv["rms_px"]),
+            ("left camera, whole image", cv["left_rms_px"]), ("right camera, whole image", cv["right_rms_px"])]
+    hlines = [(float(rms_stereo), f"stereo reprojection error {num(rms_stereo)} px")] if rms_stereo else []
+    return Figure(
+        "stereo_cross_validation", title,
+        f"The pairs were split {cv.get('split', 'in two')} and each half calibrated alone; the bars (RMS) are "
+        "how far apart (px) the two models project the same ray: where the boards were (the headline "
+        "figure: about the corner noise when the calibration is sound), RMS over the whole image and per "
+        f"camera (extrapolation); the largest difference is {num(cv.get('max_px'), 2)} px. The halves' baselines "
+        "differ by "
+        f"{num(cv.get('baseline_diff_mm'), 3)} mm and their rotations by {num(cv.get('rotation_diff_deg'), 3)}°.",
+        [panel("points", "", "", "model difference (px)",
+               [series("difference of the two halves' models", range(len(bars)), [float(v) for _, v in bars],
+                       color=2, bars=True)],
+               hlines=hlines, x_ticks=[(i, name) for i, (name, _) in enumerate(bars)])],
+        size=(900, 300))

@@ -66,6 +66,15 @@ def give_result(page, calibration, measurements=True):
     return result
 
 
+def export_report(page, qtbot) -> list:
+    """The report row's export, which runs on a worker: the files written ([] on failure)."""
+    got = []
+    page.export("report", finished=got.append)
+    qtbot.waitUntil(lambda: bool(got), timeout=60000)
+    assert not page.busy
+    return got[0]
+
+
 def stereo_file() -> StereoFile:
     K = np.array([[800.0, 0, 320], [0, 800, 256], [0, 0, 1]])
     D = np.zeros(5)
@@ -93,8 +102,10 @@ def test_before_identification_only_the_report_is_available(page):
 def test_export_all_writes_every_available_file(page, calibration, qtbot):
     result = give_result(page, calibration)
     assert "from this session's identification" in page.row_text("urdf")
-    with qtbot.waitSignal(page.completeChanged):
-        qtbot.mouseClick(page.all_button, Qt.MouseButton.LeftButton)
+    qtbot.mouseClick(page.all_button, Qt.MouseButton.LeftButton)
+    assert page.busy and not page.all_button.isEnabled()          # the report is written on a worker
+    qtbot.waitUntil(lambda: "file(s) written" in page.status.text(), timeout=60000)
+    assert not page.busy and page.all_button.isEnabled()
     folder = page.state.project.folder / "export"
     assert sorted(p.name for p in folder.iterdir()) == sorted(MODEL_FILES + ["report.html", "report.pdf"])
     assert page.is_complete()
@@ -115,7 +126,7 @@ def test_export_all_writes_every_available_file(page, calibration, qtbot):
     assert "✓ Exported" in page.row_text("report")
 
 
-def test_calibrated_json_is_copied_from_the_project(page, calibration, tmp_path):
+def test_calibrated_json_is_copied_from_the_project(page, calibration, tmp_path, qtbot):
     _, result, _ = calibration
     saved = write_calibrated_model(result, page.state.project.path("calibrated"))
     page.state.set_project(open_project(page.state.project.folder))   # a new session: no result in memory
@@ -124,11 +135,11 @@ def test_calibrated_json_is_copied_from_the_project(page, calibration, tmp_path)
     written = page.export("calibrated")
     assert written[0].read_bytes() == saved.read_bytes()
     assert page.export("dh-csv") and page.export("urdf")
-    report = page.export("report")[0].read_text()
+    report = export_report(page, qtbot)[0].read_text()
     assert "From calibrated.json" in report and "rank" in report
 
 
-def test_stereo_files_once_stereo_yaml_exists(page):
+def test_stereo_files_once_stereo_yaml_exists(page, qtbot):
     sf = stereo_file()
     src = write_stereo_yaml(page.state.project.path("stereo"), sf)
     page.refresh()
@@ -139,17 +150,17 @@ def test_stereo_files_once_stereo_yaml_exists(page):
     assert read_stereo_yaml(written[0]).rms_stereo == pytest.approx(0.31)
     left = written[1].read_text()
     assert "camera_matrix" in left and "image_width: 640" in left
-    report = page.export("report")[0].read_text()
+    report = export_report(page, qtbot)[0].read_text()
     assert "reprojection error, stereo" in report and "0.310 px RMS" in report
 
 
-def test_a_bad_stereo_yaml_is_a_clear_row_message(page):
+def test_a_bad_stereo_yaml_is_a_clear_row_message(page, qtbot):
     page.state.project.path("stereo").write_text("not: [an, opencv, file\n")
     page.refresh()
     assert page.export("stereo") == []
     assert "✗" in page.row_text("stereo") and "stereo.yaml" in page.row_text("stereo")
     assert not (page.state.project.folder / "export" / "stereo.yaml").exists()
-    assert "cannot be read" in page.export("report")[0].read_text()
+    assert "cannot be read" in export_report(page, qtbot)[0].read_text()
 
 
 def test_export_into_a_chosen_folder(page, calibration, monkeypatch, tmp_path):
@@ -174,21 +185,25 @@ def test_an_unwritable_folder_gives_a_clear_message(page, calibration, tmp_path)
     assert page.status.text().startswith("✗") and not page.is_complete()
 
 
-def test_autopilot_exports_everything_available(page, calibration):
+def test_autopilot_exports_everything_available(page, calibration, qtbot):
     give_result(page, calibration)
     done = []
     page.autopilot(lambda ok=True, message="": done.append((ok, message)))
+    qtbot.waitUntil(lambda: bool(done), timeout=60000)
     assert done == [(True, "")]
     folder = page.state.project.folder / "export"
     assert sorted(p.name for p in folder.iterdir()) == sorted(MODEL_FILES + ["report.html", "report.pdf"])
 
 
-def test_a_new_project_resets_the_page(page, calibration, tmp_path):
+def test_a_new_project_resets_the_page(page, calibration, tmp_path, qtbot):
     give_result(page, calibration)
+    first = page.folder()
     page.export_all()
-    assert page.is_complete()
+    assert page.is_complete() and page.busy                 # the report still being written
     page.state.new_project(tmp_path / "second")
-    assert not page.is_complete()
+    assert not page.is_complete() and not page.busy
+    qtbot.waitUntil(lambda: not page.tasks.busy, timeout=60000)
+    assert not (first / "report.html").exists() and "report" not in page.exported
     assert page.folder_edit.text() == str(tmp_path / "second" / "export")
     assert "available after the Identification step" in page.row_text("urdf")
 
@@ -215,8 +230,42 @@ def test_report_of_an_empty_project(tmp_path):
     assert "Not done (no measurements.csv" in text
 
 
-def test_report_counts_the_pose_sequence(page):
+def test_report_counts_the_pose_sequence(page, qtbot):
     page.state.project.path("poses").write_text("pose,q1,q2,q3,q4,q5,q6\n0,1,2,3,4,5,6\n1,1,2,3,4,5,7\n")
-    assert "2 poses in poses.csv" in page.export("report")[0].read_text()
+    assert "2 poses in poses.csv" in export_report(page, qtbot)[0].read_text()
     page.state.project.path("poses").write_text("pose,q1\n0,x\n")
-    assert "poses.csv cannot be read" in page.export("report")[0].read_text()
+    assert "poses.csv cannot be read" in export_report(page, qtbot)[0].read_text()
+
+
+def test_the_report_is_written_on_a_worker_with_progress_and_cancel(page, calibration, qtbot):
+    give_result(page, calibration)
+    folder = page.folder()
+    folder.mkdir(parents=True)
+    (folder / "report.html").write_text("previous report")
+    got = []
+    page.export("report", finished=got.append)
+    row = page.progress_row()
+    assert page.busy and not page.rows["report"]["button"].isEnabled() and "Writing" in page.row_text("report")
+    qtbot.waitUntil(lambda: "drawing figure" in row.bar.format(), timeout=60000)   # figures one by one
+    assert page.busy and row.cancel_button.isEnabled() and not got
+    qtbot.mouseClick(row.cancel_button, Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: bool(got), timeout=60000)
+    assert got == [[]] and not page.busy and "Cancelled" in page.row_text("report")
+    assert sorted(p.name for p in folder.iterdir()) == ["report.html"]             # no temporary left
+    assert (folder / "report.html").read_text() == "previous report"
+    written = export_report(page, qtbot)
+    assert [p.name for p in written] == ["report.html", "report.pdf"] and "✓ Exported" in page.row_text("report")
+    assert "<img src='data:image/png;base64," in written[0].read_text()
+
+
+def test_a_read_only_export_folder_is_one_clear_message(page, calibration, qtbot, tmp_path):
+    from tests.app.report.test_render import read_only
+
+    give_result(page, calibration)
+    out = tmp_path / "out"
+    out.mkdir()
+    page.set_folder(out)
+    with read_only(out):
+        assert export_report(page, qtbot) == []
+    assert f"✗ {out}: the folder is not writable" in page.row_text("report")
+    assert page.status.text().startswith("✗ Report") and list(out.iterdir()) == []

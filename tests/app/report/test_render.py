@@ -2,6 +2,7 @@
 page numbers, page sizes), `robocal report`, and a failing writer leaving the previous report."""
 from __future__ import annotations
 
+import contextlib
 import errno
 import os
 import re
@@ -41,9 +42,11 @@ def test_every_drawable_figure_is_an_image_with_ink(qapp, project):
     report = build_report(open_project(project.folder))
     images = draw_figures(report)
     drawable = [f.key for f in report.figures() if not f.unavailable]
-    assert sorted(images) == sorted(drawable) and len(images) >= 9
+    assert sorted(images) == sorted(drawable) and len(images) >= 12
+    sizes = {f.key: f.size for f in report.figures()}
     for key, img in images.items():
-        assert isinstance(img, QImage) and img.width() >= 2000, key
+        # print resolution: 2.5 image px per figure px (a 900 px figure, 24 cm wide, at about 240 dpi)
+        assert isinstance(img, QImage) and img.width() == int(sizes[key][0] * 2.5) >= 1400, key
         # not blank: a white background with something drawn on it
         small = img.scaled(60, 30)
         colours = {small.pixel(x, y) for x in range(60) for y in range(30)}
@@ -53,7 +56,7 @@ def test_every_drawable_figure_is_an_image_with_ink(qapp, project):
 def test_html_is_self_contained(qapp, project, tmp_path):
     out = write_report(open_project(project.folder), [tmp_path / "r.html"])[0]
     text = out.read_text()
-    assert text.count("<img src='data:image/png;base64,") == 9
+    assert text.count("<img src='data:image/png;base64,") == 12
     assert "src='figure:" not in text and "file:" not in text
 
 
@@ -116,3 +119,50 @@ def test_a_full_disk_keeps_the_previous_report(qapp, project, tmp_path, monkeypa
     assert "No space left on device" in caught.value.message and "no output was changed" in caught.value.message
     assert html.read_text() == "previous html" and pdf.read_bytes() == b"previous pdf"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.html", "r.pdf"]
+
+
+@contextlib.contextmanager
+def read_only(folder):
+    """`folder` made read-only: chmod for a user, the immutable attribute for root (whom
+    permission bits do not stop)."""
+    if os.geteuid() == 0:
+        if shutil.which("chattr") is None or subprocess.run(["chattr", "+i", str(folder)],
+                                                            capture_output=True).returncode:
+            pytest.skip("running as root without chattr +i: a folder cannot be made read-only")
+        try:
+            yield folder
+        finally:
+            subprocess.run(["chattr", "-i", str(folder)], check=True)
+    else:
+        mode = folder.stat().st_mode
+        folder.chmod(0o555)
+        try:
+            yield folder
+        finally:
+            folder.chmod(mode)
+
+
+def test_a_read_only_output_folder_is_named_before_any_work(qapp, project, tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    drawn = []
+    with read_only(out):
+        with pytest.raises(RoboCalError) as caught:
+            write_report(open_project(project.folder), [out / "r.html", out / "r.pdf"],
+                         draw=lambda fig, cancelled=None: drawn.append(fig))
+    assert f"{out}: the folder is not writable" in caught.value.message
+    assert drawn == [] and list(out.iterdir()) == []
+
+
+def test_a_read_only_project_is_reported_and_left_as_it_was(qapp, project, tmp_path, capsys):
+    folder = shutil.copytree(project.folder, tmp_path / "project")
+    before = sorted(p.relative_to(folder) for p in folder.rglob("*"))
+    with read_only(folder):
+        code = main(["report", str(folder), "--out", str(tmp_path / "r.pdf"), "--no-truth"])
+        assert code == 0, capsys.readouterr().err
+        code = main(["report", str(folder), "--out", str(folder / "export" / "r.pdf"), "--no-truth"])
+        err = capsys.readouterr().err
+    assert code != 0 and f"{folder} is not writable" in err and "Traceback" not in err
+    assert len(err.strip().splitlines()) <= 2                   # one message (and its hint)
+    assert sorted(p.relative_to(folder) for p in folder.rglob("*")) == before
+    assert (tmp_path / "r.pdf").read_bytes().startswith(b"%PDF")

@@ -41,7 +41,15 @@ def stereo_details(pairs: int = 8) -> dict:
     views[-1]["rms_left"] = 0.9
     return {"format": "robocal.stereo/1", "outlier_threshold_px": THRESHOLD_PX, "views": views,
             "parameters": [{"group": "left", "name": "fx", "value": 800.1, "std": 0.4, "unit": "px",
-                            "fixed": False}]}
+                            "fixed": False}],
+            "calibration": {"coverage": COVERAGE, "cross_validation": CROSS_VALIDATION}}
+
+
+COVERAGE = {"X": 0.66, "Y": 1.0, "size": 0.45, "skew": 0.8, "pairs": 8, "enough": False,
+            "advice": ["show the board nearer and farther"]}
+CROSS_VALIDATION = {"rms_px": 0.14, "max_px": 1.3, "rms_observed_px": 0.012, "left_rms_px": 0.16,
+                    "right_rms_px": 0.11, "baseline_diff_mm": 0.008, "rotation_diff_deg": 0.0096,
+                    "split": "interleaved (even / odd pairs)"}
 
 
 def make_project(folder):

@@ -9,11 +9,12 @@ import pytest
 
 from core.project import create_project, open_project
 from core.report import build_report, calibration_report, render_html
-from tests.core.report.sample_project import THRESHOLD_PX, make_project
+from tests.core.report.sample_project import COVERAGE, CROSS_VALIDATION, THRESHOLD_PX, make_project
 
 STEPS = ["Stereo calibration", "Marker", "Pose sequence", "Measurements", "Identification"]
-DRAWN = ["stereo_pairs", "stereo_residuals", "poses_joints", "poses_index", "poses_views", "measurement_points",
-         "identification_per_pose", "identification_histograms", "identification_convergence"]
+DRAWN = ["stereo_pairs", "stereo_residuals", "stereo_coverage", "stereo_cross_validation", "poses_joints", "poses_index", "poses_views", "measurement_points",
+         "identification_per_pose", "identification_histograms", "identification_convergence",
+         "identification_correlation"]
 
 
 @pytest.fixture(scope="module")
@@ -33,7 +34,6 @@ def test_a_full_project_has_every_section_and_figure(sample):
     figs = figures(report)
     for key in DRAWN:
         assert key in figs and figs[key].unavailable is None and figs[key].panels, key
-    assert figs["identification_correlation"].unavailable
 
 
 def test_figure_data_are_the_project_numbers(sample):
@@ -51,6 +51,17 @@ def test_figure_data_are_the_project_numbers(sample):
     assert rms(held) == pytest.approx(result.validation.after.rms_mm, rel=1e-4)
     assert rms(per_pose["before, held-out pose"]) == pytest.approx(result.validation.before.rms_mm, rel=1e-4)
     assert "mm" in figs["identification_per_pose"].panels[0]["ylabel"]
+    coverage = figs["stereo_coverage"].panels[0]
+    assert coverage["series"][0]["y"] == [COVERAGE[k] for k in ("X", "Y", "size", "skew")]
+    assert "show the board nearer and farther" in figs["stereo_coverage"].caption
+    cv = figs["stereo_cross_validation"].panels[0]
+    assert cv["series"][0]["y"][0] == CROSS_VALIDATION["rms_observed_px"] and "px" in cv["ylabel"]
+    corr = figs["identification_correlation"]
+    m = corr.panels[0]["matrix"]
+    assert m.shape == (len(result.estimated),) * 2
+    assert np.allclose(m, result.correlation, atol=6e-4)               # saved to 3 digits
+    for i, name in enumerate(result.estimated):
+        assert f"{i + 1} {name}" in corr.caption
     n_iter = len(result.costs)
     assert len(figs["identification_convergence"].panels[0]["series"][0]["y"]) == n_iter
 
@@ -103,3 +114,14 @@ def test_the_saved_validation_records_its_poses(sample):
     saved = json.loads(project.path("calibrated").read_text())["calibration"]["statistics"]
     assert saved["validation"]["test_poses"] == result.validation.test_poses
     assert saved["cost_per_iteration"] == pytest.approx(result.costs)
+
+
+def test_a_calibrated_json_without_correlation_says_why(sample, tmp_path):
+    import shutil
+    project, _ = sample
+    copy = shutil.copytree(project.folder, tmp_path / "copy")
+    data = json.loads((copy / "calibrated.json").read_text())
+    del data["calibration"]["correlation"]
+    (copy / "calibrated.json").write_text(json.dumps(data))
+    fig = figures(build_report(open_project(copy)))["identification_correlation"]
+    assert "does not record" in fig.unavailable and not fig.panels
