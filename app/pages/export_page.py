@@ -20,7 +20,7 @@ from app.pages.base import WizardPage
 from app.pages.steps import Step
 from core.errors import RoboCalError
 from core.identification.exports import export_model
-from core.files import atomic_write_bytes, atomic_write_text, ensure_writable_dir
+from core.files import atomic_write_bytes, atomic_write_many, atomic_write_text, ensure_writable_dir
 from core.identification.solver import write_calibrated_model
 from core.robot.model import RobotModel
 from core.report import calibration_report
@@ -206,9 +206,8 @@ class ExportPage(WizardPage):
     def _write_stereo(self, folder: Path) -> list[Path]:
         src = self.state.project.path("stereo")
         data = stereo_file.read_stereo_yaml(src)          # checks the file before copying it
-        out = [atomic_write_bytes(folder / "stereo.yaml", src.read_bytes())]
-        out += list(stereo_file.write_ros_camera_info(folder, data))
-        return out
+        files = {folder / "stereo.yaml": src.read_bytes(), **stereo_file.ros_camera_info_files(folder, data)}
+        return atomic_write_many(files)                   # all three, or none changed
 
     def _write_report(self, folder: Path) -> list[Path]:
         text = calibration_report(self.state.project, robot=self.state.robot, identification=self._result(),

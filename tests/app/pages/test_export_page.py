@@ -220,3 +220,15 @@ def test_report_counts_the_pose_sequence(page):
     assert "2 poses in poses.csv" in page.export("report")[0].read_text()
     page.state.project.path("poses").write_text("pose,q1\n0,x\n")
     assert "poses.csv cannot be read" in page.export("report")[0].read_text()
+
+
+def test_stereo_files_are_written_all_or_none(page):
+    write_stereo_yaml(page.state.project.path("stereo"), stereo_file())
+    folder = page.state.project.folder / "export"
+    folder.mkdir()
+    (folder / "stereo.yaml").write_text("previous export\n")
+    (folder / "right.yaml").mkdir()                   # a folder in the way of one of the three files
+    assert page.export("stereo") == []
+    assert "✗" in page.row_text("stereo") and "right.yaml" in page.row_text("stereo")
+    assert (folder / "stereo.yaml").read_text() == "previous export\n"
+    assert not (folder / "left.yaml").exists()
