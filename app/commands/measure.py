@@ -100,6 +100,17 @@ def run(args) -> CommandResult:
                                   keep_locations=False, progress=progress)
         if fresh and not result.measured:
             raise _nothing_measured(result, len(poses))
+    except RoboCalError as exc:
+        if not fresh:
+            raise
+        for p in (write_out, write_rejects):
+            p.unlink(missing_ok=True)
+        named = {str(write_out): out, str(write_rejects): rejects}.get(exc.source)
+        if named is None:
+            raise
+        # the user knows the file by its own name; its previous version is untouched
+        hint = " ".join(h for h in ((exc.hint or "").rstrip(".") + ".", "The previous file is unchanged.") if h != ".")
+        raise RoboCalError(exc.problem, source=named, field=exc.field, hint=hint) from None
     except BaseException:
         if fresh:
             for p in (write_out, write_rejects):
