@@ -20,6 +20,7 @@ from app.pages.base import WizardPage
 from app.pages.steps import Step
 from core.errors import RoboCalError
 from core.identification.exports import export_model
+from core.locks import output_locks
 from core.files import atomic_write_bytes, atomic_write_many, atomic_write_text, ensure_writable_dir
 from core.identification.solver import write_calibrated_model
 from core.robot.model import RobotModel
@@ -228,7 +229,8 @@ class ExportPage(WizardPage):
             return []
         try:
             folder = ensure_writable_dir(self.folder())
-            written = item.write(folder)
+            with output_locks([folder / name for name in item.files]):     # not while a robocal command writes them
+                written = item.write(folder)
         except RoboCalError as exc:
             self._row_status(key, f"✗ {exc.message}", ok=False)
             self._set_status(f"✗ {item.title}: {exc.message}", ok=False)

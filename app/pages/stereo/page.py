@@ -35,6 +35,7 @@ from core.errors import RoboCalError
 from core.stereo.board import Board
 from core.stereo.calibration import StereoCalibrationResult, calibrate_stereo
 from core.stereo.checkerboard import MIN_PAIRS_TO_CALIBRATE, screen_pairs
+from core.locks import output_lock, output_locks
 from core.stereo.file import read_stereo_yaml, write_ros_camera_info, write_stereo_json, write_stereo_yaml
 
 
@@ -309,7 +310,8 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, WizardPage):
             return None
         path = project.path("stereo")
         try:
-            write_stereo_yaml(path, r)
+            with output_lock(path):                     # not while a robocal command writes it
+                write_stereo_yaml(path, r)
         except RoboCalError as exc:
             self._set_status(f"stereo.yaml was not written: {exc.message}", ok=False)
             return None
@@ -330,7 +332,8 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, WizardPage):
             if not folder:
                 return None
         try:
-            paths = write_ros_camera_info(folder, self.result)
+            with output_locks([Path(folder) / "left.yaml", Path(folder) / "right.yaml"]):
+                paths = write_ros_camera_info(folder, self.result)
         except RoboCalError as exc:
             self._set_status(f"ROS camera_info not written: {exc.message}", ok=False)
             return None
@@ -347,7 +350,8 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, WizardPage):
             if not path:
                 return None
         try:
-            out = write_stereo_json(path, self.result)
+            with output_lock(path):
+                out = write_stereo_json(path, self.result)
         except RoboCalError as exc:
             self._set_status(f"JSON not written: {exc.message}", ok=False)
             return None
