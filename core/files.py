@@ -1,8 +1,10 @@
 """Atomic file writes: a failed run never leaves half a file or overwrites a good one."""
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -55,13 +57,18 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
 
 
 def atomic_write_many(files: dict[str | Path, bytes | str]) -> list[Path]:
-    """Write several files as one: every file goes to a temporary beside its target first, and
-    only when all are written (and synced) are they renamed into place. A failure while writing
-    leaves every target as it was."""
+    """Write several files as one: all or none. Every file goes to a temporary beside its target
+    first; a target that is a folder is refused before anything is written; only when all are
+    written (and synced) are they renamed into place, each previous file kept as a hard link
+    until the last rename, so a rename that fails puts back the ones already replaced."""
+    targets = [Path(p) for p in files]
+    for path in targets:
+        if path.is_dir():
+            raise RoboCalError("a folder is in the way of this output file; no output was changed", source=path,
+                               hint="Remove or rename that folder, or write elsewhere.")
     temps: list[tuple[str, Path]] = []
     try:
-        for path, data in files.items():
-            path = Path(path)
+        for path, data in zip(targets, files.values()):
             folder = ensure_writable_dir(path.parent if str(path.parent) else Path("."))
             fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
             temps.append((tmp, path))
@@ -80,18 +87,55 @@ def atomic_write_many(files: dict[str | Path, bytes | str]) -> list[Path]:
         for tmp, _ in temps:
             Path(tmp).unlink(missing_ok=True)
         raise
-    done: list[Path] = []
-    for tmp, path in temps:        # renames in one folder: these do not run out of space
-        try:
-            os.replace(tmp, path)
-        except OSError as exc:
-            for left, _ in temps[len(done):]:
-                Path(left).unlink(missing_ok=True)
-            written = ", ".join(p.name for p in done) or "none"
-            raise RoboCalError(f"cannot replace the file ({exc.strerror}); already replaced: {written}",
-                               source=path, hint="Check the permissions.") from exc
-        done.append(path)
-    return done
+    _replace_all(temps)
+    return [path for _, path in temps]
+
+
+def _keep(path: Path) -> Path:
+    """A hard link (a copy where links are not supported) to the file at `path`, beside it."""
+    old = path.with_name(f".{path.name}.{os.getpid()}.old")
+    old.unlink(missing_ok=True)
+    try:
+        os.link(path, old)
+    except OSError:
+        shutil.copy2(path, old)
+    return old
+
+
+def _replace_all(temps: list[tuple[str, Path]]) -> None:
+    """Rename each temporary onto its target; on a failure, put back the targets already
+    replaced (their previous file, or no file where there was none)."""
+    kept: list[tuple[Path, Path | None]] = []          # replaced targets, and their previous file
+    current = temps[0][1] if temps else None
+    try:
+        for tmp, path in temps:
+            current, old = path, None
+            if path.exists():
+                old = _keep(path)
+            try:
+                os.replace(tmp, path)
+            except BaseException:
+                if old is not None:
+                    old.unlink(missing_ok=True)
+                raise
+            kept.append((path, old))
+    except BaseException as exc:
+        for path, old in reversed(kept):
+            with contextlib.suppress(OSError):
+                if old is not None:
+                    os.replace(old, path)
+                else:
+                    path.unlink()
+        for tmp, _ in temps:
+            Path(tmp).unlink(missing_ok=True)
+        if isinstance(exc, OSError):
+            raise RoboCalError(f"cannot replace the file ({exc.strerror}); no output was changed", source=current,
+                               hint="Check the permissions.") from exc
+        raise
+    for _, old in kept:
+        if old is not None:
+            with contextlib.suppress(OSError):
+                old.unlink()
 
 
 def json_default(value):
@@ -119,8 +163,13 @@ def strict_json(value):
     return value
 
 
+def json_text(data) -> str:
+    """The JSON text RoboCal writes (indented, UTF-8, numpy values as plain numbers)."""
+    return json.dumps(data, indent=2, ensure_ascii=False, default=json_default) + "\n"
+
+
 def atomic_write_json(path: str | Path, data) -> Path:
-    return atomic_write_text(path, json.dumps(data, indent=2, ensure_ascii=False, default=json_default) + "\n")
+    return atomic_write_text(path, json_text(data))
 
 
 def drop_partial_last_line(path: str | Path) -> bool:

@@ -42,11 +42,15 @@ class ProgressLine:
             self.stream.flush()
 
 
-def check_output(path: str | None, what: str) -> None:
-    """Refuse an output that cannot be written before the work starts (nothing is created)."""
+def check_output(path: str | None, what: str, folder_given: bool = False) -> None:
+    """Refuse an output that cannot be written before the work starts (nothing is created).
+    `folder_given`: `path` is a file the command names inside the folder the user gave."""
     if not path:
         return
     p = Path(path)
+    if p.is_dir() and folder_given:
+        raise RoboCalError("a folder is in the way of this output file", source=path,
+                           hint=f"Remove or rename that folder, or give another {what} folder.")
     if p.is_dir():
         raise UsageError(f"{what} '{path}' is a folder; give a file name")
     existing = p.parent if str(p.parent) else Path(".")

@@ -43,9 +43,8 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> CommandResult:
-    from app.commands.locate import setup_locator
+    from app.commands.locate import read_camera_image, setup_locator
     from core.stereo.checkerboard import pair_images
-    from core.images import load_gray
     from core.errors import RoboCalError, UsageError
     from core.measurement.run import rejects_path_for, run_measurements
     from core.poses.file import read_poses
@@ -87,10 +86,7 @@ def run(args) -> CommandResult:
     def capture_pose(pid, q):
         out_pair = []
         for side, path in zip(("left", "right"), by_pose[pid]):
-            img, why = load_gray(path)
-            if img is None:
-                raise RoboCalError(f"cannot read the {side} image: {why}", source=path)
-            out_pair.append(img)
+            out_pair.append(read_camera_image(path, side, locator.rect.image_size))
         return tuple(out_pair)
 
     progress = ProgressLine("measure")
@@ -100,6 +96,17 @@ def run(args) -> CommandResult:
                                   keep_locations=False, progress=progress)
         if fresh and not result.measured:
             raise _nothing_measured(result, len(poses))
+    except RoboCalError as exc:
+        if not fresh:
+            raise
+        for p in (write_out, write_rejects):
+            p.unlink(missing_ok=True)
+        named = {str(write_out): out, str(write_rejects): rejects}.get(exc.source)
+        if named is None:
+            raise
+        # the user knows the file by its own name; its previous version is untouched
+        hint = " ".join(h for h in ((exc.hint or "").rstrip(".") + ".", "The previous file is unchanged.") if h != ".")
+        raise RoboCalError(exc.problem, source=named, field=exc.field, hint=hint) from None
     except BaseException:
         if fresh:
             for p in (write_out, write_rejects):

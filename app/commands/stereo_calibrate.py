@@ -17,7 +17,8 @@ from core.errors import UsageError
 from core.task import Monitor
 from core.stereo.calibration import StereoCalibrationResult, calibrate_stereo
 from core.stereo.fit import CalibrationOptions
-from core.stereo.file import write_ros_camera_info, write_stereo_json, write_stereo_yaml
+from core.files import atomic_write_many
+from core.stereo.file import ros_camera_info_files, stereo_json_text, stereo_yaml_text
 
 HELP = "Stereo calibration from checkerboard image pairs (matched by sorted file name)"
 
@@ -82,7 +83,8 @@ def run(args) -> CommandResult:
     check_output(args.out, "--out")
     check_output(args.export_json, "--export-json")
     if args.ros:
-        check_output(str(Path(args.ros) / "left.yaml"), "--ros")
+        for name in ("left.yaml", "right.yaml"):
+            check_output(str(Path(args.ros) / name), "--ros", folder_given=True)
     progress = ProgressLine("stereo-calibrate")
     try:
         detections = detect_folders(_source(args.left), _source(args.right), board, progress=Monitor(progress).sub(0, 0.6))
@@ -90,11 +92,12 @@ def run(args) -> CommandResult:
         result = calibrate_stereo(detections, options, exclude=exclude, progress=Monitor(progress).sub(0.6, 1.0))
     finally:
         progress.close()
-    written = [str(write_stereo_yaml(args.out, result))]
+    files = {Path(args.out): stereo_yaml_text(result)}          # all written, or none changed
     if args.ros:
-        written += [str(p) for p in write_ros_camera_info(args.ros, result)]
+        files.update(ros_camera_info_files(args.ros, result))
     if args.export_json:
-        written.append(str(write_stereo_json(args.export_json, result)))
+        files[Path(args.export_json)] = stereo_json_text(result)
+    written = [str(p) for p in atomic_write_many(files)]
     data = result.summary()
     data["files_written"] = written
     data["ignored_files"] = list(detections.ignored_files)

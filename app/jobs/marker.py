@@ -21,7 +21,8 @@ import numpy as np
 from app.lab import ComparisonResult, VirtualLab, candidate_patterns, compare_markers
 from app.pages.measurement_inputs import TRAINING_FILE, VERIFICATION_FORMAT, marker_file, verification_file
 from core.errors import RoboCalError
-from core.files import atomic_write_bytes, atomic_write_json, read_json
+from core.files import atomic_write_json, atomic_write_many, read_json
+from core.locks import output_lock, output_locks
 from core.images import load_gray
 from core.marker.correspondence import WindowSweep
 from core.marker.location import MarkerLocation, MarkerLocator
@@ -291,10 +292,13 @@ def run_comparison(lab: VirtualLab, views: int, seed: int, *, progress=None, can
 def save_trained(project, trained: TrainedMarker) -> Path:
     """marker.npz and marker_training.png into the project (atomic); the old verification
     record belongs to the old marker and is removed. Returns the path of marker.npz."""
-    path = trained.save(marker_file(project))
+    path = marker_file(project)
+    files = {path: trained.to_bytes()}
     ok, png = cv2.imencode(".png", trained.image)
     if ok:
-        atomic_write_bytes(Path(project.folder) / TRAINING_FILE, png.tobytes())
+        files[Path(project.folder) / TRAINING_FILE] = png.tobytes()
+    with output_locks(files):                   # not while a robocal command writes them
+        atomic_write_many(files)                # both, or neither changed
     try:
         verification_file(project).unlink(missing_ok=True)
     except OSError as exc:
@@ -305,7 +309,8 @@ def save_trained(project, trained: TrainedMarker) -> Path:
 
 def write_verification(project, marker_name: str, record: dict) -> None:
     """marker_verification.json: the marker `marker_name` was located (`record` says how)."""
-    atomic_write_json(verification_file(project), {"format": VERIFICATION_FORMAT, "marker": marker_name, **record})
+    with output_lock(verification_file(project)):
+        atomic_write_json(verification_file(project), {"format": VERIFICATION_FORMAT, "marker": marker_name, **record})
 
 
 def recorded_verification(project) -> bool:

@@ -22,7 +22,8 @@ from app.report.gui_drawer import GuiDrawer
 from app.report.render import write_report
 from core.errors import RoboCalError
 from core.identification.exports import export_model
-from core.files import atomic_write_bytes, ensure_writable_dir
+from core.files import atomic_write_bytes, atomic_write_many, ensure_writable_dir
+from core.locks import output_locks
 from core.identification.solver import write_calibrated_model
 from core.robot.model import RobotModel
 from core.robot.file import read_robot
@@ -210,9 +211,8 @@ class ExportPage(WizardPage):
     def _write_stereo(self, folder: Path) -> list[Path]:
         src = self.state.project.path("stereo")
         data = stereo_file.read_stereo_yaml(src)          # checks the file before copying it
-        out = [atomic_write_bytes(folder / "stereo.yaml", src.read_bytes())]
-        out += list(stereo_file.write_ros_camera_info(folder, data))
-        return out
+        files = {folder / "stereo.yaml": src.read_bytes(), **stereo_file.ros_camera_info_files(folder, data)}
+        return atomic_write_many(files)                   # all three, or none changed
 
     def _write_report(self, folder: Path) -> list[Path]:
         return write_report(self.state.project, [folder / "report.html", folder / "report.pdf"],
@@ -236,7 +236,8 @@ class ExportPage(WizardPage):
             if key == "report":
                 self._start_report(folder, finished)
                 return []
-            written = item.write(folder)
+            with output_locks([folder / name for name in item.files]):     # not while a robocal command writes them
+                written = item.write(folder)
         except RoboCalError as exc:
             self._export_failed(key, exc.message)
             return self._finished(finished, [])

@@ -45,6 +45,8 @@ class GuiDrawer(QObject):
         Raises Cancelled when `cancelled()` becomes True while waiting."""
         if QThread.currentThread() is self.thread():
             return render_png(fig)
+        if cancelled is not None and cancelled():
+            raise Cancelled()
         request = _Request(fig)
         self._requested.emit(request)
         while not request.done.wait(POLL_S):

@@ -109,11 +109,16 @@ def read_rejects(path: str | Path) -> dict[int, tuple[str, np.ndarray, str]]:
 
 @dataclass
 class RejectsWriter:
-    """Appends rejected poses (pose, target, joints, reason) and fsyncs each row."""
+    """Appends rejected poses (pose, target, joints, reason), each row flushed and fsynced.
+
+    Like core.measurement.file.MeasurementWriter: a failed write is one clear RoboCalError, and
+    closing after it is quiet (the unwritten rest is dropped), so that first message is the one
+    the user reads."""
 
     path: str | Path
     dof: int
     _handle: object = field(default=None, init=False, repr=False)
+    _write_failed: bool = field(default=False, init=False, repr=False)
 
     def __post_init__(self):
         self.path = Path(self.path)
@@ -125,37 +130,58 @@ class RejectsWriter:
             self._handle = open(self.path, "a", encoding="utf-8", newline="")
         except OSError as exc:
             raise RoboCalError(f"cannot open the file for writing ({exc.strerror})", source=self.path) from exc
-        if not existing.strip():
-            self._write(REJECTS_TAG + "\n" + header + "\n")
-        else:
-            lines = [ln for ln in existing.decode("utf-8", "replace").splitlines() if ln.strip()]
-            found = next((ln for ln in lines if not ln.startswith("#")), None)
-            if REJECTS_FAMILY not in lines[0] or (found is not None and found.replace(" ", "") != header):
-                self.close()
-                raise RoboCalError("the rejects file belongs to another run (other columns or no format tag)",
-                                   source=self.path, hint="Write to a new file.")
-            if found is None:
-                self._write(header + "\n")
+        try:
+            if not existing.strip():
+                self._write(REJECTS_TAG + "\n" + header + "\n")
+            else:
+                lines = [ln for ln in existing.decode("utf-8", "replace").splitlines() if ln.strip()]
+                found = next((ln for ln in lines if not ln.startswith("#")), None)
+                if REJECTS_FAMILY not in lines[0] or (found is not None and found.replace(" ", "") != header):
+                    raise RoboCalError("the rejects file belongs to another run (other columns or no format tag)",
+                                       source=self.path, hint="Write to a new file.")
+                if found is None:
+                    self._write(header + "\n")
+        except BaseException:
+            self._write_failed = True           # the error on its way is the one to read
+            self.close()
+            raise
 
     def _write(self, text: str) -> None:
+        if self._handle is None:
+            raise RoboCalError("the rejects file is closed", source=self.path)
         try:
             self._handle.write(text)
             self._handle.flush()
             os.fsync(self._handle.fileno())
         except OSError as exc:
+            self._write_failed = True
             raise RoboCalError(f"cannot write the file ({exc.strerror})", source=self.path,
                                hint="Check the disk space and permissions.") from exc
 
     def append(self, pose: int, target: str, q_file: Sequence[float], reason: str) -> None:
+        """Write one rejected pose (joint values in file units: deg / mm) and flush it to disk."""
         buf = io.StringIO()
         csv.writer(buf, lineterminator="\n").writerow(
             [int(pose), target] + [f"{float(v):.6f}" for v in q_file] + [" ".join(str(reason).split())])
         self._write(buf.getvalue())
 
     def close(self) -> None:
-        if self._handle is not None:
-            self._handle.close()
-            self._handle = None
+        """Close the file; after a failed write (already reported) quietly."""
+        handle, self._handle = self._handle, None
+        if handle is None:
+            return
+        try:
+            handle.close()
+        except OSError as exc:
+            if not self._write_failed:
+                raise RoboCalError(f"cannot finish writing the file ({exc.strerror})", source=self.path,
+                                   hint="Check the disk space and permissions.") from exc
+
+    def __enter__(self) -> "RejectsWriter":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
 
 
 # -- existing measurements ----------------------------------------------------------------------------
@@ -380,11 +406,24 @@ def run_measurements(poses: PoseList, out: str | Path, *, locate: Callable, capt
             report(len(poses), "done")
         if result.fault:
             report(len(result.outcomes), result.fault)
-    finally:
-        writer.close()
-        if rej_writer is not None:
-            rej_writer.close()
+    except BaseException:
+        _close(writer, rej_writer, quiet=True)      # the error on its way is the one the user reads
+        raise
+    _close(writer, rej_writer)
     return result
+
+
+def _close(*writers, quiet: bool = False) -> None:
+    """Close every writer; then raise the first close error unless `quiet`."""
+    first = None
+    for w in writers:
+        if w is not None:
+            try:
+                w.close()
+            except RoboCalError as exc:
+                first = first or exc
+    if first is not None and not quiet:
+        raise first
 
 
 class _PoseRejected(Exception):

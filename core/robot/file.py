@@ -82,13 +82,32 @@ def robot_from_dict(data: dict, source: str | Path = "<robot>") -> RobotModel:
     if not isinstance(targets_data, dict):
         raise RoboCalError("expected an object of name: [x, y, z]", source=source, field="targets")
     targets = {str(k): np.array(vector(v, 3, source, f"targets.{k}", "mm")) for k, v in targets_data.items()}
-    calibration = data.get("calibration")
-    if calibration is not None and not isinstance(calibration, dict):
-        raise RoboCalError("expected an object", source=source, field="calibration")
+    calibration = _calibration_from_dict(data.get("calibration"), source)
     return RobotModel(name=name, joints=joints, base=_pose_from_dict(data.get("base"), source, "base"),
                       tool=_pose_from_dict(data.get("tool"), source, "tool"), targets=targets,
                       calibration=calibration,
                       collision_radius=_collision_from_dict(data.get("collision"), len(joints), source))
+
+
+def _calibration_from_dict(calibration, source) -> dict | None:
+    """The calibration section as written by identification; its parameter table (name, nominal,
+    identified, std: numbers or null) is checked, as the exports and the report read it."""
+    if calibration is None:
+        return None
+    if not isinstance(calibration, dict):
+        raise RoboCalError("expected an object", source=source, field="calibration")
+    params = calibration.get("parameters", [])
+    if not isinstance(params, list):
+        raise RoboCalError("expected a list of parameters", source=source, field="calibration.parameters")
+    for i, row in enumerate(params):
+        f = f"calibration.parameters[{i}]"
+        if not isinstance(row, dict):
+            raise RoboCalError("expected an object", source=source, field=f)
+        text(row.get("name", ""), source, f"{f}.name")
+        for key in ("nominal", "identified", "std"):
+            if row.get(key) is not None:
+                number(row[key], source, f"{f}.{key}")
+    return calibration
 
 
 def _collision_from_dict(data, dof: int, source) -> np.ndarray | None:

@@ -37,7 +37,8 @@ import numpy as np
 from core.stereo.board import Board
 from core.camera import CameraModel
 from core.errors import RoboCalError
-from core.files import atomic_write_json, atomic_write_text, ensure_writable_dir, json_default, strict_json
+from core.files import (atomic_write_json, atomic_write_many, atomic_write_text, ensure_writable_dir, json_default,
+                        json_text, strict_json)
 from core.stereo.rig import StereoRig
 from core.validate import check_format
 
@@ -109,8 +110,12 @@ def _as_file(data) -> StereoFile:
 
 
 def write_stereo_yaml(path: str | Path, data) -> Path:
-    """Write stereo.yaml (from a StereoFile or a StereoCalibrationResult), atomically: the YAML
-    is composed in memory by cv2.FileStorage and written through core.files."""
+    """Write stereo.yaml (from a StereoFile or a StereoCalibrationResult), atomically."""
+    return atomic_write_text(path, stereo_yaml_text(data))
+
+
+def stereo_yaml_text(data) -> str:
+    """The text of stereo.yaml, composed in memory by cv2.FileStorage."""
     sf = _as_file(data)
     fs = cv2.FileStorage("stereo.yaml", cv2.FILE_STORAGE_WRITE | cv2.FILE_STORAGE_MEMORY
                          | cv2.FILE_STORAGE_FORMAT_YAML)
@@ -132,7 +137,7 @@ def write_stereo_yaml(path: str | Path, data) -> Path:
     fs.write("board_square", float(sf.board.square))
     for key, value in sf.extras.items():
         fs.write(key, float(value))
-    return atomic_write_text(path, fs.releaseAndGetString())
+    return fs.releaseAndGetString()
 
 
 def _open_storage(path, mode):
@@ -319,12 +324,16 @@ def _num(v: float) -> str:
 
 def write_ros_camera_info(folder: str | Path, data, names: tuple[str, str] = ("left", "right")
                           ) -> tuple[Path, Path]:
-    """Write left.yaml and right.yaml (ROS camera_info) into `folder`, atomically."""
-    folder = ensure_writable_dir(folder)
-    out = []
-    for side, name in zip(("left", "right"), names):
-        out.append(atomic_write_text(folder / f"{name}.yaml", camera_info_yaml(data, side, name)))
-    return out[0], out[1]
+    """Write left.yaml and right.yaml (ROS camera_info) into `folder`, both or neither."""
+    left, right = atomic_write_many(ros_camera_info_files(ensure_writable_dir(folder), data, names))
+    return left, right
+
+
+def ros_camera_info_files(folder: str | Path, data, names: tuple[str, str] = ("left", "right")
+                          ) -> dict[Path, str]:
+    """{folder/left.yaml: text, folder/right.yaml: text} of the ROS camera_info export."""
+    return {Path(folder) / f"{name}.yaml": camera_info_yaml(data, side, name)
+            for side, name in zip(("left", "right"), names)}
 
 
 def stereo_json(data, result=None) -> dict:
@@ -352,3 +361,8 @@ def stereo_json(data, result=None) -> dict:
 def write_stereo_json(path: str | Path, data, result=None) -> Path:
     """Write the JSON export atomically."""
     return atomic_write_json(path, stereo_json(data, result))
+
+
+def stereo_json_text(data, result=None) -> str:
+    """The text `write_stereo_json` writes."""
+    return json_text(stereo_json(data, result))

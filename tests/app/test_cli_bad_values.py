@@ -127,3 +127,16 @@ def test_truncated_or_misshaped_marker_file(tmp_path, capsys):
         with pytest.raises(RoboCalError) as info:
             TrainedMarker.load(tmp_path / name)
         assert name in str(info.value)
+
+
+def test_a_calibration_sigma_given_as_text_names_the_field(tmp_path, capsys):
+    from core.robot.file import write_robot
+
+    cal = read_robot(ROBOT)
+    cal.calibration = {"parameters": [{"name": "J1.a", "nominal": 0.0, "identified": 0.1, "std": "about one"}]}
+    robot = write_robot(cal, tmp_path / "cal.json")
+    out = tmp_path / "dh.csv"
+    assert main(["export", "--robot", str(robot), "--format", "dh-csv", "--out", str(out)]) == 1
+    line = one_line(capsys)
+    assert str(robot) in line and "calibration.parameters[0].std" in line and "'about one'" in line, line
+    assert not out.exists()

@@ -2,6 +2,8 @@
 are inputs, two runs into one output, a closed / full / broken stdout, Ctrl-C at start-up."""
 from __future__ import annotations
 
+import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -20,7 +22,8 @@ ROBOT = ROOT / "resources" / "robots" / "ur5.json"
 def run_shell(cmd: str, tmp_path: Path) -> subprocess.CompletedProcess:
     """Run `robocal` under bash (for redirections); stderr captured."""
     return subprocess.run(["bash", "-c", cmd], cwd=tmp_path, capture_output=True, text=True, timeout=120,
-                          env={"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT), "HOME": str(tmp_path)})
+                          env={"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT), "HOME": str(tmp_path),
+                               "PYTHONDONTWRITEBYTECODE": "1"})
 
 
 ROBOCAL = f"{sys.executable} -m app.cli"
@@ -90,3 +93,46 @@ def test_ctrl_c_while_starting_is_one_line_and_exit_130(monkeypatch, capsys):
     monkeypatch.setattr(cli, "build_parser", interrupted)
     assert main(["identify", "--robot", "r.json"]) == 130
     assert capsys.readouterr().err == "robocal identify: interrupted\n"
+
+
+@pytest.fixture(scope="module")
+def marker_ds(tmp_path_factory):
+    from tests.app.virtual_inputs import marker_dataset
+    return marker_dataset(tmp_path_factory.mktemp("robust_ds"), poses=6)
+
+
+def _measure(ds, out, *more):
+    return ["measure", "--stereo", str(ds / "stereo.yaml"), "--marker", str(ds / "marker" / "training.png"),
+            "--images", str(ds / "poses"), "--joints", str(ds / "poses" / "joints.csv"), "--out", str(out), *more]
+
+
+@pytest.mark.parametrize("previous", [None, b"# robocal.measurements/1\npose,target,q1\n"])
+def test_a_full_disk_during_measure_is_one_line_naming_the_output(marker_ds, tmp_path, previous):
+    """The measurements file meets a full disk after its first rows (a file size limit in the child,
+    RLIMIT_FSIZE): one line naming the output, exit 1, the previous file as it was, nothing left."""
+    out = tmp_path / "m.csv"
+    if previous is not None:
+        out.write_bytes(previous)
+    more = ["--overwrite"] if previous is not None else []
+    def limit():                          # the tag line, the header and a row fit; the next row does not
+        resource.setrlimit(resource.RLIMIT_FSIZE, (300, 300))
+
+    proc = subprocess.run([sys.executable, "-m", "app.cli", *_measure(marker_ds, out, *more)], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120, preexec_fn=limit,
+                          env={"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT), "PYTHONDONTWRITEBYTECODE": "1"})
+    lines = proc.stderr.strip().splitlines()
+    assert proc.returncode == 1 and len(lines) == 1, proc.stderr
+    assert lines[0] == (f"robocal measure: {out}: cannot write the file (File too large). Check the disk space "
+                        f"and permissions. The previous file is unchanged.")
+    assert sorted(p.name for p in tmp_path.iterdir()) == (["m.csv"] if previous is not None else [])
+    if previous is not None:
+        assert out.read_bytes() == previous
+
+
+def test_a_second_measure_into_the_same_output_is_refused(marker_ds, tmp_path, capsys):
+    out = tmp_path / "m.csv"
+    with output_lock(out):
+        assert main(_measure(marker_ds, out)) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{out}: the file is being written by process {os.getpid()}" in err[0], err
+    assert list(tmp_path.iterdir()) == []

@@ -191,3 +191,60 @@ def test_usage_errors_exit_2(tmp_path, capsys, extra, words):
     for w in words:
         assert w in err
     assert not (tmp_path / "s.yaml").exists()
+
+
+@pytest.fixture
+def previous_outputs(tmp_path):
+    """stereo.yaml, the ROS files and the JSON export of an earlier run: a failed run leaves all four."""
+    files = {tmp_path / "stereo.yaml": b"%YAML:1.0\n---\nprevious: good\n",
+             tmp_path / "ros" / "left.yaml": b"previous left\n", tmp_path / "ros" / "right.yaml": b"previous right\n",
+             tmp_path / "full.json": b'{"previous": true}\n'}
+    for path, data in files.items():
+        path.parent.mkdir(exist_ok=True)
+        path.write_bytes(data)
+    return files
+
+
+def _outputs_args(left, right, tmp_path):
+    return _args(left, right, tmp_path / "stereo.yaml", "--ros", tmp_path / "ros", "--export-json",
+                 tmp_path / "full.json")
+
+
+def _unchanged(tmp_path, files):
+    assert {p: p.read_bytes() for p in files if p.is_file()} == {p: d for p, d in files.items() if p.is_file()}
+    left_over = [p.name for p in tmp_path.rglob(".*") if p.is_file()]
+    assert left_over == [], left_over
+
+
+def test_a_folder_in_the_way_of_a_ros_file_changes_no_output(tmp_path, capsys, previous_outputs):
+    left, right = _copy(tmp_path, NUMBERS[:6])
+    right_yaml = tmp_path / "ros" / "right.yaml"
+    right_yaml.unlink()
+    right_yaml.mkdir()
+    del previous_outputs[right_yaml]
+    code, stdout, err = _run(capsys, *_outputs_args(left, right, tmp_path))
+    _assert_failed(code, stdout, err, str(right_yaml), "a folder is in the way")
+    _unchanged(tmp_path, previous_outputs)
+
+
+def test_a_write_that_fails_on_the_last_output_changes_no_output(tmp_path, previous_outputs):
+    """A real failure after the calibration: the JSON export (about 12 kB) exceeds the process's file
+    size limit (RLIMIT_FSIZE, 8 kB) while stereo.yaml and the ROS files (3 kB, 1 kB) fit."""
+    import resource
+    import signal
+    import subprocess
+    import sys
+
+    def limit():
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (8000, 8000))
+
+    left, right = _copy(tmp_path, NUMBERS[:6])
+    argv = [sys.executable, "-m", "app.cli", "stereo-calibrate", *map(str, _outputs_args(left, right, tmp_path))]
+    root = Path(__file__).resolve().parents[2]
+    proc = subprocess.run(argv, capture_output=True, text=True, timeout=120, preexec_fn=limit, cwd=tmp_path,
+                          env={"PATH": "/usr/bin:/bin", "PYTHONPATH": str(root), "PYTHONDONTWRITEBYTECODE": "1",
+                               "HOME": str(tmp_path)})
+    _assert_failed(proc.returncode, proc.stdout, proc.stderr, "full.json", "File too large",
+                   "no output was changed")
+    _unchanged(tmp_path, previous_outputs)

@@ -38,3 +38,28 @@ def lab_state(lab, *, stereo: bool = True):
     if stereo:
         true_stereo_yaml(lab, state.project.path("stereo"))
     return state
+
+
+def marker_dataset(root, poses: int = 6, seed: int = 3):
+    """A `robocal simulate` dataset without checkerboards (`poses` marker pairs) and its true
+    stereo.yaml; returns the dataset folder."""
+    import json
+
+    from core.camera import CameraModel
+    from core.stereo.board import Board
+    from core.stereo.rectification import StereoRectification
+    from core.stereo.rig import StereoRig
+    from core.virtual_lab.dataset import simulate_dataset
+
+    out = root / "ds"
+    simulate_dataset(out, seed=seed, pairs=0, poses=poses)
+    truth = json.loads((out / "truth.json").read_text())
+    s, b = truth["stereo"], truth["board"]
+    size = (s["image_width"], s["image_height"])
+    rig = StereoRig(CameraModel(s["K1"], s["D1"], *size), CameraModel(s["K2"], s["D2"], *size), s["R"], s["T"])
+    rect = StereoRectification.from_rig(rig)
+    write_stereo_yaml(out / "stereo.yaml", StereoFile(
+        size, rig.left.K, rig.left.dist, rig.right.K, rig.right.dist, rig.R, rig.T, rig.essential(),
+        rig.fundamental(), rect.R1, rect.R2, rect.P1, rect.P2, rect.Q, 0.0, 0.0, 0.0,
+        Board(b["cols"], b["rows"], b["square"])))
+    return out

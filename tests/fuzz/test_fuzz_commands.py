@@ -13,7 +13,6 @@ import contextlib
 import io
 import json
 import math
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -22,10 +21,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from app.cli import main
-from core.measurement.file import write_measurements
-from core.robot.file import read_robot
 from core.robot.model import robot_path
-from core.virtual_lab.synthetic import perturbed_model, simulate_measurements
 
 ROBOT = robot_path("educational_6r")
 FUZZ = settings(derandomize=True, max_examples=150, deadline=None, database=None,
@@ -33,16 +29,6 @@ FUZZ = settings(derandomize=True, max_examples=150, deadline=None, database=None
 JUNK = st.one_of(st.none(), st.booleans(), st.text(max_size=12), st.just(float("nan")), st.just(float("inf")),
                  st.just(1e308), st.just(-1e308), st.integers(-10**30, 10**30), st.just([]), st.just({}),
                  st.lists(st.floats(allow_nan=True), max_size=4), st.just("1e400"))
-
-
-@pytest.fixture(scope="module")
-def files(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("fuzz")
-    true = perturbed_model(read_robot(ROBOT), 4)
-    write_measurements(simulate_measurements(true, 20, rng=5), folder / "m.csv")
-    shutil.copy(ROBOT, folder / "robot.json")
-    (folder / "poses.csv").write_text("pose,q1,q2,q3,q4,q5,q6\n0,0,10,20,0,30,0\n1,5,-10,15,10,20,5\n")
-    return folder
 
 
 def snapshot(folder: Path) -> dict:

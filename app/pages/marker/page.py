@@ -305,7 +305,11 @@ class MarkerPage(WizardPage):
 
     def _trained(self, training: Training) -> None:
         trained = training.trained
-        path = save_trained(self.state.project, trained)
+        try:
+            path = save_trained(self.state.project, trained)
+        except RoboCalError as exc:
+            self._set_status(f"✗ The trained marker was not saved: {exc.message}", False)
+            return
         self._set_trained(trained, training.offset, path)
         self._clear_results()
         self._draw_training()

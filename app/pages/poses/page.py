@@ -19,6 +19,7 @@ from app.pages.poses.results import SelectionResults
 from app.pages.poses.texts import SHORT
 from app.pages.steps import Step
 from core.errors import RoboCalError
+from core.locks import output_lock
 from core.poses.file import PoseList, read_poses
 from core.poses.selection import PoseSelectionResult, write_selection
 
@@ -138,7 +139,8 @@ class PosesPage(WizardPage):
         written = ""
         if self.state.project is not None:
             try:
-                path = write_selection(r, self.state.project.path("poses"))
+                with output_lock(self.state.project.path("poses")):     # not while a robocal command writes it
+                    path = write_selection(r, self.state.project.path("poses"))
                 written = f" Written to {path.name} for the Measurement step."
             except RoboCalError as exc:
                 self.show_error(exc.message)

@@ -37,6 +37,7 @@ from core.errors import RoboCalError
 from core.stereo.board import Board
 from core.stereo.calibration import StereoCalibrationResult, calibrate_stereo
 from core.stereo.checkerboard import MIN_PAIRS_TO_CALIBRATE, screen_pairs
+from core.locks import output_lock, output_locks
 from core.stereo.file import read_stereo_yaml, write_ros_camera_info, write_stereo_json, write_stereo_yaml
 
 
@@ -315,8 +316,10 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, WizardPage):
             return None
         path = project.path("stereo")
         try:
-            write_stereo_yaml(path, r)
-            write_stereo_json(project.path("stereo_details"), r)
+            details = project.path("stereo_details")
+            with output_locks([path, details]):         # not while a robocal command writes them
+                write_stereo_yaml(path, r)
+                write_stereo_json(details, r)
         except RoboCalError as exc:
             self._set_status(f"stereo.yaml was not written: {exc.message}", ok=False)
             return None
@@ -337,7 +340,8 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, WizardPage):
             if not folder:
                 return None
         try:
-            paths = write_ros_camera_info(folder, self.result)
+            with output_locks([Path(folder) / "left.yaml", Path(folder) / "right.yaml"]):
+                paths = write_ros_camera_info(folder, self.result)
         except RoboCalError as exc:
             self._set_status(f"ROS camera_info not written: {exc.message}", ok=False)
             return None
@@ -354,7 +358,8 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, WizardPage):
             if not path:
                 return None
         try:
-            out = write_stereo_json(path, self.result)
+            with output_lock(path):
+                out = write_stereo_json(path, self.result)
         except RoboCalError as exc:
             self._set_status(f"JSON not written: {exc.message}", ok=False)
             return None

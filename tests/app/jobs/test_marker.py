@@ -157,3 +157,21 @@ def test_project_files_of_the_step(tmp_path, trained):
     assert recorded_verification(project)
     verification_file(project).write_text("{ not json")
     assert not recorded_verification(project)
+
+
+def test_project_files_held_by_a_running_command_are_not_written(tmp_path, trained):
+    import os
+
+    from core.errors import RoboCalError
+    from core.locks import output_lock
+
+    project = create_project(tmp_path / "project")
+    (project.folder / TRAINING_FILE).write_bytes(b"previous")
+    with output_lock(project.folder / MARKER_FILE), pytest.raises(RoboCalError) as info:
+        save_trained(project, trained)
+    assert f"being written by process {os.getpid()}" in str(info.value)
+    assert (project.folder / TRAINING_FILE).read_bytes() == b"previous"        # both files, or neither
+    assert not (project.folder / MARKER_FILE).exists()
+    with output_lock(verification_file(project)), pytest.raises(RoboCalError, match="being written"):
+        write_verification(project, MARKER_FILE, {"located": 1})
+    assert save_trained(project, trained) == project.folder / MARKER_FILE

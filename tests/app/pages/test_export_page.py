@@ -269,3 +269,33 @@ def test_a_read_only_export_folder_is_one_clear_message(page, calibration, qtbot
         assert export_report(page, qtbot) == []
     assert f"✗ {out}: the folder is not writable" in page.row_text("report")
     assert page.status.text().startswith("✗ Report") and list(out.iterdir()) == []
+
+
+def test_stereo_files_are_written_all_or_none(page):
+    write_stereo_yaml(page.state.project.path("stereo"), stereo_file())
+    folder = page.state.project.folder / "export"
+    folder.mkdir()
+    (folder / "stereo.yaml").write_text("previous export\n")
+    (folder / "right.yaml").mkdir()                   # a folder in the way of one of the three files
+    assert page.export("stereo") == []
+    assert "✗" in page.row_text("stereo") and "right.yaml" in page.row_text("stereo")
+    assert (folder / "stereo.yaml").read_text() == "previous export\n"
+    assert not (folder / "left.yaml").exists()
+
+
+def test_an_export_held_by_a_running_command_is_refused_on_its_row(page, calibration):
+    """A robocal command writing the same file holds its output lock: the page writes nothing and
+    says which process has it; once the command is done, the export works."""
+    import os
+
+    from core.locks import output_lock
+
+    give_result(page, calibration)
+    folder = page.state.project.folder / "export"
+    folder.mkdir()
+    (folder / "calibrated_dh.csv").write_text("previous\n")
+    with output_lock(folder / "calibrated_dh.csv"):
+        assert page.export("dh-csv") == []
+    assert f"being written by process {os.getpid()}" in page.row_text("dh-csv")
+    assert (folder / "calibrated_dh.csv").read_text() == "previous\n"
+    assert [p.name for p in page.export("dh-csv")] == ["calibrated_dh.csv"]
