@@ -1,0 +1,178 @@
+"""Stereo calibrations from other tools: each format, written as the tool writes it, reads into
+the same cameras and pose (the same pixels for the same 3D points, ≤ 1e-6 px), with E, F and the
+rectification computed where absent and statistics unknown; refusals are one clear message."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from core.errors import RoboCalError
+from core.stereo.file import read_stereo_yaml, write_stereo_yaml
+from core.stereo.importers import read_any_stereo
+from core.stereo.rectification import load_rectification
+from tests.core.stereo import foreign_files as ff
+
+
+@pytest.fixture(scope="module")
+def rig():
+    from core.virtual_lab.rig import default_rig
+    return default_rig(0)
+
+
+POINTS = np.column_stack([np.linspace(-300, 300, 40), np.linspace(-200, 250, 40)[::-1],
+                          np.linspace(700, 1800, 40)])
+
+
+def assert_same_pixels(imported, rig, tol=1e-6):
+    """The imported pair projects the same 3D points (left frame, mm) to the same pixels."""
+    got = imported.file.rig.project(POINTS)
+    want = rig.project(POINTS)
+    for g, w in zip(got, want):
+        assert np.abs(g - w).max() <= tol, np.abs(g - w).max()
+
+
+def assert_unknown_statistics(imported):
+    sf = imported.file
+    assert sf.rms_left is None and sf.rms_right is None and sf.rms_stereo is None and sf.board is None
+
+
+def test_plain_opencv_yaml_with_rectification(tmp_path, rig):
+    path = ff.opencv_file(rig, tmp_path / "stereo.yml")
+    imported = read_any_stereo(path)
+    assert imported.kind == "OpenCV FileStorage" and imported.file.image_size == rig.left.size
+    assert_same_pixels(imported, rig)
+    assert_unknown_statistics(imported)
+    R1, R2, P1, P2, Q = ff.rectify(rig)
+    np.testing.assert_array_equal(imported.file.P2, P2)           # kept as the file gave it
+    assert any("E, F" in n for n in imported.notes)                # E and F computed
+
+
+def test_plain_opencv_xml_with_m1_m2_and_no_rectification(tmp_path, rig):
+    path = ff.opencv_file(rig, tmp_path / "stereo.xml", rectification=False, camera_names=("M1", "M2"))
+    imported = read_any_stereo(path)
+    assert_same_pixels(imported, rig)
+    R1, R2, P1, P2, Q = ff.rectify(rig)
+    np.testing.assert_allclose(imported.file.P2, P2, rtol=1e-12, atol=1e-9)   # computed by cv2.stereoRectify
+    np.testing.assert_allclose(imported.file.Q, Q, rtol=1e-12, atol=1e-12)
+
+
+def test_opencv_file_locates_like_robocal_stereo_yaml(tmp_path, rig):
+    path = ff.opencv_file(rig, tmp_path / "stereo.yml")
+    ours = load_rectification(write_stereo_yaml(tmp_path / "robocal.yaml", read_any_stereo(path).file))
+    theirs = load_rectification(path)
+    for key in ("R1", "R2", "P1", "P2"):
+        np.testing.assert_array_equal(getattr(ours, key), getattr(theirs, key))
+
+
+def test_stereo_calib_intrinsics_and_extrinsics(tmp_path, rig):
+    intrinsics, extrinsics = ff.stereo_calib_pair(rig, tmp_path)
+    for given in ([intrinsics, extrinsics], [extrinsics, intrinsics], intrinsics, extrinsics, tmp_path):
+        imported = read_any_stereo(given)
+        assert_same_pixels(imported, rig)
+        assert imported.file.image_size == (1280, 1024)          # the common size nearest 2·(634.0, 505.7)
+        assert any("no image size" in n for n in imported.notes)
+    sized = read_any_stereo(tmp_path, image_size=(1280, 1024))
+    assert not any("no image size" in n for n in sized.notes)
+    half = read_any_stereo(tmp_path, image_size=(1280, 1024), mm_per_unit=0.5)
+    assert half.file.baseline_mm == pytest.approx(rig.baseline / 2, rel=1e-12)
+    np.testing.assert_allclose(half.file.P2[0, 3], ff.rectify(rig)[3][0, 3] / 2, rtol=1e-12)
+
+
+def test_stereo_calib_intrinsics_alone_is_refused(tmp_path, rig):
+    intrinsics, extrinsics = ff.stereo_calib_pair(rig, tmp_path)
+    extrinsics.unlink()
+    with pytest.raises(RoboCalError, match=r"intrinsics.yml: holds only the cameras .* no extrinsics.yml"):
+        read_any_stereo(intrinsics)
+
+
+def test_ros_camera_info_pair(tmp_path, rig):
+    left, right = ff.ros_pair(rig, tmp_path)
+    for given in ([left, right], tmp_path):
+        imported = read_any_stereo(given)
+        assert imported.kind == "ROS camera_info pair"
+        assert_same_pixels(imported, rig)
+        assert_unknown_statistics(imported)
+        np.testing.assert_allclose(imported.file.T, rig.T, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(imported.file.R, rig.R, rtol=0, atol=1e-12)
+
+
+def test_ros_pair_with_the_pose_given(tmp_path, rig):
+    left, right = ff.ros_pair(rig, tmp_path, with_baseline=False)
+    with pytest.raises(RoboCalError, match=r"right.yaml: field 'projection_matrix': .* holds no baseline.*Give the pose"):
+        read_any_stereo([left, right])
+    _, extrinsics = ff.stereo_calib_pair(rig, tmp_path)
+    imported = read_any_stereo([left, right, extrinsics])
+    assert_same_pixels(imported, rig)
+    np.testing.assert_allclose(imported.file.P2, ff.rectify(rig)[3], rtol=1e-12, atol=1e-9)
+
+
+def test_ros_refusals(tmp_path, rig):
+    left, right = ff.ros_pair(rig, tmp_path, model="equidistant")
+    with pytest.raises(RoboCalError, match=r"left.yaml: field 'distortion_model': distortion model 'equidistant' "
+                                           r"is not supported"):
+        read_any_stereo([left, right])
+    left, right = ff.ros_pair(rig, tmp_path)
+    with pytest.raises(RoboCalError, match="left.yaml: a ROS camera_info file holds one camera"):
+        read_any_stereo(left)
+
+
+def test_kalibr_camchain(tmp_path, rig):
+    imported = read_any_stereo(ff.kalibr_camchain(rig, tmp_path / "camchain-stereo.yaml"))
+    assert imported.kind == "Kalibr camchain"
+    assert_same_pixels(imported, rig)
+    assert_unknown_statistics(imported)
+    assert read_any_stereo(tmp_path).file.baseline_mm == pytest.approx(rig.baseline, rel=1e-12)
+
+
+@pytest.mark.parametrize("kwargs, field", [({"model": "equidistant"}, "cam0.distortion_model"),
+                                           ({"model": "fov"}, "cam0.distortion_model"),
+                                           ({"camera_model": "omni"}, "cam0.camera_model")])
+def test_kalibr_refuses_other_models(tmp_path, rig, kwargs, field):
+    path = ff.kalibr_camchain(rig, tmp_path / "camchain.yaml", **kwargs)
+    with pytest.raises(RoboCalError) as err:
+        read_any_stereo(path)
+    assert err.value.field == field and "not supported" in err.value.message and "pinhole" in err.value.message
+    assert "\n" not in err.value.message
+
+
+@pytest.mark.parametrize("units", ["mm", "meters"])
+def test_matlab_stereo_parameters_json(tmp_path, rig, units):
+    imported = read_any_stereo(ff.matlab_json(rig, tmp_path / "stereoParams.json", units=units))
+    assert imported.kind == "MATLAB stereoParameters (JSON)"
+    assert_same_pixels(imported, rig)
+    np.testing.assert_allclose(imported.file.K1, rig.left.K, rtol=1e-15)     # transposed back, −1 px
+    assert_unknown_statistics(imported)
+
+
+def test_matlab_refusals(tmp_path, rig):
+    with pytest.raises(RoboCalError, match=r"field 'CameraParameters1.IntrinsicMatrix': the skew is 2"):
+        read_any_stereo(ff.matlab_json(rig, tmp_path / "skew.json", skew=2.0))
+    path = ff.matlab_json(rig, tmp_path / "untransposed.json")
+    data = json.loads(path.read_text())
+    data["RotationOfCamera2"] = (np.asarray(data["RotationOfCamera2"]) * 2).tolist()
+    path.write_text(json.dumps(data))
+    with pytest.raises(RoboCalError, match=r"field 'RotationOfCamera2': not a rotation matrix"):
+        read_any_stereo(path)
+
+
+def test_robocal_stereo_yaml_still_read(tmp_path, rig):
+    sf = read_any_stereo(ff.opencv_file(rig, tmp_path / "s.yml")).file
+    path = write_stereo_yaml(tmp_path / "stereo.yaml", sf)
+    imported = read_any_stereo(path)
+    assert imported.kind == "RoboCal stereo.yaml"
+    again = read_stereo_yaml(path)
+    assert again.to_dict() == sf.to_dict() and again.rms_stereo is None and again.board is None
+    assert "rms_stereo" not in path.read_text() and "board_cols" not in path.read_text()   # unknown: never 0
+
+
+def test_unrecognised_files(tmp_path):
+    other = tmp_path / "other.yaml"
+    other.write_text("name: something\nvalues: [1, 2]\n")
+    with pytest.raises(RoboCalError, match="other.yaml: not a stereo calibration RoboCal recognises"):
+        read_any_stereo(other)
+    with pytest.raises(RoboCalError, match="no stereo calibration found in this folder"):
+        read_any_stereo(tmp_path / ".")
+    with pytest.raises(RoboCalError, match="file not found"):
+        read_any_stereo(tmp_path / "none.yaml")
