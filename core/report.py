@@ -84,18 +84,24 @@ def _stereo_section(project: Project) -> str:
         return f"<h2>Stereo calibration</h2><p class='warn'>stereo.yaml cannot be read: {_e(exc.message)}</p>"
     w, h = sf.image_size
     rows = [("image size", f"{w} × {h} px"),
-            ("reprojection error, left camera", f"{_f(sf.rms_left)} px RMS"),
-            ("reprojection error, right camera", f"{_f(sf.rms_right)} px RMS"),
-            ("reprojection error, stereo", f"{_f(sf.rms_stereo)} px RMS"),
+            ("reprojection error, left camera", _rms(sf.rms_left)),
+            ("reprojection error, right camera", _rms(sf.rms_right)),
+            ("reprojection error, stereo", _rms(sf.rms_stereo)),
             ("baseline", f"{_f(sf.baseline_mm, 2)} mm"),
             ("focal lengths (left)", f"{_f(sf.K1[0, 0], 1)}, {_f(sf.K1[1, 1], 1)} px"),
-            ("checkerboard", f"{sf.board.cols} × {sf.board.rows} inner corners, {_f(sf.board.square, 2)} mm")]
+            ("checkerboard", f"{sf.board.cols} × {sf.board.rows} inner corners, {_f(sf.board.square, 2)} mm"
+             if sf.board is not None else "unknown (not in the imported calibration)")]
     if "epipolar_rms" in sf.extras:
         rows.append(("epipolar error after rectification", f"{_f(sf.extras['epipolar_rms'])} px RMS"))
     if "cross_validation_px" in sf.extras:
         rows.append(("cross validation", f"{_f(sf.extras['cross_validation_px'])} px RMS"))
     return ("<h2>Stereo calibration</h2><table>"
             + "".join(f"<tr><td>{_e(k)}</td><td>{v}</td></tr>" for k, v in rows) + "</table>")
+
+
+def _rms(value) -> str:
+    """An RMS error (px), or unknown for a calibration imported without its statistics."""
+    return "unknown (not in the imported calibration)" if value is None else f"{_f(value)} px RMS"
 
 
 def _poses_section(project: Project) -> str:
