@@ -250,17 +250,30 @@ def node_real(fs, key, path) -> float:
 
 
 def node_matrix(fs, key, path) -> np.ndarray:
+    """A matrix (!!opencv-matrix) built from its rows, cols and data entries, checked first:
+    cv2.FileNode.mat() writes past its buffer when rows·cols and data disagree."""
     node = _node(fs, key, path)
+    what = "expected an OpenCV matrix (!!opencv-matrix with rows, cols, dt, data)"
     if not node.isMap():
-        raise RoboCalError("expected an OpenCV matrix (!!opencv-matrix with rows, cols, dt, data)",
-                           source=path, field=key)
-    m = node.mat()
-    if m is None:
-        raise RoboCalError("expected an OpenCV matrix (!!opencv-matrix with rows, cols, dt, data)",
-                           source=path, field=key)
-    m = np.asarray(m, dtype=np.float64)
-    if m.ndim == 1:
-        m = m.reshape(-1, 1)
+        raise RoboCalError(what, source=path, field=key)
+    rows, cols, dt, data = (node.getNode(name) for name in ("rows", "cols", "dt", "data"))
+    if rows.empty() or cols.empty() or dt.empty() or data.empty() or not (rows.isInt() and cols.isInt()):
+        raise RoboCalError(what, source=path, field=key)
+    r, c = int(rows.real()), int(cols.real())
+    if not (1 <= r <= 16 and 1 <= c <= 16):
+        raise RoboCalError(f"expected a small matrix (at most 16x16), got rows {r}, cols {c}", source=path, field=key)
+    if not dt.isString() or dt.string() not in ("d", "f", "i", "u", "s", "w", "c"):
+        raise RoboCalError("expected a matrix of one channel (dt: d, f or i)", source=path, field=key)
+    if not data.isSeq() or data.size() != r * c:
+        got = data.size() if data.isSeq() else "no list of"
+        raise RoboCalError(f"a {r}x{c} matrix needs {r * c} values in data, got {got}", source=path, field=key)
+    values = []
+    for i in range(r * c):
+        item = data.at(i)
+        if not (item.isReal() or item.isInt()):
+            raise RoboCalError("data holds something other than numbers", source=path, field=key)
+        values.append(item.real())
+    m = np.array(values, dtype=np.float64).reshape(r, c)
     if not np.all(np.isfinite(m)):
         raise RoboCalError("contains values that are not finite numbers", source=path, field=key)
     return m

@@ -43,6 +43,10 @@ def _kind(path: Path) -> str:
                            hint=_HINT)
     keys = storage_keys(path)
     if keys is None:
+        text = path.read_text(encoding="utf-8", errors="replace")
+        if "opencv-matrix" in text or "<opencv_storage>" in text or text.startswith("%YAML:"):
+            raise RoboCalError("not a readable OpenCV YAML/XML file", source=path,
+                               hint="Check the file, or write it again with the program that made it.")
         data = load_yaml(path)
         keys = set(data) if isinstance(data, dict) else set()
     if "format" in keys:

@@ -176,3 +176,21 @@ def test_unrecognised_files(tmp_path):
         read_any_stereo(tmp_path / ".")
     with pytest.raises(RoboCalError, match="file not found"):
         read_any_stereo(tmp_path / "none.yaml")
+
+
+@pytest.mark.parametrize("edit, says", [
+    (lambda t: t.replace("   cols: 3\n", "", 1), "expected an OpenCV matrix"),
+    (lambda t: t.replace("   rows: 3\n   cols: 3\n", "   rows: 3\n   cols: 4\n", 1), "needs 12 values in data, got 9"),
+    (lambda t: t.replace("   rows: 3\n", "   rows: 1000000\n", 1), "at most 16x16"),
+    (lambda t: t.replace("   dt: d\n", "   dt: 3d\n", 1), None),
+    (lambda t: t.replace("data: [ ", "data: [ x, ", 1), "needs 9 values"),
+])
+def test_malformed_matrices_are_refused_without_harm(tmp_path, rig, edit, says):
+    """cv2.FileNode.mat() writes past its buffer when rows·cols and data disagree: the
+    matrix is checked and built from its entries instead (read many times: no heap damage)."""
+    intrinsics, _ = ff.stereo_calib_pair(rig, tmp_path)
+    intrinsics.write_text(edit(intrinsics.read_text()))
+    expected = f"intrinsics.yml: field 'M1': .*{says}" if says else "intrinsics.yml: not a readable OpenCV"
+    for _ in range(50):
+        with pytest.raises(RoboCalError, match=expected):
+            read_any_stereo(intrinsics)
