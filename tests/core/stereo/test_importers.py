@@ -13,6 +13,7 @@ from core.stereo.file import read_stereo_yaml, write_stereo_yaml
 from core.stereo.importers import read_any_stereo
 from core.stereo.rectification import load_rectification
 from tests.core.stereo import foreign_files as ff
+from tests.core.stereo_synth import REAL_DATA, real_pairs
 
 
 @pytest.fixture(scope="module")
@@ -194,3 +195,48 @@ def test_malformed_matrices_are_refused_without_harm(tmp_path, rig, edit, says):
     for _ in range(50):
         with pytest.raises(RoboCalError, match=expected):
             read_any_stereo(intrinsics)
+
+
+@pytest.mark.skipif(not REAL_DATA.is_dir(), reason="real checkerboard pairs not present (../shared/data)")
+def test_stereo_calib_output_of_real_pairs(tmp_path):
+    """The real 640x512 pairs calibrated as OpenCV's stereo_calib sample does it (plain
+    cv2.stereoCalibrate, 24 mm squares), written as its intrinsics.yml + extrinsics.yml: the
+    import infers 640x512 and reproduces the pixels of the calibration."""
+    import cv2
+
+    from core.camera import CameraModel
+    from core.stereo.rig import StereoRig
+
+    board = np.zeros((54, 3), np.float32)
+    board[:, :2] = np.mgrid[0:9, 0:6].T.reshape(-1, 2) * 24.0
+    objects, lefts, rights = [], [], []
+    for left, right in real_pairs(range(1, 13)):
+        found = []
+        for path in (left, right):
+            gray = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+            ok, corners = cv2.findChessboardCorners(gray, (9, 6))
+            if ok:
+                corners = cv2.cornerSubPix(gray, corners, (11, 11), (-1, -1),
+                                           (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 30, 0.01))
+            found.append(corners if ok else None)
+        if found[0] is not None and found[1] is not None:
+            objects.append(board)
+            lefts.append(found[0])
+            rights.append(found[1])
+    size = (640, 512)
+    rms, K1, D1, K2, D2, R, T, _, _ = cv2.stereoCalibrate(
+        objects, lefts, rights, None, None, None, None, size, flags=cv2.CALIB_FIX_ASPECT_RATIO
+        | cv2.CALIB_ZERO_TANGENT_DIST | cv2.CALIB_SAME_FOCAL_LENGTH,
+        criteria=(cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 100, 1e-5))
+    rig = StereoRig(CameraModel(K1, D1.ravel(), *size), CameraModel(K2, D2.ravel(), *size), R, T)
+    ff.stereo_calib_pair(rig, tmp_path)
+    imported = read_any_stereo(tmp_path / "intrinsics.yml")
+    assert imported.file.image_size == size and any("640x512 px assumed" in n for n in imported.notes)
+    assert 85 < imported.file.baseline_mm < 100 and rms < 1.0          # the README's T: (91.2, −2.65, 12.2) mm
+    assert imported.file.T[0] > 0
+    assert_same_pixels(imported, rig)
+    np.testing.assert_array_equal(imported.file.P2, ff.rectify(rig)[3])
+    # in these pairs the 'left' images come from the camera on the right (T_x > 0, as the README's T):
+    # the marker location refuses the rig with what to do
+    with pytest.raises(RoboCalError, match=r"'right' camera is on the left .* Swap the left and right images"):
+        load_rectification(tmp_path)
