@@ -32,16 +32,22 @@ def skew(t: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
 
 
-def check_stereo(sf, source, given=frozenset({"E", "F", "R1", "R2", "P1", "P2", "Q"})) -> None:
-    """Raise a RoboCalError for the first implausible or inconsistent part of `sf` (a StereoFile)."""
-    w, h = sf.image_size
-    for key in ("K1", "K2"):
-        _camera_matrix(np.asarray(getattr(sf, key), float), w, h, source, key)
-    _rotation(np.asarray(sf.R, float), source, "R")
-    T = np.asarray(sf.T, float).reshape(3)
+def check_cameras_and_pose(image_size, K1, K2, R, T, source) -> None:
+    """The checks of K1, K2, R and T: what must hold before anything is computed from them."""
+    w, h = image_size
+    for key, K in (("K1", K1), ("K2", K2)):
+        _camera_matrix(np.asarray(K, float), w, h, source, key)
+    _rotation(np.asarray(R, float), source, "R")
+    T = np.asarray(T, float).reshape(3)
     if not np.all(np.isfinite(T)) or not np.linalg.norm(T) > 1e-9:
         raise RoboCalError(f"the translation between the cameras must be finite and not zero, got {T.tolist()}",
                            source=source, field="T", hint=_REDO)
+
+
+def check_stereo(sf, source, given=frozenset({"E", "F", "R1", "R2", "P1", "P2", "Q"})) -> None:
+    """Raise a RoboCalError for the first implausible or inconsistent part of `sf` (a StereoFile)."""
+    check_cameras_and_pose(sf.image_size, sf.K1, sf.K2, sf.R, sf.T, source)
+    T = np.asarray(sf.T, float).reshape(3)
     if "E" in given:
         _agree(np.asarray(sf.E, float), skew(T) @ sf.R, source, "E",
                "the essential matrix disagrees with R and T")
@@ -99,7 +105,7 @@ def _agree(given: np.ndarray, expected: np.ndarray, source, key: str, problem: s
 def _projection(P: np.ndarray, source, key: str) -> np.ndarray:
     """The translation of a rectified projection matrix K'·[I | t] (t in mm)."""
     P = np.asarray(P, float)
-    if not (P[0, 0] > 0 and P[1, 1] > 0 and np.allclose(P[2, :3], [0, 0, 1], atol=1e-9)):
+    if not (P[0, 0] > 0 and P[1, 1] > 0 and P[1, 0] == 0 and np.allclose(P[2, :3], [0, 0, 1], atol=1e-9)):
         raise RoboCalError("not a rectified projection matrix [[f, 0, cx, tx], [0, f, cy, ty], [0, 0, 1, 0]] "
                            "with a positive focal length", source=source, field=key,
                            hint="Remove R1, R2, P1, P2, Q to have the rectification computed, or export again.")

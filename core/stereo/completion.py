@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 
 from core.errors import RoboCalError
-from core.stereo.checks import check_stereo, skew
+from core.stereo.checks import check_cameras_and_pose, check_stereo, skew
 from core.stereo.file import DIST_LENGTHS, StereoFile
 
 _RECTIFICATION = ("R1", "R2", "P1", "P2", "Q")
@@ -67,6 +67,7 @@ def complete_stereo(parts: StereoParts, source) -> tuple[StereoFile, list[str]]:
     K1, K2, R = (np.asarray(m, dtype=float).reshape(3, 3) for m in (parts.K1, parts.K2, parts.R))
     T = np.asarray(parts.T, dtype=float).reshape(3)
     D1, D2 = distortion(parts.D1, source, "D1"), distortion(parts.D2, source, "D2")
+    check_cameras_and_pose((w, h), K1, K2, R, T, source)          # before inverting or rectifying anything
     given = {key for key in ("E", "F", *_RECTIFICATION) if getattr(parts, key) is not None}
     computed = []
     E = parts.E

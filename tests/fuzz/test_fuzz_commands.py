@@ -13,6 +13,7 @@ import contextlib
 import io
 import json
 import math
+import re
 import shutil
 from pathlib import Path
 
@@ -244,7 +245,7 @@ def _stereo_commands(sources, work):
 
 @FUZZ
 @given(fmt=st.sampled_from(STEREO_FORMATS), which=st.integers(0, 1), line=st.integers(0, 200),
-       action=st.sampled_from(["replace", "delete", "truncate", "append"]), junk=st.sampled_from(STEREO_JUNK))
+       action=st.sampled_from(["replace", "zero", "delete", "truncate", "append"]), junk=st.sampled_from(STEREO_JUNK))
 def test_malformed_stereo_files(stereo_files, tmp_path_factory, fmt, which, line, action, junk):
     work = tmp_path_factory.mktemp("stereo")
     sources = []
@@ -259,6 +260,8 @@ def test_malformed_stereo_files(stereo_files, tmp_path_factory, fmt, which, line
         numeric = [k for k, c in enumerate(cells) if any(ch.isdigit() for ch in c)] or [len(cells) - 1]
         cells[numeric[line % len(numeric)]] = junk
         lines[i] = " ".join(cells)
+    elif action == "zero":                         # every number of the line 0: singular matrices
+        lines[i] = re.sub(r"-?\d+(\.\d*)?(e[-+]?\d+)?", junk if junk in ("0", "-0", "1e-300") else "0", lines[i])
     elif action == "delete":
         del lines[i]
     elif action == "truncate":

@@ -24,8 +24,8 @@ from PySide6.QtCore import Qt, QTimer
 from PySide6.QtWidgets import QFileDialog, QSplitter, QVBoxLayout, QWidget
 
 from app.jobs.stereo import AddedPair
-from app.lab import DEFAULT_BOARD
 from app.html import number
+from app.lab import DEFAULT_BOARD
 from app.pages.base import WizardPage
 from app.pages.forms import button, row
 from app.pages.steps import Step
@@ -354,9 +354,11 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, WizardPage):
         self.state.set_stereo(None)               # the project's calibration is now the imported file
         sf = imported.file
         notes = "".join(f" Note: {n}." for n in imported.notes)
+        errors = ("reprojection errors unknown" if sf.rms_stereo is None
+                  else f"stereo RMS {number(sf.rms_stereo, 3, 'px')}")
         self._set_status(f"Imported {imported.kind} ({', '.join(p.name for p in imported.sources)}) as "
-                         f"{path.name}: {sf.image_size[0]}x{sf.image_size[1]} px, baseline {sf.baseline_mm:.1f} mm; "
-                         f"reprojection errors unknown.{notes} This step is done.", ok=True)
+                         f"{path.name}: {sf.image_size[0]}x{sf.image_size[1]} px, baseline {sf.baseline_mm:.1f} mm, "
+                         f"{errors}.{notes} This step is done.", ok=True)
         self.notify_complete()
         return path
 

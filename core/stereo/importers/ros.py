@@ -59,6 +59,16 @@ def read_camera_info(path) -> dict:
             "R": _matrix(data, "rectification_matrix", (3, 3), path), "P": P, "path": path}
 
 
+def _translation(camera: dict) -> np.ndarray:
+    """t of the projection matrix K'·[I | t] (mm)."""
+    P = camera["P"]
+    if not (P[0, 0] > 0 and P[1, 1] > 0 and P[1, 0] == 0 and np.allclose(P[2, :3], [0, 0, 1], atol=1e-9)):
+        raise RoboCalError("not a projection matrix [[fx', 0, cx', Tx], [0, fy', cy', Ty], [0, 0, 1, 0]] with "
+                           "positive focal lengths", source=camera["path"], field="projection_matrix",
+                           hint="Export the camera_info files again.")
+    return np.linalg.solve(P[:, :3], P[:, 3])
+
+
 def read_ros_pair(left, right, pose=None) -> ImportedStereo:
     """The stereo pair of a left and a right camera_info file; `pose`: an OpenCV file with R, T
     (mm) when the files do not hold the right camera's pose."""
@@ -70,8 +80,7 @@ def read_ros_pair(left, right, pose=None) -> ImportedStereo:
                            field="image_width")
     paths = [a["path"], b["path"]]
     notes = []
-    t1 = np.linalg.solve(a["P"][:, :3], a["P"][:, 3]) if a["P"][0, 0] > 0 else np.zeros(3)
-    t2 = np.linalg.solve(b["P"][:, :3], b["P"][:, 3]) if b["P"][0, 0] > 0 else np.zeros(3)
+    t1, t2 = _translation(a), _translation(b)
     if pose is not None:
         R, T = read_pose(pose)
         paths.append(Path(pose))

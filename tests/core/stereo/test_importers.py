@@ -101,7 +101,8 @@ def test_ros_camera_info_pair(tmp_path, rig):
 
 def test_ros_pair_with_the_pose_given(tmp_path, rig):
     left, right = ff.ros_pair(rig, tmp_path, with_baseline=False)
-    with pytest.raises(RoboCalError, match=r"right.yaml: field 'projection_matrix': .* holds no baseline.*Give the pose"):
+    with pytest.raises(RoboCalError,
+                       match=r"right.yaml: field 'projection_matrix': .* holds no baseline.*Give the pose"):
         read_any_stereo([left, right])
     _, extrinsics = ff.stereo_calib_pair(rig, tmp_path)
     imported = read_any_stereo([left, right, extrinsics])
@@ -240,3 +241,26 @@ def test_stereo_calib_output_of_real_pairs(tmp_path):
     # the marker location refuses the rig with what to do
     with pytest.raises(RoboCalError, match=r"'right' camera is on the left .* Swap the left and right images"):
         load_rectification(tmp_path)
+
+
+def test_singular_matrices_are_refused_before_anything_is_computed(tmp_path, rig):
+    """Zero focal lengths or a singular projection matrix: one message, no numerical error."""
+    chain = ff.kalibr_camchain(rig, tmp_path / "camchain.yaml")
+    text = chain.read_text()
+    start = text.index("  intrinsics: [")
+    chain.write_text(text[:start] + "  intrinsics: [0.0, 0.0, 0.0, 0.0]" + text[text.index("\n", start):])
+    with pytest.raises(RoboCalError, match=r"field 'cam0.intrinsics': not a camera matrix: the focal lengths"):
+        read_any_stereo(chain)
+    bare = ff.opencv_file(rig, tmp_path / "bare.yml", rectification=False)
+    text = bare.read_text()
+    start = text.index("data:", text.index("K1:"))
+    bare.write_text(text[:start] + "data: [ 0., 0., 0., 0., 0., 0., 0., 0., 0. ]\n" + text[text.index("D1:"):])
+    with pytest.raises(RoboCalError, match=r"field 'K1': not a camera matrix"):
+        read_any_stereo(bare)
+    left, right = ff.ros_pair(rig, tmp_path)
+    text = right.read_text()
+    start = text.index("projection_matrix:")
+    right.write_text(text[:start] + "projection_matrix:\n  rows: 3\n  cols: 4\n  data: [1.0, 1.0, 0.0, -0.1, 1.0, 1.0, "
+                     "0.0, 0.0, 0.0, 0.0, 1.0, 0.0]\n")
+    with pytest.raises(RoboCalError, match=r"right.yaml: field 'projection_matrix': not a projection matrix"):
+        read_any_stereo([left, right])
