@@ -99,8 +99,11 @@ def complete_stereo(parts: StereoParts, source) -> tuple[StereoFile, list[str]]:
 
 
 def _disparity_to_depth(P1: np.ndarray, P2: np.ndarray) -> np.ndarray:
-    """Q of a rectified pair (as cv2.stereoRectify builds it), from P1 and P2."""
+    """Q of a rectified pair (as cv2.stereoRectify builds it), from P1 and P2 (zeros without a
+    baseline in P2: the check then names P2)."""
     f, cx, cy = P1[0, 0], P1[0, 2], P1[1, 2]
+    if not (P2[0, 0] > 0 and P2[1, 1] > 0 and (P2[0, 3] != 0 or P2[1, 3] != 0)):
+        return np.zeros((4, 4))
     if abs(P2[1, 3]) > abs(P2[0, 3]):             # one camera above the other
         ty = P2[1, 3] / P2[1, 1]
         return np.array([[1.0, 0, 0, -cx], [0, 1.0, 0, -cy], [0, 0, 0, f], [0, 0, -1.0 / ty, (cy - P2[1, 2]) / ty]])

@@ -32,7 +32,8 @@ def check_file(path: Path) -> Path:
         raise RoboCalError("not a file", source=path, hint="Give the stereo calibration file.")
     try:
         size = path.stat().st_size
-        head = path.open("rb").read(64)
+        with path.open("rb") as handle:
+            head = handle.read(64)
     except OSError as exc:
         raise RoboCalError(f"cannot read the file ({exc.strerror})", source=path) from exc
     if size > MAX_BYTES:
