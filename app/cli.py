@@ -23,6 +23,7 @@ COMMANDS = {
     "gui": "gui",
     "simulate": "simulate",
     "stereo-calibrate": "stereo_calibrate",
+    "stereo-import": "stereo_import",
     "locate": "locate",
     "measure": "measure",
     "select-poses": "select_poses",

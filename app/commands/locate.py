@@ -23,7 +23,9 @@ OUTPUTS = ()
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--stereo", required=True, metavar="S", help="stereo calibration file (stereo.yaml)")
+    parser.add_argument("--stereo", required=True, metavar="S",
+                        help="stereo calibration: stereo.yaml, another tool's file (OpenCV, Kalibr, MATLAB JSON) "
+                             "or a folder holding one (docs/file-formats.md)")
     parser.add_argument("--marker", required=True, metavar="M",
                         help="marker training image (png/jpg), marker description (.json) or trained marker (.npz)")
     parser.add_argument("--left", required=True, metavar="L", help="left camera image")

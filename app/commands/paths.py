@@ -45,7 +45,8 @@ def declared(args, names: Iterable[str]) -> list[tuple[str, Path]]:
     return found
 
 
-def _same(a: Path, b: Path) -> bool:
+def same_file(a: Path, b: Path) -> bool:
+    """True when `a` and `b` name the same file (existing or not)."""
     try:
         if a.exists() and b.exists():
             return os.path.samefile(a, b)
@@ -60,10 +61,10 @@ def check_overlaps(args, module) -> list[Path]:
     outputs = declared(args, getattr(module, "OUTPUTS", ()))
     for i, (o_name, o_path) in enumerate(outputs):
         for o2_name, o2_path in outputs[i + 1:]:
-            if _same(o_path, o2_path):
+            if same_file(o_path, o2_path):
                 raise UsageError(f"{o_name} and {o2_name} name the same file ({o_path}); give two different files")
         for i_name, i_path in inputs:
-            if _same(o_path, i_path):
+            if same_file(o_path, i_path):
                 raise UsageError(f"{o_name} is the same file as {i_name} ({i_path}): the output would overwrite "
                                  f"the input; choose another {o_name}")
             if (i_path.is_dir() and o_path.suffix.lower() in IMAGE_SUFFIXES and o_path.exists()

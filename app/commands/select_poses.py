@@ -29,7 +29,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--index", default="cond", choices=["cond", "O1", "O3", "O4", "O5"],
                         help="observability index to optimise (default cond, the condition number)")
     source = parser.add_mutually_exclusive_group()
-    source.add_argument("--stereo", metavar="S", help="stereo.yaml: keep only poses where both cameras see the marker")
+    source.add_argument("--stereo", metavar="S",
+                        help="stereo calibration (stereo.yaml, another tool's file or a folder holding one): keep "
+                             "only poses where both cameras see the marker")
     source.add_argument("--virtual-lab", action="store_true",
                         help="use the virtual lab's cameras, placed robot and table (robot from --robot or the demo arm)")
     parser.add_argument("--lab-seed", type=options.seed, default=0, help="seed of the virtual lab (default 0, as the demo)")
@@ -68,9 +70,9 @@ def run(args) -> CommandResult:
         robot = read_robot(args.robot)
         if args.stereo:
             from core.marker.description import MarkerDescription
-            from core.stereo.file import read_stereo_yaml
+            from core.stereo.importers import read_any_stereo
 
-            options["rig"] = read_stereo_yaml(args.stereo).rig
+            options["rig"] = read_any_stereo(args.stereo).file.rig
             options["plate_size"] = (args.plate, args.plate) if args.plate else tuple(MarkerDescription.default().plate_size)
             options["visibility"] = VisibilityOptions()
     vis = options.get("visibility")

@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from app.html import number
 from core.errors import RoboCalError
 from core.marker.training import TrainedMarker
 from core.stereo.rectification import StereoRectification, load_rectification
@@ -65,8 +66,8 @@ def stereo_source(state) -> StereoSource:
         else:
             sf = rect.calibration
             w, h = sf.image_size
-            return StereoSource(rect, "file", f"stereo.yaml: {w}x{h} px, stereo RMS {sf.rms_stereo:.3f} px, "
-                                              f"baseline {sf.baseline_mm:.1f} mm")
+            return StereoSource(rect, "file", f"stereo.yaml: {w}x{h} px, stereo RMS "
+                                              f"{number(sf.rms_stereo, 3, 'px')}, baseline {sf.baseline_mm:.1f} mm")
     result = state.stereo
     if result is not None:
         try:

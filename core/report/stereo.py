@@ -32,13 +32,14 @@ def stereo_section(project: Project, facts: dict, problems: list[str]) -> Sectio
     facts["cameras"] = (f"two cameras, {w} × {h} px, focal length {num(sf.K1[0, 0], 0)} / {num(sf.K2[0, 0], 0)} px, "
                         f"baseline {num(sf.baseline_mm, 1)} mm")
     rows = [("image size", f"{w} × {h} px"),
-            ("reprojection error, left camera", f"{num(sf.rms_left)} px RMS"),
-            ("reprojection error, right camera", f"{num(sf.rms_right)} px RMS"),
-            ("reprojection error, stereo", f"{num(sf.rms_stereo)} px RMS"),
+            ("reprojection error, left camera", _rms(sf.rms_left)),
+            ("reprojection error, right camera", _rms(sf.rms_right)),
+            ("reprojection error, stereo", _rms(sf.rms_stereo)),
             ("baseline", f"{num(sf.baseline_mm, 2)} mm"),
             ("focal lengths (left)", f"{num(sf.K1[0, 0], 1)}, {num(sf.K1[1, 1], 1)} px"),
             ("focal lengths (right)", f"{num(sf.K2[0, 0], 1)}, {num(sf.K2[1, 1], 1)} px"),
-            ("checkerboard", f"{sf.board.cols} × {sf.board.rows} inner corners, {num(sf.board.square, 2)} mm")]
+            ("checkerboard", f"{sf.board.cols} × {sf.board.rows} inner corners, {num(sf.board.square, 2)} mm"
+             if sf.board is not None else UNKNOWN)]
     if "epipolar_rms" in sf.extras:
         rows.append(("epipolar error after rectification", f"{num(sf.extras['epipolar_rms'])} px RMS"))
     if "cross_validation_px" in sf.extras:
@@ -46,6 +47,14 @@ def stereo_section(project: Project, facts: dict, problems: list[str]) -> Sectio
     blocks: list = [pairs_table(rows)]
     blocks += _details(project, problems, sf.rms_stereo)
     return Section(TITLE, blocks)
+
+
+UNKNOWN = "unknown (not in the imported calibration)"
+
+
+def _rms(value) -> str:
+    """An RMS error (px), or unknown for a calibration imported without its statistics."""
+    return UNKNOWN if value is None else f"{num(value)} px RMS"
 
 
 def _details(project: Project, problems: list[str], rms_stereo: float) -> list:

@@ -9,14 +9,15 @@
     E, F                                 essential and fundamental matrices (3x3)
     R1, R2, P1, P2, Q                    cv2.stereoRectify output (3x3, 3x4, 3x4, 4x4; mm)
     rectify_alpha                        cv2.stereoRectify's free scaling, 0..1 (absent: 0)
-    rms_left, rms_right, rms_stereo      px
-    board_cols, board_rows, board_square inner corners and square size (mm)
+    rms_left, rms_right, rms_stereo      px (absent: unknown, e.g. a calibration imported from another tool)
+    board_cols, board_rows, board_square inner corners and square size (mm) (absent: unknown)
     epipolar_rms, cross_validation_px    optional, px
 
 Writing is atomic: FileStorage composes the YAML in memory and core.files writes it through a
 temporary file and a rename; a failed run never leaves half a file and never overwrites a
-previous good one. Reading names the file and the field of any problem and
-refuses unknown major versions.
+previous good one. Reading names the file and the field of any problem, refuses unknown major
+versions and checks the calibration (core.stereo.checks). Calibrations written by other tools
+are read by core.stereo.importers.
 
 ROS export (`write_ros_camera_info`): one camera_info YAML per camera in the format of
 camera_calibration_parsers (image_width, image_height, camera_name, camera_matrix,
@@ -36,6 +37,7 @@ import numpy as np
 
 from core.stereo.board import Board
 from core.camera import CameraModel
+from core.stereo.checks import check_stereo
 from core.errors import RoboCalError
 from core.files import (atomic_write_json, atomic_write_many, atomic_write_text, ensure_writable_dir, json_default,
                         json_text, strict_json)
@@ -48,7 +50,7 @@ FORMAT = f"{FAMILY}/{MAJOR}"
 
 _MATRICES = {"K1": (3, 3), "K2": (3, 3), "R": (3, 3), "T": (3, 1), "E": (3, 3), "F": (3, 3),
              "R1": (3, 3), "R2": (3, 3), "P1": (3, 4), "P2": (3, 4), "Q": (4, 4)}
-_DIST_LENGTHS = (4, 5, 8, 12, 14)
+DIST_LENGTHS = (4, 5, 8, 12, 14)
 
 
 @dataclass
@@ -70,10 +72,10 @@ class StereoFile:
     P1: np.ndarray
     P2: np.ndarray
     Q: np.ndarray
-    rms_left: float
-    rms_right: float
-    rms_stereo: float
-    board: Board
+    rms_left: float | None = None       # px; None: unknown (imported from another tool)
+    rms_right: float | None = None
+    rms_stereo: float | None = None
+    board: Board | None = None          # None: unknown
     extras: dict = field(default_factory=dict)    # epipolar_rms, cross_validation_px (optional)
     rectify_alpha: float = 0.0    # stereoRectify alpha: 0 only valid pixels, 1 every source pixel
 
@@ -94,8 +96,10 @@ class StereoFile:
         for key in ("K1", "D1", "K2", "D2", "R", "T", "E", "F", "R1", "R2", "P1", "P2", "Q"):
             d[key] = np.asarray(getattr(self, key), dtype=float).tolist()
         d["rectify_alpha"] = float(self.rectify_alpha)
+        board = self.board
         d.update(rms_left=self.rms_left, rms_right=self.rms_right, rms_stereo=self.rms_stereo,
-                 board_cols=self.board.cols, board_rows=self.board.rows, board_square=self.board.square,
+                 board_cols=board.cols if board else None, board_rows=board.rows if board else None,
+                 board_square=board.square if board else None,
                  baseline_mm=self.baseline_mm, units={"length": "mm", "image": "px"})
         d.update({k: float(v) for k, v in self.extras.items()})
         return d
@@ -131,16 +135,18 @@ def stereo_yaml_text(data) -> str:
         fs.write(key, value)
     fs.write("rectify_alpha", float(sf.rectify_alpha))
     for key in ("rms_left", "rms_right", "rms_stereo"):
-        fs.write(key, float(getattr(sf, key)))
-    fs.write("board_cols", int(sf.board.cols))
-    fs.write("board_rows", int(sf.board.rows))
-    fs.write("board_square", float(sf.board.square))
+        if getattr(sf, key) is not None:           # unknown statistics are left out, never written as 0
+            fs.write(key, float(getattr(sf, key)))
+    if sf.board is not None:
+        fs.write("board_cols", int(sf.board.cols))
+        fs.write("board_rows", int(sf.board.rows))
+        fs.write("board_square", float(sf.board.square))
     for key, value in sf.extras.items():
         fs.write(key, float(value))
     return fs.releaseAndGetString()
 
 
-def _open_storage(path, mode):
+def open_storage(path, mode):
     """cv2.FileStorage, or None when it cannot be opened (OpenCV's own log line silenced)."""
     logging = getattr(getattr(cv2, "utils", None), "logging", None)
     old = None
@@ -170,7 +176,7 @@ def read_stereo_yaml(path: str | Path) -> StereoFile:
         raise RoboCalError(f"cannot read the file ({exc.strerror})", source=path) from exc
     if b"\x00" in head:
         raise RoboCalError("not a YAML file", source=path, hint="Give the stereo.yaml written by RoboCal.")
-    fs = _open_storage(path, cv2.FILE_STORAGE_READ)
+    fs = open_storage(path, cv2.FILE_STORAGE_READ)
     if fs is None:
         raise RoboCalError("not a readable OpenCV YAML file", source=path,
                            hint="Give the stereo.yaml written by RoboCal, or write it again.")
@@ -181,16 +187,20 @@ def read_stereo_yaml(path: str | Path) -> StereoFile:
         fmt = fs.getNode("format")
         tag = fmt.string() if (not fmt.empty() and fmt.isString()) else (None if fmt.empty() else repr(fmt.real()))
         check_format({} if tag is None else {"format": tag}, FAMILY, MAJOR, path)
-        w = _int(fs, "image_width", path)
-        h = _int(fs, "image_height", path)
+        w = node_int(fs, "image_width", path)
+        h = node_int(fs, "image_height", path)
         mats = {key: _matrix(fs, key, shape, path) for key, shape in _MATRICES.items()}
-        alpha = 0.0 if fs.getNode("rectify_alpha").empty() else _real(fs, "rectify_alpha", path)
+        alpha = 0.0 if fs.getNode("rectify_alpha").empty() else node_real(fs, "rectify_alpha", path)
         d1 = _dist(fs, "D1", path)
         d2 = _dist(fs, "D2", path)
-        rms = {key: _real(fs, key, path) for key in ("rms_left", "rms_right", "rms_stereo")}
-        cols = _int(fs, "board_cols", path)
-        rows = _int(fs, "board_rows", path)
-        square = _real(fs, "board_square", path)
+        rms = {key: None if fs.getNode(key).empty() else node_real(fs, key, path)
+               for key in ("rms_left", "rms_right", "rms_stereo")}
+        board_keys = ("board_cols", "board_rows", "board_square")
+        has_board = any(not fs.getNode(key).empty() for key in board_keys)
+        if has_board:
+            cols = node_int(fs, "board_cols", path)
+            rows = node_int(fs, "board_rows", path)
+            square = node_real(fs, "board_square", path)
         extras = {}
         for key in ("epipolar_rms", "cross_validation_px"):
             node = fs.getNode(key)
@@ -204,19 +214,19 @@ def read_stereo_yaml(path: str | Path) -> StereoFile:
         raise RoboCalError(f"expected a value from 0 to 1, got {alpha}", source=path, field="rectify_alpha")
     if w <= 0 or h <= 0:
         raise RoboCalError(f"image size must be positive, got {w}x{h}", source=path, field="image_width")
-    if cols < 2 or rows < 2 or not square > 0:
-        raise RoboCalError(f"bad board definition {cols}x{rows}, {square} mm", source=path, field="board_cols")
-    for key in ("K1", "K2"):
-        K = mats[key]
-        if not (K[0, 0] > 0 and K[1, 1] > 0 and abs(K[2, 2] - 1.0) < 1e-9):
-            raise RoboCalError("not a camera matrix (fx, fy must be positive, K[2,2] = 1)", source=path, field=key)
-    R = mats["R"]
-    if not (np.allclose(R @ R.T, np.eye(3), atol=1e-6) and np.linalg.det(R) > 0):
-        raise RoboCalError("not a rotation matrix", source=path, field="R")
-    return StereoFile((w, h), mats["K1"], d1, mats["K2"], d2, R, mats["T"].reshape(3), mats["E"], mats["F"],
-                      mats["R1"], mats["R2"], mats["P1"], mats["P2"], mats["Q"],
-                      rms["rms_left"], rms["rms_right"], rms["rms_stereo"], Board(cols, rows, square), extras,
-                      alpha)
+    board = None
+    if has_board:
+        if cols < 2 or rows < 2 or not square > 0:
+            raise RoboCalError(f"bad board definition {cols}x{rows}, {square} mm", source=path, field="board_cols")
+        board = Board(cols, rows, square)
+    for key, value in rms.items():
+        if value is not None and value < 0:
+            raise RoboCalError(f"an RMS error cannot be negative, got {value}", source=path, field=key)
+    sf = StereoFile((w, h), mats["K1"], d1, mats["K2"], d2, mats["R"], mats["T"].reshape(3), mats["E"], mats["F"],
+                    mats["R1"], mats["R2"], mats["P1"], mats["P2"], mats["Q"],
+                    rms["rms_left"], rms["rms_right"], rms["rms_stereo"], board, extras, alpha)
+    check_stereo(sf, path)
+    return sf
 
 
 def _node(fs, key, path):
@@ -227,14 +237,14 @@ def _node(fs, key, path):
     return node
 
 
-def _int(fs, key, path) -> int:
+def node_int(fs, key, path) -> int:
     node = _node(fs, key, path)
     if not node.isInt():
         raise RoboCalError("expected a whole number", source=path, field=key)
     return int(node.real())
 
 
-def _real(fs, key, path) -> float:
+def node_real(fs, key, path) -> float:
     node = _node(fs, key, path)
     if not (node.isReal() or node.isInt()):
         raise RoboCalError("expected a number", source=path, field=key)
@@ -244,25 +254,38 @@ def _real(fs, key, path) -> float:
     return value
 
 
-def _mat(fs, key, path) -> np.ndarray:
+def node_matrix(fs, key, path) -> np.ndarray:
+    """A matrix (!!opencv-matrix) built from its rows, cols and data entries, checked first:
+    cv2.FileNode.mat() writes past its buffer when rows·cols and data disagree."""
     node = _node(fs, key, path)
+    what = "expected an OpenCV matrix (!!opencv-matrix with rows, cols, dt, data)"
     if not node.isMap():
-        raise RoboCalError("expected an OpenCV matrix (!!opencv-matrix with rows, cols, dt, data)",
-                           source=path, field=key)
-    m = node.mat()
-    if m is None:
-        raise RoboCalError("expected an OpenCV matrix (!!opencv-matrix with rows, cols, dt, data)",
-                           source=path, field=key)
-    m = np.asarray(m, dtype=np.float64)
-    if m.ndim == 1:
-        m = m.reshape(-1, 1)
+        raise RoboCalError(what, source=path, field=key)
+    rows, cols, dt, data = (node.getNode(name) for name in ("rows", "cols", "dt", "data"))
+    if rows.empty() or cols.empty() or dt.empty() or data.empty() or not (rows.isInt() and cols.isInt()):
+        raise RoboCalError(what, source=path, field=key)
+    r, c = int(rows.real()), int(cols.real())
+    if not (1 <= r <= 16 and 1 <= c <= 16):
+        raise RoboCalError(f"expected a small matrix (at most 16x16), got rows {r}, cols {c}", source=path, field=key)
+    if not dt.isString() or dt.string() not in ("d", "f", "i", "u", "s", "w", "c"):
+        raise RoboCalError("expected a matrix of one channel (dt: d, f or i)", source=path, field=key)
+    if not data.isSeq() or data.size() != r * c:
+        got = data.size() if data.isSeq() else "no list of"
+        raise RoboCalError(f"a {r}x{c} matrix needs {r * c} values in data, got {got}", source=path, field=key)
+    values = []
+    for i in range(r * c):
+        item = data.at(i)
+        if not (item.isReal() or item.isInt()):
+            raise RoboCalError("data holds something other than numbers", source=path, field=key)
+        values.append(item.real())
+    m = np.array(values, dtype=np.float64).reshape(r, c)
     if not np.all(np.isfinite(m)):
         raise RoboCalError("contains values that are not finite numbers", source=path, field=key)
     return m
 
 
 def _matrix(fs, key, shape, path) -> np.ndarray:
-    m = _mat(fs, key, path)
+    m = node_matrix(fs, key, path)
     ok = m.shape == shape or (key == "T" and m.size == 3)
     if not ok:
         raise RoboCalError(f"expected a {shape[0]}x{shape[1]} matrix, got {m.shape[0]}x{m.shape[1]}",
@@ -271,8 +294,8 @@ def _matrix(fs, key, shape, path) -> np.ndarray:
 
 
 def _dist(fs, key, path) -> np.ndarray:
-    m = _mat(fs, key, path)
-    if min(m.shape) != 1 or m.size not in _DIST_LENGTHS:
+    m = node_matrix(fs, key, path)
+    if min(m.shape) != 1 or m.size not in DIST_LENGTHS:
         raise RoboCalError(f"expected 4, 5, 8, 12 or 14 distortion coefficients in one row, "
                            f"got a {m.shape[0]}x{m.shape[1]} matrix", source=path, field=key)
     d = m.ravel()

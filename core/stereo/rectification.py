@@ -6,7 +6,8 @@ column for a vertical rig). `StereoRectification` maps between raw and rectified
 `epipolar_errors` measures how well matched corners agree with it (|y_left − y_right| of the
 undistorted, rectified corners, px, as ROS shows it).
 
-`load_rectification(path)` is the one way from a stereo.yaml to the rectification the marker
+`load_rectification(path)` is the one way from a stereo calibration file (RoboCal's
+stereo.yaml or another tool's, core.stereo.importers) to the rectification the marker
 location uses: the command line and the pages call it.
 """
 from __future__ import annotations
@@ -20,7 +21,7 @@ import numpy as np
 from core.camera import CameraModel, PixelMap
 from core.errors import RoboCalError
 from core.images import load_gray
-from core.stereo.file import StereoFile, read_stereo_yaml
+from core.stereo.file import StereoFile
 from core.stereo.rig import StereoRig
 
 UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12)
@@ -189,9 +190,18 @@ def remap_region(image: np.ndarray, mx: np.ndarray, my: np.ndarray) -> np.ndarra
 
 
 def load_rectification(path: str | Path) -> StereoRectification:
-    """The rectification of a stereo.yaml, checked for the marker location (RoboCalError
-    naming the file and the field of any problem)."""
-    return StereoRectification.from_calibration(read_stereo_yaml(path))
+    """The rectification of a stereo calibration file (any format core.stereo.importers reads,
+    or a folder holding one), checked for the marker location (RoboCalError naming the file
+    and the field of any problem)."""
+    from core.stereo.importers import read_any_stereo
+
+    imported = read_any_stereo(path)
+    try:
+        return StereoRectification.from_calibration(imported.file)
+    except RoboCalError as exc:
+        if exc.source is not None:
+            raise
+        raise RoboCalError(exc.problem, source=path, field=exc.field, hint=exc.hint) from None
 
 
 @dataclass

@@ -13,6 +13,7 @@ import contextlib
 import io
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -192,3 +193,116 @@ def test_marker_files(files, tmp_path, content):
     code, err = run(["locate", "--stereo", str(tmp_path / "stereo.yaml"), "--marker", str(marker),
                      "--left", str(tmp_path / "l.png"), "--right", str(tmp_path / "r.png")], tmp_path)
     assert_one_clear_line(code, err, [str(tmp_path)])
+
+
+# -- stereo calibration files ---------------------------------------------------------------------
+
+STEREO_FORMATS = ["robocal", "opencv", "stereo_calib", "ros", "kalibr", "matlab"]
+STEREO_JUNK = ["nan", "inf", "-inf", "1e308", "-1e308", "", "x", "[", "{", "]", "0", "-0", "1e-300", "9" * 400,
+               "!!opencv-matrix", "- ", "null", "\"a\"", "[1, 2]", "{a: 1}", "\t", "%YAML:1.0", "\x00"]
+
+
+@pytest.fixture(scope="module")
+def stereo_files(tmp_path_factory):
+    """One valid calibration in each format, written as the tool writes it."""
+    from core.stereo.file import write_stereo_yaml
+    from core.stereo.importers import read_any_stereo
+    from core.virtual_lab.rig import default_rig
+    from tests.core.stereo import foreign_files as ff
+
+    rig = default_rig(0)
+    folder = tmp_path_factory.mktemp("stereo_fuzz")
+    made = {"opencv": [ff.opencv_file(rig, folder / "opencv.yml")],
+            "stereo_calib": list(ff.stereo_calib_pair(rig, folder)),
+            "ros": list(ff.ros_pair(rig, folder)),
+            "kalibr": [ff.kalibr_camchain(rig, folder / "camchain.yaml")],
+            "matlab": [ff.matlab_json(rig, folder / "stereoParams.json")]}
+    made["robocal"] = [write_stereo_yaml(folder / "stereo.yaml", read_any_stereo(made["opencv"]).file)]
+    return made
+
+
+def _stereo_commands(sources, work):
+    """stereo-import of every file, and locate with the calibration (ROS: the folder holding the pair)."""
+    stereo = work if len(sources) == 2 else sources[0]
+    return [["stereo-import", *map(str, sources), "--out", str(work / "out.yaml")],
+            ["locate", "--stereo", str(stereo), "--marker", str(work / "none.png"), "--left", str(work / "l.png"),
+             "--right", str(work / "r.png")]]
+
+
+@FUZZ
+@given(fmt=st.sampled_from(STEREO_FORMATS), which=st.integers(0, 1), line=st.integers(0, 200),
+       action=st.sampled_from(["replace", "zero", "delete", "truncate", "append"]), junk=st.sampled_from(STEREO_JUNK))
+def test_malformed_stereo_files(stereo_files, tmp_path_factory, fmt, which, line, action, junk):
+    work = tmp_path_factory.mktemp("stereo")
+    sources = []
+    for path in stereo_files[fmt]:
+        sources.append(work / path.name)
+        sources[-1].write_bytes(path.read_bytes())
+    target = sources[min(which, len(sources) - 1)]
+    lines = target.read_text().splitlines()
+    i = min(line, len(lines) - 1)
+    if action == "replace":
+        cells = lines[i].replace(",", " , ").split(" ")
+        numeric = [k for k, c in enumerate(cells) if any(ch.isdigit() for ch in c)] or [len(cells) - 1]
+        cells[numeric[line % len(numeric)]] = junk
+        lines[i] = " ".join(cells)
+    elif action == "zero":                         # every number of the line 0: singular matrices
+        lines[i] = re.sub(r"-?\d+(\.\d*)?(e[-+]?\d+)?", junk if junk in ("0", "-0", "1e-300") else "0", lines[i])
+    elif action == "delete":
+        del lines[i]
+    elif action == "truncate":
+        lines = lines[:i] + [lines[i][: len(lines[i]) // 2]]
+    else:
+        lines.insert(i, junk)
+    target.write_text("\n".join(lines) + "\n")
+    if fmt == "stereo_calib":
+        sources = sources[:1]                      # the other file is found beside it
+    for argv in _stereo_commands(sources, work):
+        code, err = run(argv, work)
+        if code != 0:
+            assert_one_clear_line(code, err, [str(work)])
+
+
+def _bad_stereo(stereo_files, tmp_path, change):
+    from core.stereo.file import read_stereo_yaml, write_stereo_yaml
+
+    sf = read_stereo_yaml(stereo_files["robocal"][0])
+    change(sf)
+    return write_stereo_yaml(tmp_path / "bad.yaml", sf)
+
+
+def _rows_equal(sf):
+    sf.K1 = np.vstack([sf.K1[0], sf.K1[0], sf.K1[2]])
+
+
+def _zero_rect(sf):
+    sf.R1 = sf.R1 * 0.0
+    sf.P1 = sf.P1 * 0.0
+
+
+def _t_disagrees(sf):
+    sf.T = sf.T + np.array([0.0, 20.0, 0.0])        # another direction: E no longer fits
+
+
+def _p2_disagrees(sf):
+    from core.stereo.checks import skew
+    sf.T = sf.T * 1.2                               # E, F follow; P2 keeps the old baseline
+    sf.E = skew(sf.T) @ sf.R
+    sf.F = np.linalg.inv(sf.K2).T @ sf.E @ np.linalg.inv(sf.K1)
+
+
+HAND_MADE_STEREO = [(_rows_equal, "field 'K1': not a camera matrix"),
+                    (_zero_rect, "field 'R1': not a rectification rotation"),
+                    (_t_disagrees, "field 'E': the essential matrix disagrees with R and T"),
+                    (_p2_disagrees, "field 'P2': P2 disagrees with T")]
+
+
+@pytest.mark.parametrize("change, says", HAND_MADE_STEREO, ids=[c[0].__name__ for c in HAND_MADE_STEREO])
+def test_hand_made_stereo_files(stereo_files, tmp_path, change, says):
+    bad = _bad_stereo(stereo_files, tmp_path, change)
+    for argv in (*_stereo_commands([bad], tmp_path),
+                 ["select-poses", "--robot", str(ROBOT), "--stereo", str(bad), "--count", "12", "--candidates",
+                  "40", "--random-trials", "1", "--out", str(tmp_path / "p.csv")]):
+        code, err = run(argv, tmp_path)
+        assert_one_clear_line(code, err, [str(bad)])
+        assert says in err[0], err[0]

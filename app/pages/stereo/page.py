@@ -10,7 +10,9 @@ coverage bars fill while pairs are added. Calibration (core.stereo.calibration.c
 runs on the worker thread too; the page then draws what it returns (results_panel.py).
 
 The step is complete once a calibration is saved as the project's stereo.yaml (or the
-project already has a readable one). The result also goes to ``state.stereo``.
+project already has a readable one). The result also goes to ``state.stereo``. Import… makes
+a calibration from another tool (core.stereo.importers) the project's stereo.yaml; its
+reprojection errors and board are unknown.
 """
 from __future__ import annotations
 
@@ -23,6 +25,7 @@ from PySide6.QtCore import Qt, QTimer
 from PySide6.QtWidgets import QFileDialog, QSplitter, QVBoxLayout, QWidget
 
 from app.jobs.stereo import AddedPair
+from app.html import number
 from app.lab import DEFAULT_BOARD
 from app.pages.base import WizardPage
 from app.pages.forms import button, row
@@ -39,6 +42,7 @@ from core.stereo.calibration import StereoCalibrationResult, calibrate_stereo
 from core.stereo.checkerboard import MIN_PAIRS_TO_CALIBRATE, screen_pairs
 from core.locks import output_lock, output_locks
 from core.stereo.file import read_stereo_yaml, write_ros_camera_info, write_stereo_json, write_stereo_yaml
+from core.stereo.importers import FORMATS, read_any_stereo
 
 
 class StereoPage(JobQueueMixin, PairsActions, ResultsActions, WizardPage):
@@ -76,6 +80,9 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, WizardPage):
         self.save_button = button("Save stereo.yaml", "saveButton", on_click=self.save_stereo,
                                   tooltip="Accept this calibration: write stereo.yaml into the project folder "
                                           "(atomically: a failure leaves the previous file as it was)")
+        self.import_button = button("Import…", "importButton", on_click=lambda: self.import_stereo(),
+                                    tooltip="Use a stereo calibration made by another tool as the project's "
+                                            f"stereo.yaml ({FORMATS}; several files: select them together)")
         self.ros_button = button("ROS camera_info…", on_click=self.export_ros,
                                  tooltip="Write left.yaml and right.yaml (ROS camera_info) into a folder")
         self.json_button = button("JSON…", on_click=self.export_json, tooltip="Write the calibration, its "
@@ -98,7 +105,8 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, WizardPage):
         layout.setSpacing(6)
         layout.addWidget(self.splitter, 1)
         layout.addWidget(self.status)
-        exports = row(self.save_button, "Export:", self.ros_button, self.json_button, stretch=False)
+        exports = row(self.import_button, self.save_button, "Export:", self.ros_button, self.json_button,
+                      stretch=False)
         exports.insertStretch(0, 1)
         layout.addLayout(exports)
 
@@ -174,9 +182,10 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, WizardPage):
         except RoboCalError as exc:
             return f"The project's stereo.yaml cannot be used ({exc.message}). Calibrate again.", False
         self.saved_path = path
-        self._board = sf.board                   # the board those pairs show
-        self.pairs.set_board(self._board)
-        return (f"This project already has {path.name} (stereo RMS {sf.rms_stereo:.3f} px, baseline "
+        if sf.board is not None:                 # the board those pairs show (unknown when imported)
+            self._board = sf.board
+            self.pairs.set_board(self._board)
+        return (f"This project already has {path.name} (stereo RMS {number(sf.rms_stereo, 3, 'px')}, baseline "
                 f"{sf.baseline_mm:.1f} mm, {sf.image_size[0]}x{sf.image_size[1]}): the step is done. "
                 "Add pairs and calibrate to replace it."), True
 
@@ -253,6 +262,7 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, WizardPage):
         has_result = self.result is not None
         self.model.set_enabled(not busy)
         self.save_button.setEnabled(not busy and has_result and has_project)
+        self.import_button.setEnabled(not busy and has_project)
         self.ros_button.setEnabled(not busy and has_result)
         self.json_button.setEnabled(not busy and has_result)
         r.drop_button.setEnabled(not busy and has_result and bool(r.errors_chart.selected()))
@@ -330,6 +340,38 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, WizardPage):
         self.notify_complete()
         return path
 
+    def import_stereo(self, paths: list[str] | None = None) -> Path | None:
+        """Make another tool's stereo calibration (one file, a pair, or ROS left + right) the
+        project's stereo.yaml; the page's own pairs and calibration stay as they are."""
+        project = self.state.project
+        if project is None or self.busy:
+            self._set_status("No project: create or open one in the Setup step (1)." if project is None
+                             else "Busy: wait for the running task or cancel it.", ok=False)
+            return None
+        if paths is None:
+            paths, _ = QFileDialog.getOpenFileNames(
+                self, "Import a stereo calibration (for a pair, select both files)", str(project.folder),
+                "Stereo calibrations (*.yaml *.yml *.xml *.json);;All files (*)")
+            if not paths:
+                return None
+        try:
+            imported = read_any_stereo(sorted(paths, key=_left_first))
+            path = write_stereo_yaml(project.path("stereo"), imported.file)
+        except RoboCalError as exc:
+            self._set_status(f"Not imported: {exc.message}", ok=False)
+            return None
+        self.saved_path = path
+        self.state.set_stereo(None)               # the project's calibration is now the imported file
+        sf = imported.file
+        notes = "".join(f" Note: {n}." for n in imported.notes)
+        errors = ("reprojection errors unknown" if sf.rms_stereo is None
+                  else f"stereo RMS {number(sf.rms_stereo, 3, 'px')}")
+        self._set_status(f"Imported {imported.kind} ({', '.join(p.name for p in imported.sources)}) as "
+                         f"{path.name}: {sf.image_size[0]}x{sf.image_size[1]} px, baseline {sf.baseline_mm:.1f} mm, "
+                         f"{errors}.{notes} This step is done.", ok=True)
+        self.notify_complete()
+        return path
+
     def export_ros(self, folder: str | None = None) -> tuple[Path, Path] | None:
         if self.result is None:
             return None
@@ -365,3 +407,9 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, WizardPage):
             return None
         self._set_status(f"Wrote {out}.", ok=True)
         return Path(out)
+
+
+def _left_first(path: str) -> tuple[int, str]:
+    """File dialogs return names sorted alphabetically: ROS's left.yaml goes before right.yaml."""
+    name = Path(path).name.lower()
+    return (0 if "left" in name else 1 if "right" in name else 2, name)

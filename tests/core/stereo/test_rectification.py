@@ -83,9 +83,9 @@ def test_load_rectification_of_a_stereo_yaml(tmp_path):
 
 def test_load_rectification_refuses_a_rig_the_marker_location_cannot_use(tmp_path):
     from core.virtual_lab.rig import default_rig
-    swapped = _stereo_file(default_rig(0))
-    swapped.P2 = swapped.P2.copy()
-    swapped.P2[0, 3] = -swapped.P2[0, 3]
+    rig = default_rig(0)
+    # the same cameras with left and right exchanged: the 'right' camera is on the left
+    swapped = _stereo_file(StereoRig(rig.right, rig.left, rig.R.T, -rig.R.T @ rig.T))
     with pytest.raises(RoboCalError, match="on the left"):
         load_rectification(write_stereo_yaml(tmp_path / "swapped.yaml", swapped))
     shown = StereoRectification.from_calibration(copy.deepcopy(swapped), for_location=False)

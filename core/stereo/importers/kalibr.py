@@ -1,0 +1,71 @@
+"""A stereo pair from a Kalibr camchain.yaml (cam0 = left, cam1 = right).
+
+Per camera: camera_model (pinhole), intrinsics [fu, fv, pu, pv] px, distortion_model (radtan
+or none), distortion_coeffs [k1, k2, r1, r2] (radtan: OpenCV's k1, k2, p1, p2), resolution
+[width, height] px. cam1 has T_cn_cnm1, the 4x4 transform from cam0 to cam1 coordinates
+(metres): X_cam1 = T_cn_cnm1 · X_cam0, so R is its rotation and T its translation (× 1000 mm).
+Kalibr's equidistant (fisheye) and fov models, and camera models other than pinhole, are refused.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from core.errors import RoboCalError
+from core.stereo.completion import StereoParts, complete_stereo
+from core.stereo.importers.common import ImportedStereo, check_file, entry, load_yaml, numbers, whole
+
+M_TO_MM = 1000.0
+
+
+def _camera(data, name: str, path) -> dict:
+    cam = entry(data, name, path)
+    if not isinstance(cam, dict):
+        raise RoboCalError("expected the camera's fields", source=path, field=name)
+    model = entry(cam, "camera_model", path, name + ".")
+    if model != "pinhole":
+        raise RoboCalError(f"camera model {model!r:.40} is not supported (only pinhole)", source=path,
+                           field=f"{name}.camera_model", hint="Calibrate with Kalibr's pinhole-radtan model.")
+    dist = entry(cam, "distortion_model", path, name + ".")
+    if dist not in ("radtan", "none"):
+        raise RoboCalError(f"distortion model {dist!r:.40} is not supported (only radtan): OpenCV's pinhole "
+                           "model has no equivalent", source=path, field=f"{name}.distortion_model",
+                           hint="Calibrate with Kalibr's pinhole-radtan model.")
+    fu, fv, pu, pv = numbers(entry(cam, "intrinsics", path, name + "."), (4,), path, f"{name}.intrinsics")
+    coeffs = (numbers(entry(cam, "distortion_coeffs", path, name + "."), (4,), path, f"{name}.distortion_coeffs")
+              if dist == "radtan" else np.zeros(4))
+    res = entry(cam, "resolution", path, name + ".")
+    if not isinstance(res, list) or len(res) != 2:
+        raise RoboCalError("expected [width, height]", source=path, field=f"{name}.resolution")
+    size = (whole(res[0], path, f"{name}.resolution"), whole(res[1], path, f"{name}.resolution"))
+    return {"K": np.array([[fu, 0.0, pu], [0.0, fv, pv], [0.0, 0.0, 1.0]]), "D": np.append(coeffs, 0.0),
+            "size": size, "data": cam}
+
+
+def read_kalibr(path) -> ImportedStereo:
+    """cam0 and cam1 of a camchain.yaml as a RoboCal stereo pair."""
+    path = check_file(Path(path))
+    data = load_yaml(path)
+    if not isinstance(data, dict):
+        raise RoboCalError("expected cam0, cam1, … at the top level (a Kalibr camchain)", source=path)
+    left, right = _camera(data, "cam0", path), _camera(data, "cam1", path)
+    if left["size"] != right["size"]:
+        raise RoboCalError(f"cam0 and cam1 have different resolutions ({left['size']} and {right['size']}); "
+                           "RoboCal needs one size", source=path, field="cam1.resolution")
+    M = numbers(entry(right["data"], "T_cn_cnm1", path, "cam1."), (4, 4), path, "cam1.T_cn_cnm1")
+    if not np.allclose(M[3], [0, 0, 0, 1], atol=1e-9):
+        raise RoboCalError("the last row must be [0, 0, 0, 1]", source=path, field="cam1.T_cn_cnm1")
+    notes = [f"cam0 is the left camera, cam1 the right (baseline {np.linalg.norm(M[:3, 3]) * M_TO_MM:.2f} mm)",
+             "computed from R and T: E, F, R1, R2, P1, P2, Q"]
+    others = sorted(k for k in data if isinstance(k, str) and k.startswith("cam") and k not in ("cam0", "cam1"))
+    if others:
+        notes.append("ignored: " + ", ".join(others))
+    parts = StereoParts(left["size"], left["K"], left["D"], right["K"], right["D"], M[:3, :3], M[:3, 3] * M_TO_MM)
+    try:
+        sf, _ = complete_stereo(parts, path)
+    except RoboCalError as exc:          # name Kalibr's fields rather than RoboCal's
+        exc.field = {"K1": "cam0.intrinsics", "K2": "cam1.intrinsics", "R": "cam1.T_cn_cnm1",
+                     "T": "cam1.T_cn_cnm1"}.get(exc.field, exc.field)
+        raise RoboCalError(exc.problem, source=exc.source, field=exc.field, hint=exc.hint) from None
+    return ImportedStereo(sf, "Kalibr camchain", [path], notes)

@@ -1,0 +1,266 @@
+"""Stereo calibrations from other tools: each format, written as the tool writes it, reads into
+the same cameras and pose (the same pixels for the same 3D points, ≤ 1e-6 px), with E, F and the
+rectification computed where absent and statistics unknown; refusals are one clear message."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from core.errors import RoboCalError
+from core.stereo.file import read_stereo_yaml, write_stereo_yaml
+from core.stereo.importers import read_any_stereo
+from core.stereo.rectification import load_rectification
+from tests.core.stereo import foreign_files as ff
+from tests.core.stereo_synth import REAL_DATA, real_pairs
+
+
+@pytest.fixture(scope="module")
+def rig():
+    from core.virtual_lab.rig import default_rig
+    return default_rig(0)
+
+
+POINTS = np.column_stack([np.linspace(-300, 300, 40), np.linspace(-200, 250, 40)[::-1],
+                          np.linspace(700, 1800, 40)])
+
+
+def assert_same_pixels(imported, rig, tol=1e-6):
+    """The imported pair projects the same 3D points (left frame, mm) to the same pixels."""
+    got = imported.file.rig.project(POINTS)
+    want = rig.project(POINTS)
+    for g, w in zip(got, want):
+        assert np.abs(g - w).max() <= tol, np.abs(g - w).max()
+
+
+def assert_unknown_statistics(imported):
+    sf = imported.file
+    assert sf.rms_left is None and sf.rms_right is None and sf.rms_stereo is None and sf.board is None
+
+
+def test_plain_opencv_yaml_with_rectification(tmp_path, rig):
+    path = ff.opencv_file(rig, tmp_path / "stereo.yml")
+    imported = read_any_stereo(path)
+    assert imported.kind == "OpenCV FileStorage" and imported.file.image_size == rig.left.size
+    assert_same_pixels(imported, rig)
+    assert_unknown_statistics(imported)
+    R1, R2, P1, P2, Q = ff.rectify(rig)
+    np.testing.assert_array_equal(imported.file.P2, P2)           # kept as the file gave it
+    assert any("E, F" in n for n in imported.notes)                # E and F computed
+
+
+def test_plain_opencv_xml_with_m1_m2_and_no_rectification(tmp_path, rig):
+    path = ff.opencv_file(rig, tmp_path / "stereo.xml", rectification=False, camera_names=("M1", "M2"))
+    imported = read_any_stereo(path)
+    assert_same_pixels(imported, rig)
+    R1, R2, P1, P2, Q = ff.rectify(rig)
+    np.testing.assert_allclose(imported.file.P2, P2, rtol=1e-12, atol=1e-9)   # computed by cv2.stereoRectify
+    np.testing.assert_allclose(imported.file.Q, Q, rtol=1e-12, atol=1e-12)
+
+
+def test_opencv_file_locates_like_robocal_stereo_yaml(tmp_path, rig):
+    path = ff.opencv_file(rig, tmp_path / "stereo.yml")
+    ours = load_rectification(write_stereo_yaml(tmp_path / "robocal.yaml", read_any_stereo(path).file))
+    theirs = load_rectification(path)
+    for key in ("R1", "R2", "P1", "P2"):
+        np.testing.assert_array_equal(getattr(ours, key), getattr(theirs, key))
+
+
+def test_stereo_calib_intrinsics_and_extrinsics(tmp_path, rig):
+    intrinsics, extrinsics = ff.stereo_calib_pair(rig, tmp_path)
+    for given in ([intrinsics, extrinsics], [extrinsics, intrinsics], intrinsics, extrinsics, tmp_path):
+        imported = read_any_stereo(given)
+        assert_same_pixels(imported, rig)
+        assert imported.file.image_size == (1280, 1024)          # the common size nearest 2·(634.0, 505.7)
+        assert any("no image size" in n for n in imported.notes)
+    sized = read_any_stereo(tmp_path, image_size=(1280, 1024))
+    assert not any("no image size" in n for n in sized.notes)
+    half = read_any_stereo(tmp_path, image_size=(1280, 1024), mm_per_unit=0.5)
+    assert half.file.baseline_mm == pytest.approx(rig.baseline / 2, rel=1e-12)
+    np.testing.assert_allclose(half.file.P2[0, 3], ff.rectify(rig)[3][0, 3] / 2, rtol=1e-12)
+
+
+def test_stereo_calib_intrinsics_alone_is_refused(tmp_path, rig):
+    intrinsics, extrinsics = ff.stereo_calib_pair(rig, tmp_path)
+    extrinsics.unlink()
+    with pytest.raises(RoboCalError, match=r"intrinsics.yml: holds only the cameras .* no extrinsics.yml"):
+        read_any_stereo(intrinsics)
+
+
+def test_ros_camera_info_pair(tmp_path, rig):
+    left, right = ff.ros_pair(rig, tmp_path)
+    for given in ([left, right], tmp_path):
+        imported = read_any_stereo(given)
+        assert imported.kind == "ROS camera_info pair"
+        assert_same_pixels(imported, rig)
+        assert_unknown_statistics(imported)
+        np.testing.assert_allclose(imported.file.T, rig.T, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(imported.file.R, rig.R, rtol=0, atol=1e-12)
+
+
+def test_ros_pair_with_the_pose_given(tmp_path, rig):
+    left, right = ff.ros_pair(rig, tmp_path, with_baseline=False)
+    with pytest.raises(RoboCalError,
+                       match=r"right.yaml: field 'projection_matrix': .* holds no baseline.*Give the pose"):
+        read_any_stereo([left, right])
+    _, extrinsics = ff.stereo_calib_pair(rig, tmp_path)
+    imported = read_any_stereo([left, right, extrinsics])
+    assert_same_pixels(imported, rig)
+    np.testing.assert_allclose(imported.file.P2, ff.rectify(rig)[3], rtol=1e-12, atol=1e-9)
+
+
+def test_ros_refusals(tmp_path, rig):
+    left, right = ff.ros_pair(rig, tmp_path, model="equidistant")
+    with pytest.raises(RoboCalError, match=r"left.yaml: field 'distortion_model': distortion model 'equidistant' "
+                                           r"is not supported"):
+        read_any_stereo([left, right])
+    left, right = ff.ros_pair(rig, tmp_path)
+    with pytest.raises(RoboCalError, match="left.yaml: a ROS camera_info file holds one camera"):
+        read_any_stereo(left)
+
+
+def test_kalibr_camchain(tmp_path, rig):
+    imported = read_any_stereo(ff.kalibr_camchain(rig, tmp_path / "camchain-stereo.yaml"))
+    assert imported.kind == "Kalibr camchain"
+    assert_same_pixels(imported, rig)
+    assert_unknown_statistics(imported)
+    assert read_any_stereo(tmp_path).file.baseline_mm == pytest.approx(rig.baseline, rel=1e-12)
+
+
+@pytest.mark.parametrize("kwargs, field", [({"model": "equidistant"}, "cam0.distortion_model"),
+                                           ({"model": "fov"}, "cam0.distortion_model"),
+                                           ({"camera_model": "omni"}, "cam0.camera_model")])
+def test_kalibr_refuses_other_models(tmp_path, rig, kwargs, field):
+    path = ff.kalibr_camchain(rig, tmp_path / "camchain.yaml", **kwargs)
+    with pytest.raises(RoboCalError) as err:
+        read_any_stereo(path)
+    assert err.value.field == field and "not supported" in err.value.message and "pinhole" in err.value.message
+    assert "\n" not in err.value.message
+
+
+@pytest.mark.parametrize("units", ["mm", "meters"])
+def test_matlab_stereo_parameters_json(tmp_path, rig, units):
+    imported = read_any_stereo(ff.matlab_json(rig, tmp_path / "stereoParams.json", units=units))
+    assert imported.kind == "MATLAB stereoParameters (JSON)"
+    assert_same_pixels(imported, rig)
+    np.testing.assert_allclose(imported.file.K1, rig.left.K, rtol=1e-15)     # transposed back, −1 px
+    assert_unknown_statistics(imported)
+
+
+def test_matlab_refusals(tmp_path, rig):
+    with pytest.raises(RoboCalError, match=r"field 'CameraParameters1.IntrinsicMatrix': the skew is 2"):
+        read_any_stereo(ff.matlab_json(rig, tmp_path / "skew.json", skew=2.0))
+    path = ff.matlab_json(rig, tmp_path / "untransposed.json")
+    data = json.loads(path.read_text())
+    data["RotationOfCamera2"] = (np.asarray(data["RotationOfCamera2"]) * 2).tolist()
+    path.write_text(json.dumps(data))
+    with pytest.raises(RoboCalError, match=r"field 'RotationOfCamera2': not a rotation matrix"):
+        read_any_stereo(path)
+
+
+def test_robocal_stereo_yaml_still_read(tmp_path, rig):
+    sf = read_any_stereo(ff.opencv_file(rig, tmp_path / "s.yml")).file
+    path = write_stereo_yaml(tmp_path / "stereo.yaml", sf)
+    imported = read_any_stereo(path)
+    assert imported.kind == "RoboCal stereo.yaml"
+    again = read_stereo_yaml(path)
+    assert again.to_dict() == sf.to_dict() and again.rms_stereo is None and again.board is None
+    assert "rms_stereo" not in path.read_text() and "board_cols" not in path.read_text()   # unknown: never 0
+
+
+def test_unrecognised_files(tmp_path):
+    other = tmp_path / "other.yaml"
+    other.write_text("name: something\nvalues: [1, 2]\n")
+    with pytest.raises(RoboCalError, match="other.yaml: not a stereo calibration RoboCal recognises"):
+        read_any_stereo(other)
+    with pytest.raises(RoboCalError, match="no stereo calibration found in this folder"):
+        read_any_stereo(tmp_path / ".")
+    with pytest.raises(RoboCalError, match="file not found"):
+        read_any_stereo(tmp_path / "none.yaml")
+
+
+@pytest.mark.parametrize("edit, says", [
+    (lambda t: t.replace("   cols: 3\n", "", 1), "expected an OpenCV matrix"),
+    (lambda t: t.replace("   rows: 3\n   cols: 3\n", "   rows: 3\n   cols: 4\n", 1), "needs 12 values in data, got 9"),
+    (lambda t: t.replace("   rows: 3\n", "   rows: 1000000\n", 1), "at most 16x16"),
+    (lambda t: t.replace("   dt: d\n", "   dt: 3d\n", 1), None),
+    (lambda t: t.replace("data: [ ", "data: [ x, ", 1), "needs 9 values"),
+])
+def test_malformed_matrices_are_refused_without_harm(tmp_path, rig, edit, says):
+    """cv2.FileNode.mat() writes past its buffer when rows·cols and data disagree: the
+    matrix is checked and built from its entries instead (read many times: no heap damage)."""
+    intrinsics, _ = ff.stereo_calib_pair(rig, tmp_path)
+    intrinsics.write_text(edit(intrinsics.read_text()))
+    expected = f"intrinsics.yml: field 'M1': .*{says}" if says else "intrinsics.yml: not a readable OpenCV"
+    for _ in range(50):
+        with pytest.raises(RoboCalError, match=expected):
+            read_any_stereo(intrinsics)
+
+
+@pytest.mark.skipif(not REAL_DATA.is_dir(), reason="real checkerboard pairs not present (../shared/data)")
+def test_stereo_calib_output_of_real_pairs(tmp_path):
+    """The real 640x512 pairs calibrated as OpenCV's stereo_calib sample does it (plain
+    cv2.stereoCalibrate, 24 mm squares), written as its intrinsics.yml + extrinsics.yml: the
+    import infers 640x512 and reproduces the pixels of the calibration."""
+    import cv2
+
+    from core.camera import CameraModel
+    from core.stereo.rig import StereoRig
+
+    board = np.zeros((54, 3), np.float32)
+    board[:, :2] = np.mgrid[0:9, 0:6].T.reshape(-1, 2) * 24.0
+    objects, lefts, rights = [], [], []
+    for left, right in real_pairs(range(1, 13)):
+        found = []
+        for path in (left, right):
+            gray = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+            ok, corners = cv2.findChessboardCorners(gray, (9, 6))
+            if ok:
+                corners = cv2.cornerSubPix(gray, corners, (11, 11), (-1, -1),
+                                           (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 30, 0.01))
+            found.append(corners if ok else None)
+        if found[0] is not None and found[1] is not None:
+            objects.append(board)
+            lefts.append(found[0])
+            rights.append(found[1])
+    size = (640, 512)
+    rms, K1, D1, K2, D2, R, T, _, _ = cv2.stereoCalibrate(
+        objects, lefts, rights, None, None, None, None, size, flags=cv2.CALIB_FIX_ASPECT_RATIO
+        | cv2.CALIB_ZERO_TANGENT_DIST | cv2.CALIB_SAME_FOCAL_LENGTH,
+        criteria=(cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 100, 1e-5))
+    rig = StereoRig(CameraModel(K1, D1.ravel(), *size), CameraModel(K2, D2.ravel(), *size), R, T)
+    ff.stereo_calib_pair(rig, tmp_path)
+    imported = read_any_stereo(tmp_path / "intrinsics.yml")
+    assert imported.file.image_size == size and any("640x512 px assumed" in n for n in imported.notes)
+    assert 85 < imported.file.baseline_mm < 100 and rms < 1.0          # the README's T: (91.2, −2.65, 12.2) mm
+    assert imported.file.T[0] > 0
+    assert_same_pixels(imported, rig)
+    np.testing.assert_array_equal(imported.file.P2, ff.rectify(rig)[3])
+    # in these pairs the 'left' images come from the camera on the right (T_x > 0, as the README's T):
+    # the marker location refuses the rig with what to do
+    with pytest.raises(RoboCalError, match=r"'right' camera is on the left .* Swap the left and right images"):
+        load_rectification(tmp_path)
+
+
+def test_singular_matrices_are_refused_before_anything_is_computed(tmp_path, rig):
+    """Zero focal lengths or a singular projection matrix: one message, no numerical error."""
+    chain = ff.kalibr_camchain(rig, tmp_path / "camchain.yaml")
+    text = chain.read_text()
+    start = text.index("  intrinsics: [")
+    chain.write_text(text[:start] + "  intrinsics: [0.0, 0.0, 0.0, 0.0]" + text[text.index("\n", start):])
+    with pytest.raises(RoboCalError, match=r"field 'cam0.intrinsics': not a camera matrix: the focal lengths"):
+        read_any_stereo(chain)
+    bare = ff.opencv_file(rig, tmp_path / "bare.yml", rectification=False)
+    text = bare.read_text()
+    start = text.index("data:", text.index("K1:"))
+    bare.write_text(text[:start] + "data: [ 0., 0., 0., 0., 0., 0., 0., 0., 0. ]\n" + text[text.index("D1:"):])
+    with pytest.raises(RoboCalError, match=r"field 'K1': not a camera matrix"):
+        read_any_stereo(bare)
+    left, right = ff.ros_pair(rig, tmp_path)
+    text = right.read_text()
+    start = text.index("projection_matrix:")
+    right.write_text(text[:start] + "projection_matrix:\n  rows: 3\n  cols: 4\n  data: [1.0, 1.0, 0.0, -0.1, 1.0, 1.0, "
+                     "0.0, 0.0, 0.0, 0.0, 1.0, 0.0]\n")
+    with pytest.raises(RoboCalError, match=r"right.yaml: field 'projection_matrix': not a projection matrix"):
+        read_any_stereo([left, right])
