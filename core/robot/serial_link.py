@@ -9,6 +9,7 @@ Writes are serialised by a lock, so `stop()` may write from another thread durin
 from __future__ import annotations
 
 import queue
+import termios
 import threading
 
 import serial
@@ -77,7 +78,7 @@ class LineLink:
             try:
                 ser.write(data)
                 ser.flush()
-            except (serial.SerialException, OSError) as exc:
+            except (serial.SerialException, OSError, termios.error) as exc:   # tcdrain on a dropped line: EIO
                 self.lost = self.lost or str(exc)
                 raise RobotFault(f"the connection is lost ({exc})", source=self.port,
                                  hint="Check the cable, reconnect, then resume the run.") from None
