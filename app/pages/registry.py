@@ -9,7 +9,7 @@ import logging
 import traceback
 
 from app.pages.base import WizardPage
-from app.pages.export_page import ExportPage
+from app.pages.export.page import ExportPage
 from app.pages.identification.page import IdentificationPage
 from app.pages.load_error_page import PageLoadErrorPage
 from app.pages.marker.page import MarkerPage

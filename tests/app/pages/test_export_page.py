@@ -12,7 +12,7 @@ import pytest
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QFileDialog
 
-from app.pages.export_page import ExportPage
+from app.pages.export.page import ExportPage
 from app.state import WizardState
 from app.worker import TaskRunner
 from core.stereo.board import Board

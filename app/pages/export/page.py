@@ -1,45 +1,26 @@
-"""Step 7, Export: the calibrated robot and the cameras in the formats other tools read, and a
-report of the whole calibration.
-
-One row per export (what, where, status, a button); "Export all" writes every available one
-into the export folder (project/export/ by default). Every file is written atomically
-(core.files); a missing input says which step produces it.
-"""
+"""Step 7, Export: the folder, one row per export (items.py says what each writes, rows_panel.py
+draws them), "Export all" for every available one into the export folder (project/export/ by
+default); the report is written on a worker, its figures drawn here one at a time."""
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
 from PySide6.QtCore import Qt
-from PySide6.QtWidgets import QFileDialog, QGridLayout, QGroupBox, QHBoxLayout, QLabel, QLineEdit, QVBoxLayout, QWidget
+from PySide6.QtWidgets import QFileDialog, QGroupBox, QHBoxLayout, QLineEdit, QVBoxLayout
 
-from app.html import esc
 from app.pages import forms
 from app.pages.base import WizardPage
+from app.pages.export.items import REPORT, ExportItem, ExportSources
+from app.pages.export.rows_panel import ExportRows
 from app.pages.steps import Step
 from app.report.gui_drawer import GuiDrawer
 from app.report.render import write_report
 from core.errors import RoboCalError
-from core.identification.exports import export_model
-from core.files import atomic_write_bytes, atomic_write_many, ensure_writable_dir
+from core.files import ensure_writable_dir
 from core.locks import output_locks
-from core.identification.solver import write_calibrated_model
-from core.robot.model import RobotModel
-from core.robot.file import read_robot
-from core.stereo import file as stereo_file
 
 EXPORT_FOLDER = "export"
-
-
-@dataclass
-class ExportItem:
-    key: str
-    title: str
-    description: str
-    files: tuple[str, ...]
-    write: Callable[[Path], list[Path]]          # folder -> written files
-    missing: Callable[[], str | None]            # why it is not available (None: available)
 
 
 class ExportPage(WizardPage):
@@ -51,26 +32,8 @@ class ExportPage(WizardPage):
         self._folder: Path | None = None         # chosen by the user; None: project/export
         self._drawer = GuiDrawer(self)           # the report's figures, drawn here for its worker
 
-        self.items = [
-            ExportItem("calibrated", "Calibrated robot model (RoboCal JSON)",
-                       "The robot file format plus the calibration section (statistics, parameters with σ, "
-                       "identifiability). Loads anywhere a robot model does.",
-                       ("calibrated.json",), self._write_calibrated, self._missing_model),
-            ExportItem("dh-csv", "DH table (CSV)",
-                       "One row per joint: θ, d, a, α, β (mm, °), limits and standard deviations.",
-                       ("calibrated_dh.csv",), self._write_dh, self._missing_model),
-            ExportItem("urdf", "URDF (ROS, robot viewers)",
-                       "Kinematic URDF in metres and radians with the robot file's joint names; "
-                       "world = the measurement (left camera) frame.",
-                       ("calibrated.urdf",), self._write_urdf, self._missing_model),
-            ExportItem("stereo", "Stereo camera files (OpenCV + ROS camera_info)",
-                       "stereo.yaml (OpenCV FileStorage) and left.yaml / right.yaml (ROS camera_info, metres).",
-                       ("stereo.yaml", "left.yaml", "right.yaml"), self._write_stereo, self._missing_stereo),
-            ExportItem("report", "Report (HTML and PDF)",
-                       "A summary and the figures of every step: stereo reprojection errors, marker, poses, "
-                       "measured points, identification (errors before/after, validation, parameters).",
-                       ("report.html", "report.pdf"), self._write_report, self._missing_report),
-        ]
+        self.sources = ExportSources(state)
+        self.items = self.sources.items()
 
         # -- folder --------------------------------------------------------------------
         self.folder_edit = QLineEdit()
@@ -85,36 +48,8 @@ class ExportPage(WizardPage):
         fl.addWidget(self.folder_button)
         fl.addWidget(self.all_button)
 
-        # -- one row per export --------------------------------------------------------
-        items_box = QGroupBox("What can be exported")
-        grid = QGridLayout(items_box)
-        grid.setHorizontalSpacing(12)
-        grid.setVerticalSpacing(10)
-        self.rows: dict[str, dict[str, QWidget]] = {}
-        for r, item in enumerate(self.items):
-            title = QLabel(f"<b>{esc(item.title)}</b>")
-            desc = QLabel(item.description)
-            desc.setTextFormat(Qt.TextFormat.PlainText)
-            desc.setObjectName("hint")
-            desc.setWordWrap(True)
-            target = QLabel()
-            target.setTextFormat(Qt.TextFormat.PlainText)
-            target.setWordWrap(True)
-            target.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
-            status = QLabel()
-            status.setTextFormat(Qt.TextFormat.PlainText)
-            status.setWordWrap(True)
-            button = forms.button("Export", f"export_{item.key}", on_click=lambda key=item.key: self.export(key))
-            text = QVBoxLayout()
-            text.setSpacing(2)
-            text.addWidget(title)
-            text.addWidget(desc)
-            text.addWidget(target)
-            text.addWidget(status)
-            grid.addLayout(text, r, 0)
-            grid.addWidget(button, r, 1, Qt.AlignmentFlag.AlignTop)
-            self.rows[item.key] = {"title": title, "target": target, "status": status, "button": button}
-        grid.setColumnStretch(0, 1)
+        self.rows_panel = ExportRows(self.items, lambda key: self.export(key))
+        self.rows = self.rows_panel.rows
 
         self.status.setTextFormat(Qt.TextFormat.PlainText)
         self.status.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
@@ -122,7 +57,7 @@ class ExportPage(WizardPage):
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(folder_box)
-        layout.addWidget(items_box)
+        layout.addWidget(self.rows_panel)
         layout.addWidget(self.progress_row())
         layout.addWidget(self.status)
         layout.addStretch(1)
@@ -160,63 +95,8 @@ class ExportPage(WizardPage):
         self.refresh()
         self.notify_complete()
 
-    # -- sources -------------------------------------------------------------------------
-    def _result(self):
-        return self.state.identification
-
     def calibrated_source(self) -> str | None:
-        """'result' (this session's identification), 'file' (the project's calibrated.json) or None."""
-        if self._result() is not None:
-            return "result"
-        if self.state.project is not None and self.state.project.has("calibrated"):
-            return "file"
-        return None
-
-    def calibrated_model(self) -> RobotModel:
-        source = self.calibrated_source()
-        if source == "result":
-            return self._result().model
-        if source == "file":
-            return read_robot(self.state.project.path("calibrated"))
-        raise RoboCalError("no calibrated model yet", hint="Run the Identification step first.")
-
-    def _missing_model(self) -> str | None:
-        if self.state.project is None:
-            return "needs a project (Setup step)"
-        return None if self.calibrated_source() else "available after the Identification step"
-
-    def _missing_stereo(self) -> str | None:
-        if self.state.project is None:
-            return "needs a project (Setup step)"
-        if not self.state.project.has("stereo"):
-            return "available after the Stereo calibration step"
-        return None
-
-    def _missing_report(self) -> str | None:
-        return "needs a project (Setup step)" if self.state.project is None else None
-
-    # -- writers (folder -> files written) -----------------------------------------------
-    def _write_calibrated(self, folder: Path) -> list[Path]:
-        dest = folder / "calibrated.json"
-        if self.calibrated_source() == "result":
-            return [write_calibrated_model(self._result(), dest)]
-        return [atomic_write_bytes(dest, self.state.project.path("calibrated").read_bytes())]
-
-    def _write_dh(self, folder: Path) -> list[Path]:
-        return [export_model(self.calibrated_model(), "dh-csv", folder / "calibrated_dh.csv")]
-
-    def _write_urdf(self, folder: Path) -> list[Path]:
-        return [export_model(self.calibrated_model(), "urdf", folder / "calibrated.urdf")]
-
-    def _write_stereo(self, folder: Path) -> list[Path]:
-        src = self.state.project.path("stereo")
-        data = stereo_file.read_stereo_yaml(src)          # checks the file before copying it
-        files = {folder / "stereo.yaml": src.read_bytes(), **stereo_file.ros_camera_info_files(folder, data)}
-        return atomic_write_many(files)                   # all three, or none changed
-
-    def _write_report(self, folder: Path) -> list[Path]:
-        return write_report(self.state.project, [folder / "report.html", folder / "report.pdf"],
-                            robot=self.state.robot, identification=self._result(), accuracy=self.state.accuracy)
+        return self.sources.calibrated_source()
 
     # -- actions -------------------------------------------------------------------------
     def item(self, key: str) -> ExportItem:
@@ -233,7 +113,7 @@ class ExportPage(WizardPage):
             return self._finished(finished, [])
         try:
             folder = ensure_writable_dir(self.folder())
-            if key == "report":
+            if key == REPORT:
                 self._start_report(folder, finished)
                 return []
             with output_locks([folder / name for name in item.files]):     # not while a robocal command writes them
@@ -270,7 +150,7 @@ class ExportPage(WizardPage):
             self._finished(finished, written)
 
         if self.start(write_report, self.state.project, [folder / "report.html", folder / "report.pdf"],
-                      robot=self.state.robot, identification=self._result(), accuracy=self.state.accuracy,
+                      robot=self.state.robot, identification=self.state.identification, accuracy=self.state.accuracy,
                       draw=self._drawer.draw, on_done=done, on_failed=failed, on_cancelled=cancelled,
                       label="report", status="Writing the report…"):
             self.progress_row().set_progress(0.0, "reading the project")
@@ -392,12 +272,8 @@ class ExportPage(WizardPage):
             self._set_status("Choose what to export, or Export all.", ok=None)
 
     def _row_status(self, key: str, text: str, ok: bool | None) -> None:
-        label = self.rows[key]["status"]
-        label.setText(text)
-        colour = {True: "#188038", False: "#80868b", None: "#5f6368"}[ok]
-        label.setStyleSheet(f"color: {colour};")
+        self.rows_panel.set_status(key, text, ok)
 
     def row_text(self, key: str) -> str:
         """Target and status of one row (tests)."""
-        row = self.rows[key]
-        return f"{row['target'].text()} {row['status'].text()}"
+        return self.rows_panel.text(key)
