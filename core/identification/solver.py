@@ -285,6 +285,8 @@ class IdentificationResult:
             "unidentifiable": [{"name": r.name, "reason": r.explanation} for r in self.unidentifiable],
             "fixed": [r.name for r in self.parameters if r.status == FIXED_BY_USER],
             "warnings": list(self.warnings),
+            "covariance": {"parameters": list(self.estimated), "units": "mm and rad",
+                           "matrix": [[float(v) for v in row] for row in self.covariance]},
         }
 
     def summary(self) -> dict:
@@ -647,7 +649,9 @@ def _check_blow_up(nominal: RobotModel, model: RobotModel, free: Sequence[Parame
 
 
 # -- the parameter table -------------------------------------------------------------------
-def _display_value(model: RobotModel, prm: Parameter) -> float:
+def display_value(model: RobotModel, prm: Parameter) -> float:
+    """The value of parameter `prm` of `model` as the parameter table shows it (mm / deg; the
+    base as its origin and roll, pitch, yaw)."""
     if prm.group == "joint":
         return getattr(model.joints[prm.joint], prm.kind) * prm.to_display
     if prm.group == "target":
@@ -703,8 +707,8 @@ def _parameter_rows(fit: _Fit, nominal: RobotModel) -> tuple[list[ParameterRow],
                            f"nominal value determines the rest.")
         rows.append(ParameterRow(
             name=prm.name, group=prm.group, kind=prm.kind, unit=prm.unit,
-            nominal=_display_value(nominal, prm), initial=_display_value(fit.initial, prm),
-            identified=_display_value(model, prm), std=std, identifiable=k is not None,
+            nominal=display_value(nominal, prm), initial=display_value(fit.initial, prm),
+            identified=display_value(model, prm), std=std, identifiable=k is not None,
             status=status, explanation=explanation,
             partners=() if excl is None else excl.partners, data_share=share))
     return rows, std_int
