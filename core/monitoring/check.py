@@ -118,24 +118,35 @@ def _now() -> datetime:
     return datetime.now(timezone.utc).replace(microsecond=0)
 
 
-def point_limits(model: RobotModel, unc: CalibrationUncertainty, Q, targets, alpha: float
-                 ) -> tuple[np.ndarray, float]:
-    """Per-point error-length limits (mm) at false-alarm probability alpha / (2N) each, and the
-    limit of the overall RMS error (mm) at alpha / 2, for the N points at Q (N, n)."""
+@dataclass
+class CheckLimits:
+    """Limits (mm) for a set of check configurations: one per point at false-alarm probability
+    alpha / (2N), and for the overall RMS at alpha / 2. They depend only on the model, its
+    uncertainty and the poses, so a series of checks computes them once."""
+
+    per_point: np.ndarray
+    rms: float
+    alpha: float
+
+
+def check_limits(model: RobotModel, unc: CalibrationUncertainty, Q, targets, alpha: float = DEFAULT_ALPHA
+                 ) -> CheckLimits:
+    """The limits for the points at Q (N, n) with their target names (see the module)."""
     Q = np.atleast_2d(np.asarray(Q, dtype=float))
     n = len(Q)
     S = prediction_covariance(model, unc, Q, targets)
     per = np.array([norm_limit(S[3 * i:3 * i + 3, 3 * i:3 * i + 3], 1.0 - alpha / (2 * n)) for i in range(n)])
-    overall = norm_limit(S, 1.0 - alpha / 2) / math.sqrt(n)
-    return per, overall
+    return CheckLimits(per, norm_limit(S, 1.0 - alpha / 2) / math.sqrt(n), float(alpha))
 
 
 def run_check(model: RobotModel, unc: CalibrationUncertainty, Q, measure: MeasureFn, *,
               target: str = "marker", pose_ids=None, log: str | Path | None = None,
-              alpha: float = DEFAULT_ALPHA, progress=None, cancelled=None) -> CheckResult:
+              alpha: float = DEFAULT_ALPHA, limits: CheckLimits | None = None, progress=None,
+              cancelled=None) -> CheckResult:
     """Measure the `target` at each check configuration Q (N, n; rad / mm) with `measure`,
     compare with `model`'s prediction, append every point to the check `log` at once, and
-    close the check with its overall row. Cancel stops between poses: what was measured stays
+    close the check with its overall row. `limits` (from check_limits for the same model, poses
+    and alpha) saves computing them again. Cancel stops between poses: what was measured stays
     in the log and the result comes back with `cancelled` (no overall row is written)."""
     if not 0.0 < alpha < 0.5:
         raise RoboCalError(f"the false-alarm probability must be between 0 and 0.5, got {alpha}")
@@ -152,7 +163,8 @@ def run_check(model: RobotModel, unc: CalibrationUncertainty, Q, measure: Measur
     run = start.strftime("%Y%m%dT%H%M%SZ")
     targets = [target] * len(Q)
     predicted = predict_points(model, Q, targets)
-    limits, _ = point_limits(model, unc, Q, targets, alpha)
+    if limits is None or len(limits.per_point) != len(Q) or limits.alpha != alpha:
+        limits = check_limits(model, unc, Q, targets, alpha)
     q_file = np.atleast_2d(model.q_to_file(Q))
     points: list[CheckPoint] = []
     missing: list[tuple[int, str]] = []
@@ -174,15 +186,17 @@ def run_check(model: RobotModel, unc: CalibrationUncertainty, Q, measure: Measur
                 missing.append((int(ids[k]), "the marker was not found"))
                 continue
             p = CheckPoint(int(ids[k]), target, q_file[k], Q[k], np.asarray(xyz, dtype=float).reshape(3),
-                           predicted[k], float(limits[k]))
+                           predicted[k], float(limits.per_point[k]))
             points.append(p)
             if writer is not None:
                 writer.point(run, _now().isoformat(), p.pose, target, p.q_file, p.measured, p.predicted,
                              p.error_mm, p.limit_mm, p.within)
         rms, rms_limit = math.nan, math.nan
         if points:
-            keep = [i for i in range(len(Q)) if int(ids[i]) in {p.pose for p in points}]
-            _, rms_limit = point_limits(model, unc, Q[keep], [target] * len(keep), alpha)
+            rms_limit = limits.rms
+            if len(points) < len(Q):        # the overall limit of the points measured
+                keep = [i for i in range(len(Q)) if int(ids[i]) in {p.pose for p in points}]
+                rms_limit = check_limits(model, unc, Q[keep], [target] * len(keep), alpha).rms
             rms = float(np.sqrt(np.mean([p.error_mm ** 2 for p in points])))
         result = CheckResult(run, start.isoformat(), points, rms, rms_limit, alpha, unc.sigma_mm, missing,
                              cancelled=stopped, log=None if log is None else Path(log))

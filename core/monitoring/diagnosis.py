@@ -7,11 +7,15 @@ no change that weighted residual sum RSS_K follows χ² with 3N − p_K degrees 
 
 Candidates: no change; the target offset on the tool (a tool change or a bent tool, 3
 parameters); the base pose in the camera frame (the robot or the cameras moved, 6); each joint's
-zero offset alone (an encoder slipped, 1); and all of these together ("several"). The choice is
-the smallest Akaike information criterion AIC = RSS_K + 2·p_K (σ known: the calibration's);
-when even the chosen set leaves a residual beyond its χ² limit at `alpha`, no candidate
-explains the check (the geometry changed in another way, e.g. a bent link) and the advice is a
-full calibration.
+zero offset alone (an encoder slipped, 1); and all of these together ("several", p_F = the
+number the check poses determine). Each simple set K is nested in "several", so the nested
+F-test  F = ((RSS_K − RSS_F)/(p_F − p_K)) / (RSS_F/(3N − p_F))  against F(p_F − p_K, 3N − p_F)
+says whether K explains the errors as well as everything together (the ratio does not depend on
+σ). The diagnosis is "no change" when that passes at `alpha`, else among the sets that pass the
+one with the smallest Akaike criterion AIC = RSS_K + 2·p_K; "several" when no simple set passes. When even "several" leaves a residual beyond its limit
+(RSS_F/(3N − p_F) against F(3N − p_F, m − p), m − p the calibration's degrees of freedom, as S
+scales with its σ̂²), no candidate explains the check (the geometry changed in another way,
+e.g. a bent link) and the advice is a full calibration.
 """
 from __future__ import annotations
 
@@ -21,6 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.linalg import cho_factor, solve_triangular
 from scipy.stats import chi2
+from scipy.stats import f as f_dist
 
 from core.identification.jacobian import Parameter, calibration_jacobian
 from core.monitoring.check import CheckResult
@@ -45,15 +50,26 @@ class CandidateFit:
     joint: int = -1           # 0-based joint for kind "joint"
     explained_mm: float = 0.0  # RMS over the check points of the error the change explains (mm)
 
+    nested_probability: float = 1.0   # the nested F-test's p-value against "several"
+
     @property
     def aic(self) -> float:
+        """Akaike's criterion with σ known: RSS + 2·p."""
         return self.rss + 2.0 * self.p
+
+    sigma_dof: float = math.inf   # degrees of freedom of the calibration's σ̂
 
     @property
     def fit_probability(self) -> float:
-        """Probability of a residual this large if this candidate were the whole change."""
+        """Probability of a residual this large if this candidate were the whole change: the
+        weighted residual per degree of freedom against F(3N − p, calibration's m − p), as S
+        scales with the calibration's estimated σ̂² (χ² when σ is known)."""
         dof = self.n - self.p
-        return float(chi2.sf(self.rss, dof)) if dof > 0 else 1.0
+        if dof <= 0:
+            return 1.0
+        if math.isinf(self.sigma_dof):
+            return float(chi2.sf(self.rss, dof))
+        return float(f_dist.sf(self.rss / dof, dof, self.sigma_dof))
 
     @property
     def names(self) -> list[str]:
@@ -66,7 +82,8 @@ class CandidateFit:
 
 @dataclass
 class Diagnosis:
-    """The candidates by AIC (best first), the chosen one and a plain-language result."""
+    """The candidates (the chosen first, then by fewest parameters), the chosen one and a
+    plain-language result."""
 
     fits: list[CandidateFit]
     chosen: CandidateFit
@@ -89,8 +106,8 @@ class Diagnosis:
         return {"kind": self.kind, "text": self.text, "explained": self.explained,
                 "full_calibration": self.full_calibration, "changed": self.chosen.names,
                 "change": self.chosen.change(),
-                "candidates": [{"kind": f.kind, "label": f.label, "aic": f.aic, "rss": f.rss, "p": f.p,
-                                "fit_probability": f.fit_probability} for f in self.fits]}
+                "candidates": [{"kind": f.kind, "label": f.label, "rss": f.rss, "p": f.p,
+                                "nested_probability": f.nested_probability} for f in self.fits]}
 
 
 def candidate_sets(model: RobotModel, target: str) -> list[tuple[str, str, list[Parameter], int]]:
@@ -119,7 +136,7 @@ def _fit(rw: np.ndarray, Jw: np.ndarray) -> tuple[np.ndarray, float, int]:
 
 def diagnose(model: RobotModel, unc: CalibrationUncertainty, check: CheckResult, *,
              alpha: float | None = None) -> Diagnosis:
-    """Fit every candidate change to `check`'s errors and choose by AIC (see the module)."""
+    """Fit every candidate change to `check`'s errors and choose by the nested F-test (see the module)."""
     alpha = check.alpha if alpha is None else float(alpha)
     if not check.points:
         raise ValueError("a check without points cannot be diagnosed")
@@ -135,12 +152,18 @@ def diagnose(model: RobotModel, unc: CalibrationUncertainty, check: CheckResult,
         Jw = solve_triangular(L, J, lower=True) if params else J
         delta, rss, rank = _fit(rw, Jw)
         explained = float(np.sqrt(np.mean(np.sum((J @ delta).reshape(-1, 3) ** 2, axis=1)))) if params else 0.0
-        fits.append(CandidateFit(kind, label, list(params), delta, rss, rank, len(e), joint, explained))
-    fits.sort(key=lambda f: (f.aic, f.p))
+        fits.append(CandidateFit(kind, label, list(params), delta, rss, rank, len(e), joint, explained, unc.dof))
+    full = next(f for f in fits if f.kind == SEVERAL)
+    dof_full = full.n - full.p
+    for f in fits:
+        if f is not full and full.p > f.p and dof_full > 0:
+            stat = ((f.rss - full.rss) / (full.p - f.p)) / max(full.rss / dof_full, 1e-300)
+            f.nested_probability = float(f_dist.sf(stat, full.p - f.p, dof_full))
+    fits.sort(key=lambda f: (f.nested_probability < alpha, f.kind != NONE, f.kind == SEVERAL, f.aic, f.p))
     chosen = fits[0]
-    explained = chosen.fit_probability >= alpha
-    text, full = describe(chosen, explained, model)
-    return Diagnosis(fits, chosen, explained, text, alpha, full_calibration=full)
+    explained = full.fit_probability >= alpha
+    text, full_calibration = describe(chosen, explained, model)
+    return Diagnosis(fits, chosen, explained, text, alpha, full_calibration=full_calibration)
 
 
 def _unchanged(kind: str, joint: int = -1) -> str:

@@ -37,6 +37,7 @@ class CalibrationUncertainty:
     covariance: np.ndarray
     sigma_mm: float
     source: str = ""
+    dof: float = math.inf          # degrees of freedom of σ (the calibration's m − p; inf if given)
 
     @property
     def names(self) -> list[str]:
@@ -86,6 +87,7 @@ def calibration_uncertainty(model: RobotModel, *, source: str | Path | None = No
             or np.any(np.diag(C) < 0):
         raise RoboCalError(f"expected a symmetric {p} × {p} matrix of numbers with a non-negative diagonal",
                            source=source, field="calibration.covariance.matrix")
+    dof = math.inf
     if sigma_mm is None:
         stats = _field(cal, "statistics", source, "calibration.statistics")
         if not isinstance(stats, dict):
@@ -100,10 +102,13 @@ def calibration_uncertainty(model: RobotModel, *, source: str | Path | None = No
             raise RoboCalError("expected a positive number (mm)", source=source,
                                field="calibration.statistics.sigma_hat")
         sigma_mm = float(sigma)
+        given = stats.get("dof")
+        if isinstance(given, int) and not isinstance(given, bool) and given > 0:
+            dof = float(given)
     if not sigma_mm > 0:
         raise RoboCalError(f"the measurement noise must be positive, got {sigma_mm} mm")
     return CalibrationUncertainty([known[n] for n in names], 0.5 * (C + C.T), float(sigma_mm),
-                                  source or "")
+                                  source or "", dof)
 
 
 def prediction_covariance(model: RobotModel, unc: CalibrationUncertainty, Q,
