@@ -32,6 +32,7 @@ COMMANDS = {
     "import-measurements": "import_measurements",
     "robot-import": "robot_import",
     "sim-robot": "sim_robot",
+    "check": "check",
 }
 
 
