@@ -34,6 +34,7 @@ COMMANDS = {
     "robot-import": "robot_import",
     "sim-robot": "sim_robot",
     "report": "report",
+    "check": "check",
 }
 
 

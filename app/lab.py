@@ -6,14 +6,18 @@ keeps it so): pages and commands take the lab's pieces from here.
 from __future__ import annotations
 
 from core.robot.model import RobotModel
+import numpy as np
+
+from core.virtual_lab.changes import LabChange, apply_change, parse_change
 from core.virtual_lab.dataset import simulate_dataset
-from core.virtual_lab.ideal_measurements import (DEFAULT_POSES, DEFAULT_SIGMA_MM, ideal_lab_measurements,
+from core.virtual_lab.ideal_measurements import (DEFAULT_POSES, DEFAULT_SIGMA_MM, ideal_lab_measurements, ideal_measure,
                                                  write_ideal_measurements)
 from core.virtual_lab.lab import DEFAULT_BOARD, VirtualLab, lab_options
 from core.virtual_lab.marker_comparison import ComparisonResult, candidate_patterns, compare_markers
 
-__all__ = ["DEFAULT_BOARD", "DEFAULT_POSES", "DEFAULT_SIGMA_MM", "ComparisonResult", "VirtualLab", "build_lab",
-           "candidate_patterns", "compare_markers", "ideal_lab_measurements", "lab_options", "simulate_dataset",
+__all__ = ["DEFAULT_BOARD", "DEFAULT_POSES", "DEFAULT_SIGMA_MM", "ComparisonResult", "LabChange", "VirtualLab",
+           "apply_change", "build_lab", "candidate_patterns", "compare_markers", "ideal_lab_measurements",
+           "ideal_measure", "image_measure", "lab_options", "parse_change", "simulate_dataset",
            "write_ideal_measurements"]
 
 
@@ -21,3 +25,16 @@ def build_lab(robot: RobotModel | None, seed: int, noise: float) -> VirtualLab:
     """The virtual lab for this robot (same robot, seed and noise: same lab). Takes ~2 s, so
     the wizard builds it on a worker thread (`WizardState.request_lab`)."""
     return VirtualLab.create(robot=robot, seed=seed, noise=noise)
+
+
+def image_measure(lab: VirtualLab, locate, *, seed: int = 0):
+    """`measure(q)` for a check through images: the lab renders the pair at q (its true robot
+    as it is when called) and `locate(left, right)` (a MarkerLocator's) finds the marker; None
+    when it is not found."""
+    rng = np.random.default_rng(seed)
+
+    def measure(q):
+        left, right = lab.render_marker_pair(q, rng)
+        loc = locate(left, right)
+        return loc.point if loc.ok else None
+    return measure

@@ -289,6 +289,8 @@ class IdentificationResult:
             "warnings": list(self.warnings),
             "correlation": {"parameters": list(self.estimated),       # of the estimated parameters
                             "matrix": strict_json(np.round(np.asarray(self.correlation, dtype=float), 3).tolist())},
+            "covariance": {"parameters": list(self.estimated), "units": "mm and rad",
+                           "matrix": [[float(v) for v in row] for row in self.covariance]},
         }
 
     def summary(self) -> dict:
@@ -651,7 +653,9 @@ def _check_blow_up(nominal: RobotModel, model: RobotModel, free: Sequence[Parame
 
 
 # -- the parameter table -------------------------------------------------------------------
-def _display_value(model: RobotModel, prm: Parameter) -> float:
+def display_value(model: RobotModel, prm: Parameter) -> float:
+    """The value of parameter `prm` of `model` as the parameter table shows it (mm / deg; the
+    base as its origin and roll, pitch, yaw)."""
     if prm.group == "joint":
         return getattr(model.joints[prm.joint], prm.kind) * prm.to_display
     if prm.group == "target":
@@ -707,8 +711,8 @@ def _parameter_rows(fit: _Fit, nominal: RobotModel) -> tuple[list[ParameterRow],
                            f"nominal value determines the rest.")
         rows.append(ParameterRow(
             name=prm.name, group=prm.group, kind=prm.kind, unit=prm.unit,
-            nominal=_display_value(nominal, prm), initial=_display_value(fit.initial, prm),
-            identified=_display_value(model, prm), std=std, identifiable=k is not None,
+            nominal=display_value(nominal, prm), initial=display_value(fit.initial, prm),
+            identified=display_value(model, prm), std=std, identifiable=k is not None,
             status=status, explanation=explanation,
             partners=() if excl is None else excl.partners, data_share=share))
     return rows, std_int

@@ -40,3 +40,14 @@ def synthetic_note(sigma_mm: float, n_poses: int) -> str:
 def write_ideal_measurements(meas: Measurements, path: str | Path, *, sigma_mm: float = DEFAULT_SIGMA_MM) -> Path:
     """Write `meas` as measurements.csv (atomically), marked synthetic."""
     return write_synthetic_measurements(meas, path, synthetic_note(sigma_mm, meas.n_poses))
+
+
+def ideal_measure(lab, *, sigma_mm: float = DEFAULT_SIGMA_MM, seed: int | np.random.Generator = 0):
+    """`measure(q)` for a check (core.monitoring.check): the lab's true marker position at q
+    (rad / mm) — as the lab's true robot is when called, changes included — plus isotropic
+    Gaussian noise `sigma_mm` (mm per axis)."""
+    rng = np.random.default_rng(seed)
+
+    def measure(q):
+        return lab.marker_position(q) + rng.normal(0.0, sigma_mm, 3)
+    return measure

@@ -1,0 +1,107 @@
+"""The Check step's wiring (Qt-free; the page and `robocal check` use it): read the calibrated
+robot and its uncertainty, choose or read the check poses, measure them on the virtual lab, judge,
+diagnose, and re-identify what changed from the proposed poses."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from core.measurement.file import Measurements
+from core.monitoring.check import CheckLimits, CheckResult, check_limits, run_check
+from core.monitoring.check_poses import DEFAULT_CHECK_POSES, select_check_poses
+from core.monitoring.diagnosis import Diagnosis, diagnose
+from core.monitoring.reidentify import Reidentification, propose_poses, reidentify, write_reidentified
+from core.monitoring.uncertainty import CalibrationUncertainty, calibration_uncertainty
+from core.poses.file import read_poses
+from core.robot.file import read_robot
+from core.robot.model import RobotModel
+from core.task import Monitor
+
+CANDIDATES = 600
+
+
+@dataclass
+class CheckSetup:
+    """A calibrated robot ready to be checked: its uncertainty, check poses and their limits."""
+
+    model: RobotModel
+    unc: CalibrationUncertainty
+    Q: np.ndarray
+    limits: CheckLimits
+    source: str
+    target: str = "marker"
+
+
+def setup(robot_path, *, lab_options: dict | None = None, poses_path=None, count: int = DEFAULT_CHECK_POSES,
+          alpha: float = 0.01, sigma_mm: float | None = None, seed: int = 0, progress=None,
+          cancelled=None) -> CheckSetup:
+    """Read the calibrated robot, take the check poses from `poses_path` or choose `count` of them
+    (with the lab's cameras and marker in `lab_options`), and compute their limits."""
+    monitor = Monitor(progress, cancelled)
+    model = read_robot(robot_path)
+    unc = calibration_uncertainty(model, source=robot_path, sigma_mm=sigma_mm)
+    if poses_path is not None:
+        Q = read_poses(poses_path, model).Q
+    else:
+        opts = {k: v for k, v in (lab_options or {}).items() if k != "robot"}
+        Q = select_check_poses(model, count, candidates=CANDIDATES, seed=seed, progress=monitor.sub(0.0, 0.7),
+                               cancelled=cancelled, **opts).Q
+    monitor.step(0.7, "limits of the check poses")
+    limits = check_limits(model, unc, Q, ["marker"] * len(Q), alpha)
+    monitor.step(1.0, "ready")
+    return CheckSetup(model, unc, Q, limits, str(robot_path))
+
+
+def check(cell: CheckSetup, measure, *, log=None, progress=None, cancelled=None
+          ) -> tuple[CheckResult, Diagnosis | None]:
+    """One check appended to `log`; the diagnosis when it left its limits."""
+    result = run_check(cell.model, cell.unc, cell.Q, measure, target=cell.target, log=log,
+                       alpha=cell.limits.alpha, limits=cell.limits, progress=progress, cancelled=cancelled)
+    diagnosis = None
+    if result.points and not result.cancelled and not result.within:
+        diagnosis = diagnose(cell.model, cell.unc, result)
+    return result, diagnosis
+
+
+@dataclass
+class Update:
+    """A re-identification written to `path`, with the check of the updated model."""
+
+    reidentification: Reidentification
+    path: Path
+    proposed: np.ndarray
+    after: CheckResult
+
+
+def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: Diagnosis, measure, out, *,
+                             lab_options: dict | None = None, log=None, seed: int = 0, progress=None,
+                             cancelled=None) -> Update:
+    """Propose the few poses that determine what changed, measure them, re-identify from them and the
+    check's points with the calibration as prior, write `out` atomically (only after everything
+    succeeded) and check the updated model at the check poses."""
+    monitor = Monitor(progress, cancelled)
+    opts = {k: v for k, v in (lab_options or {}).items() if k != "robot"}
+    proposal = propose_poses(cell.model, diagnosis.parameters, candidates=CANDIDATES, seed=seed,
+                             progress=monitor.sub(0.0, 0.3), cancelled=cancelled, **opts)
+    Qs, xyz = [], []
+    for k, q in enumerate(proposal.Q):
+        monitor.step(0.3 + 0.3 * k / len(proposal.Q), f"measuring proposed pose {k + 1} of {len(proposal.Q)}")
+        p = measure(q)
+        if p is not None:
+            Qs.append(q)
+            xyz.append(p)
+    Qs += [p.Q for p in result.points]
+    xyz += [p.measured for p in result.points]
+    Q = np.array(Qs)
+    meas = Measurements(pose=np.arange(len(Q)), target=[cell.target] * len(Q), q_file=cell.model.q_to_file(Q),
+                        xyz=np.array(xyz), Q=Q)
+    re = reidentify(cell.model, cell.unc, diagnosis.parameters, meas, reason=diagnosis.text,
+                    previous=cell.source, progress=monitor.sub(0.6, 0.7), cancelled=cancelled)
+    path = write_reidentified(re, out)
+    unc = calibration_uncertainty(re.model, source=out)
+    updated = CheckSetup(re.model, unc, cell.Q, check_limits(re.model, unc, cell.Q, [cell.target] * len(cell.Q),
+                                                            cell.limits.alpha), str(path))
+    after, _ = check(updated, measure, log=log, progress=monitor.sub(0.7, 1.0), cancelled=cancelled)
+    return Update(re, Path(path), proposal.Q, after)

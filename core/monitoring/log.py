@@ -1,0 +1,206 @@
+"""The check log `checks.csv` (format robocal.checks/1): append-only, one row per check point,
+flushed and synced per row so that a check killed half-way loses nothing it measured.
+
+```
+# robocal.checks/1 ; check points against the calibrated model; an overall row closes each check
+run,time,kind,pose,target,q1,...,qn,x,y,z,px,py,pz,error_mm,limit_mm,within
+20250101T101500Z,2025-01-01T10:15:03+00:00,point,0,marker,10.000,...,412.310,-20.550,815.020,412.1,-20.4,815.3,0.392,0.611,1
+20250101T101500Z,2025-01-01T10:15:40+00:00,overall,,,,...,,,,,,,0.402,0.455,1
+```
+`run` names one check (all its rows), `time` is ISO 8601 UTC. A `point` row: joint values in
+deg / mm, measured x, y, z and predicted px, py, pz in mm (measurement frame), the error
+length and its limit (mm), `within` 1 or 0. An `overall` row: the RMS error over the check's
+points and its limit (mm). A row cut short by a crash is ignored when read and cut off before
+the next append.
+"""
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from core.errors import RoboCalError
+from core.files import drop_partial_last_line, ensure_writable_dir, read_text
+
+FAMILY = "robocal.checks"
+FORMAT = f"{FAMILY}/1"
+TAG = f"# {FORMAT} ; check points against the calibrated model; an overall row closes each check"
+POINT, OVERALL = "point", "overall"
+
+
+def header_columns(dof: int) -> list[str]:
+    return (["run", "time", "kind", "pose", "target"] + [f"q{i + 1}" for i in range(dof)]
+            + ["x", "y", "z", "px", "py", "pz", "error_mm", "limit_mm", "within"])
+
+
+@dataclass
+class LoggedPoint:
+    pose: int
+    target: str
+    q_file: np.ndarray
+    measured: np.ndarray
+    predicted: np.ndarray
+    error_mm: float
+    limit_mm: float
+    within: bool
+    time: str = ""
+
+
+@dataclass
+class LoggedCheck:
+    """One check run as logged: its points and, when it finished, the overall RMS and limit."""
+
+    run: str
+    time: str = ""
+    points: list[LoggedPoint] = field(default_factory=list)
+    rms_mm: float | None = None
+    rms_limit_mm: float | None = None
+    within: bool | None = None
+
+    @property
+    def finished(self) -> bool:
+        return self.rms_mm is not None
+
+
+@dataclass
+class CheckLog:
+    checks: list[LoggedCheck]
+    dof: int
+    path: Path | None = None
+
+
+def _fmt(v: float) -> str:
+    return f"{0.0 if v == 0 else v:.4f}"
+
+
+class CheckLogWriter:
+    """Appends rows to a check log; creates it with its tag and header when new."""
+
+    def __init__(self, path: str | Path, dof: int):
+        self.path = Path(path)
+        self.dof = int(dof)
+        ensure_writable_dir(self.path.parent if str(self.path.parent) else Path("."))
+        new = not self.path.exists() or self.path.stat().st_size == 0
+        if not new:
+            drop_partial_last_line(self.path)
+            existing = read_check_log(self.path)
+            if existing.dof != self.dof:
+                raise RoboCalError(f"the log holds checks of a robot with {existing.dof} joints, not {self.dof}",
+                                   source=self.path, field="header", hint="Give another check log file.")
+        try:
+            self._handle = open(self.path, "a", encoding="utf-8", newline="")
+        except OSError as exc:
+            raise RoboCalError(f"cannot open the check log ({exc.strerror})", source=self.path,
+                               hint="Check the folder's permissions.") from exc
+        if new:
+            self._write(TAG + "\n" + ",".join(header_columns(self.dof)) + "\n")
+
+    def _write(self, text: str) -> None:
+        try:
+            self._handle.write(text)
+            self._handle.flush()
+            os.fsync(self._handle.fileno())
+        except OSError as exc:
+            raise RoboCalError(f"cannot write the check log ({exc.strerror})", source=self.path,
+                               hint="Check the disk space.") from exc
+
+    def point(self, run: str, time: str, pose: int, target: str, q_file, measured, predicted,
+              error_mm: float, limit_mm: float, within: bool) -> None:
+        values = [run, time, POINT, str(int(pose)), target] + [f"{v:.3f}" for v in np.asarray(q_file, float)] \
+            + [_fmt(v) for v in measured] + [_fmt(v) for v in predicted] \
+            + [_fmt(error_mm), _fmt(limit_mm), "1" if within else "0"]
+        self._write(",".join(values) + "\n")
+
+    def overall(self, run: str, time: str, rms_mm: float, limit_mm: float, within: bool) -> None:
+        values = [run, time, OVERALL, "", ""] + [""] * (self.dof + 6) + [_fmt(rms_mm), _fmt(limit_mm),
+                                                                      "1" if within else "0"]
+        self._write(",".join(values) + "\n")
+
+    def close(self) -> None:
+        if not self._handle.closed:
+            self._handle.close()
+
+    def __enter__(self) -> "CheckLogWriter":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _number(path, line_no: int, column: str, text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        raise RoboCalError(f"line {line_no}: expected a number, got {text!r}", source=path, field=column,
+                           hint="Restore the log from a backup or start a new one.")
+    return value
+
+
+def read_check_log(path: str | Path) -> CheckLog:
+    """Every check in a log, in the order they were run. Raises RoboCalError naming the file,
+    line and column for a file that is not a check log or holds a bad value."""
+    path = Path(path)
+    text = read_text(path, "a check log (checks.csv)")
+    lines = text.splitlines(keepends=True)
+    if not lines or not lines[0].startswith("#") or FAMILY not in lines[0]:
+        raise RoboCalError("not a RoboCal check log (its first line must be the format tag)", source=path,
+                           field="line 1", hint=f"The first line of a check log is '{TAG}'.")
+    tag = lines[0].split(";")[0].strip("# \n")
+    if tag != FORMAT:
+        raise RoboCalError(f"unsupported check log version '{tag}'", source=path, field="line 1",
+                           hint="Use a check log written by this version of RoboCal.")
+    complete = text if text.endswith("\n") else "".join(lines[:-1])   # a cut-off last row is dropped
+    header: list[str] | None = None
+    dof = 0
+    checks: dict[str, LoggedCheck] = {}
+    for line_no, row in enumerate(csv.reader(io.StringIO(complete)), start=1):
+        if not row or row[0].lstrip().startswith("#"):
+            continue
+        if header is None:
+            header = row
+            dof = len(row) - 14
+            if dof < 1 or row != header_columns(dof):
+                raise RoboCalError(f"line {line_no}: expected the header {','.join(header_columns(6))} "
+                                   f"(q1 … qn for n joints)", source=path, field="header")
+            continue
+        if len(row) != len(header):
+            raise RoboCalError(f"line {line_no}: expected {len(header)} values, found {len(row)}",
+                               source=path, field=f"line {line_no}")
+        cols = dict(zip(header, row))
+        run, kind = cols["run"].strip(), cols["kind"].strip()
+        if not run:
+            raise RoboCalError(f"line {line_no}: empty run name", source=path, field="run")
+        check = checks.setdefault(run, LoggedCheck(run, cols["time"]))
+        within = cols["within"].strip()
+        if within not in ("0", "1"):
+            raise RoboCalError(f"line {line_no}: expected 1 or 0, got {within!r}", source=path, field="within")
+        err = _number(path, line_no, "error_mm", cols["error_mm"])
+        lim = _number(path, line_no, "limit_mm", cols["limit_mm"])
+        if kind == OVERALL:
+            check.rms_mm, check.rms_limit_mm, check.within = err, lim, within == "1"
+        elif kind == POINT:
+            try:
+                pose = int(cols["pose"])
+            except ValueError:
+                raise RoboCalError(f"line {line_no}: expected a whole pose number, got {cols['pose']!r}",
+                                   source=path, field="pose") from None
+            num = {c: _number(path, line_no, c, cols[c])
+                   for c in [f"q{i + 1}" for i in range(dof)] + ["x", "y", "z", "px", "py", "pz"]}
+            check.points.append(LoggedPoint(
+                pose, cols["target"], np.array([num[f"q{i + 1}"] for i in range(dof)]),
+                np.array([num["x"], num["y"], num["z"]]), np.array([num["px"], num["py"], num["pz"]]),
+                err, lim, within == "1", cols["time"]))
+        else:
+            raise RoboCalError(f"line {line_no}: expected 'point' or 'overall', got {kind!r}", source=path,
+                               field="kind")
+    if header is None:
+        raise RoboCalError("the check log has no header line", source=path, field="header",
+                           hint="Start a new check log.")
+    return CheckLog(list(checks.values()), dof, path)

@@ -1,0 +1,159 @@
+"""What a calibration predicts about its own errors: the covariance of the identified
+parameters (from the calibrated robot file) propagated to a point, plus the measurement noise.
+
+For check points at configurations Q (N, n) the predicted difference e = measured − model has
+covariance  S = Φ·C·Φᵀ + σ²·I  (3N × 3N, mm²), with Φ the calibration Jacobian of the
+estimated parameters (core.identification.jacobian), C their covariance and σ the measurement
+noise per axis (mm). The parameter part correlates the points (they share the same model).
+
+Limits on error lengths: |e|² = Σ λ_i·z_i² with λ the eigenvalues of S is a weighted sum of
+χ²₁ variables; its tail probability is computed by Imhof's (1961) integral and the quantile
+found by root finding, starting from the Satterthwaite–Welch approximation |e|² ≈ c·χ²_ν
+(c = Σλ²/Σλ, ν = (Σλ)²/Σλ²), which is exact for an isotropic S.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+from scipy.integrate import quad
+from scipy.optimize import brentq
+from scipy.stats import chi2
+
+from core.errors import RoboCalError
+from core.identification.jacobian import Parameter, all_parameters, calibration_jacobian
+from core.robot.model import RobotModel
+
+
+@dataclass
+class CalibrationUncertainty:
+    """The identified parameters' covariance (internal units: mm and rad; base rotations as small
+    angles about the measurement frame's axes) and the measurement noise σ (mm per axis)."""
+
+    parameters: list[Parameter]
+    covariance: np.ndarray
+    sigma_mm: float
+    source: str = ""
+    dof: float = math.inf          # degrees of freedom of σ (the calibration's m − p; inf if given)
+
+    @property
+    def names(self) -> list[str]:
+        return [p.name for p in self.parameters]
+
+
+def _field(cal: dict, key: str, source, field: str):
+    if key not in cal:
+        raise RoboCalError("missing", source=source, field=field,
+                           hint="Use the calibrated robot file written by the Identification step "
+                                "(robocal identify) of this version.")
+    return cal[key]
+
+
+def calibration_uncertainty(model: RobotModel, *, source: str | Path | None = None,
+                            sigma_mm: float | None = None) -> CalibrationUncertainty:
+    """The uncertainty a calibrated robot file records (its `calibration.covariance` and
+    `calibration.statistics.sigma_hat`). `sigma_mm` overrides the measurement noise (needed
+    when the calibration weighted its points, whose σ̂ is then a factor, not mm).
+    Raises RoboCalError naming the file and field for a file without them."""
+    source = str(source) if source is not None else None
+    cal = model.calibration
+    if not isinstance(cal, dict):
+        raise RoboCalError("this robot file holds no calibration", source=source, field="calibration",
+                           hint="Give the calibrated robot file written by the Identification step.")
+    cov = _field(cal, "covariance", source, "calibration.covariance")
+    if not isinstance(cov, dict):
+        raise RoboCalError("expected an object with 'parameters' and 'matrix'", source=source,
+                           field="calibration.covariance")
+    names = _field(cov, "parameters", source, "calibration.covariance.parameters")
+    matrix = _field(cov, "matrix", source, "calibration.covariance.matrix")
+    if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
+        raise RoboCalError("expected a list of parameter names", source=source,
+                           field="calibration.covariance.parameters")
+    known = {p.name: p for p in all_parameters(model, list(model.targets))}
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        raise RoboCalError(f"unknown parameter '{unknown[0]}' for this robot", source=source,
+                           field="calibration.covariance.parameters",
+                           hint="The calibration belongs to another robot model; identify this one again.")
+    try:
+        C = np.array(matrix, dtype=float)
+    except (TypeError, ValueError):
+        C = np.zeros((0, 0))
+    p = len(names)
+    if C.shape != (p, p) or not np.all(np.isfinite(C)) or not np.allclose(C, C.T, rtol=1e-6, atol=1e-18) \
+            or np.any(np.diag(C) < 0):
+        raise RoboCalError(f"expected a symmetric {p} × {p} matrix of numbers with a non-negative diagonal",
+                           source=source, field="calibration.covariance.matrix")
+    dof = math.inf
+    if sigma_mm is None:
+        stats = _field(cal, "statistics", source, "calibration.statistics")
+        if not isinstance(stats, dict):
+            raise RoboCalError("expected an object", source=source, field="calibration.statistics")
+        sigma = stats.get("sigma_hat")
+        if stats.get("sigma_hat_unit", "mm") != "mm":
+            raise RoboCalError("the calibration weighted its points by their own σ, so its σ̂ is not in mm",
+                               source=source, field="calibration.statistics.sigma_hat",
+                               hint="Give the measurement noise in mm (--sigma).")
+        if not isinstance(sigma, (int, float)) or isinstance(sigma, bool) or not math.isfinite(sigma) \
+                or sigma <= 0:
+            raise RoboCalError("expected a positive number (mm)", source=source,
+                               field="calibration.statistics.sigma_hat")
+        sigma_mm = float(sigma)
+        given = stats.get("dof")
+        if isinstance(given, int) and not isinstance(given, bool) and given > 0:
+            dof = float(given)
+    if not sigma_mm > 0:
+        raise RoboCalError(f"the measurement noise must be positive, got {sigma_mm} mm")
+    return CalibrationUncertainty([known[n] for n in names], 0.5 * (C + C.T), float(sigma_mm),
+                                  source or "", dof)
+
+
+def prediction_covariance(model: RobotModel, unc: CalibrationUncertainty, Q,
+                          point_targets: Sequence[str]) -> np.ndarray:
+    """S (3N, 3N) in mm² of measured − predicted for points at Q (N, n) with their target names:
+    the calibration's parameter covariance propagated through Φ, plus σ² per coordinate."""
+    Q = np.atleast_2d(np.asarray(Q, dtype=float))
+    J = calibration_jacobian(model, Q, list(point_targets), unc.parameters)
+    return J @ unc.covariance @ J.T + unc.sigma_mm ** 2 * np.eye(3 * len(Q))
+
+
+def weighted_chi2_sf(x: float, lam: np.ndarray) -> float:
+    """P(Σ λ_i·z_i² > x) for independent standard normal z_i (Imhof's integral; the
+    oscillating tail beyond u = 1 with quad's Fourier-integral rule, QAWF)."""
+    lam = np.asarray(lam, dtype=float)
+    w = 0.5 * x
+
+    def angle(u):
+        return 0.5 * np.sum(np.arctan(lam * u))
+
+    def rho(u):
+        return u * np.prod((1.0 + (lam * u) ** 2) ** 0.25)
+
+    head = quad(lambda u: math.sin(angle(u) - w * u) / rho(u) if u > 0 else 0.5 * float(lam.sum()) - w,
+                0.0, 1.0, limit=200)[0]
+    tail = (quad(lambda u: math.sin(angle(u)) / rho(u), 1.0, np.inf, weight="cos", wvar=w)[0]
+            - quad(lambda u: math.cos(angle(u)) / rho(u), 1.0, np.inf, weight="sin", wvar=w)[0])
+    return 0.5 + (head + tail) / math.pi
+
+
+def norm_limit(S: np.ndarray, probability: float) -> float:
+    """The length (mm) that a zero-mean Gaussian vector with covariance S stays below with
+    `probability` (see the module)."""
+    lam = np.clip(np.linalg.eigvalsh(np.atleast_2d(S)), 0.0, None)
+    total, square = float(lam.sum()), float(np.sum(lam ** 2))
+    if total <= 0.0:
+        return 0.0
+    c, nu = square / total, total ** 2 / square
+    guess = c * chi2.ppf(probability, nu)
+    lam = lam[lam > 1e-12 * lam.max()] / c          # scaled so the guess is near chi2 quantiles
+    tail = 1.0 - probability
+    f = lambda x: weighted_chi2_sf(x, lam) - tail
+    lo, hi = 0.5 * guess / c, 2.0 * guess / c
+    while f(hi) > 0:
+        hi *= 2.0
+    while f(lo) < 0 and lo > 1e-9:
+        lo *= 0.5
+    return math.sqrt(c * brentq(f, lo, hi, xtol=1e-10, rtol=1e-10))

@@ -1,0 +1,111 @@
+"""Changes the virtual lab can make to its true robot after a calibration, on purpose, so that a
+class (and the tests) can watch the Check step find them:
+
+  tool:SIZE     the marker moves SIZE mm on the tool in a random direction (a bent or swapped tool)
+  base:SIZE     the robot base moves SIZE mm and turns SIZE/10 degrees about a random axis relative
+                to the cameras (a bumped robot or camera stand)
+  jointK:SIZE   joint K's zero offset slips by SIZE degrees (SIZE mm for a prismatic joint)
+  linkK:SIZE    link K bends: its length a grows by SIZE mm and its twist by SIZE/10 degrees
+                (a change none of the simple diagnoses explains)
+
+Sizes may be negative for joints and links. Directions are drawn from the lab's seed and
+`seed`, so a change is reproducible. The lab's `true_robot` is replaced; the nominal robot
+and the cameras are not touched.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from core import transforms as tf
+from core.errors import UsageError
+
+KINDS = ("tool", "base", "joint", "link")
+_SPEC = re.compile(r"^\s*(tool|base|joint|link)(\d*)\s*:\s*([-+]?\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)\s*$", re.I)
+MAX_SIZE = 50.0
+
+
+@dataclass(frozen=True)
+class LabChange:
+    """A change of the lab's true robot: `kind`, `size` (mm or deg) and, for a joint or link,
+    the 1-based `joint` number."""
+
+    kind: str
+    size: float
+    joint: int = 0
+
+    def __str__(self) -> str:
+        return f"{self.kind}{self.joint if self.joint else ''}:{self.size:g}"
+
+    def describe(self) -> str:
+        if self.kind == "tool":
+            return f"the marker moved {abs(self.size):g} mm on the tool"
+        if self.kind == "base":
+            return f"the robot base moved {abs(self.size):g} mm and turned {abs(self.size) / 10:g}°"
+        if self.kind == "joint":
+            return f"joint {self.joint}'s zero slipped by {self.size:+g}"
+        return f"link {self.joint} bent ({self.size:+g} mm, {self.size / 10:+g}°)"
+
+
+def parse_change(text: str, dof: int | None = None) -> LabChange:
+    """A LabChange from 'tool:1.5', 'base:2', 'joint3:0.4', 'link2:1'. Raises UsageError."""
+    m = _SPEC.match(str(text))
+    hint = "Write tool:MM, base:MM, jointK:DEG or linkK:MM (e.g. tool:1.5, joint3:0.4)."
+    if not m:
+        raise UsageError(f"cannot read the change {text!r}", hint=hint)
+    kind, number, size = m.group(1).lower(), m.group(2), float(m.group(3))
+    if kind in ("joint", "link"):
+        if not number:
+            raise UsageError(f"the change {text!r} needs a joint number", hint=hint)
+        k = int(number)
+        if k < 1 or (dof is not None and k > dof):
+            raise UsageError(f"the change {text!r} names joint {k}; the robot has joints 1 … {dof}", hint=hint)
+    else:
+        if number:
+            raise UsageError(f"the change {text!r} takes no number after '{kind}'", hint=hint)
+        k = 0
+        if size <= 0:
+            raise UsageError(f"the size of a {kind} change must be positive, got {size:g} mm", hint=hint)
+    if not 0 < abs(size) <= MAX_SIZE:
+        raise UsageError(f"the size of a change must be within ±{MAX_SIZE:g} and not 0, got {size:g}", hint=hint)
+    return LabChange(kind, size, k)
+
+
+def _unit(rng: np.random.Generator) -> np.ndarray:
+    v = rng.normal(size=3)
+    return v / np.linalg.norm(v)
+
+
+def apply_change(lab, change: LabChange | str, *, seed: int = 0) -> LabChange:
+    """Change `lab`'s true robot in place (see the module); returns the change applied."""
+    true = lab.true_robot
+    if isinstance(change, str):
+        change = parse_change(change, true.dof)
+    if change.kind in ("joint", "link") and not 1 <= change.joint <= true.dof:
+        raise UsageError(f"joint {change.joint} does not exist; the robot has joints 1 … {true.dof}")
+    rng = np.random.default_rng(np.random.SeedSequence([int(lab.seed), int(seed), 14]))
+    robot = true.copy()
+    size = float(change.size)
+    if change.kind == "tool":
+        target = lab.target
+        robot.targets[target] = np.asarray(robot.targets[target], dtype=float) + size * _unit(rng)
+    elif change.kind == "base":
+        base = robot.base.copy()
+        R = tf.rot_axis(_unit(rng), np.deg2rad(size / 10.0))
+        base[:3, :3] = R @ base[:3, :3]
+        base[:3, 3] = base[:3, 3] + size * _unit(rng)
+        robot.base = base
+    elif change.kind == "joint":
+        j = robot.joints[change.joint - 1]
+        if j.revolute:
+            j.theta += np.deg2rad(size)
+        else:
+            j.d += size
+    else:
+        j = robot.joints[change.joint - 1]
+        j.a += size
+        j.alpha += np.deg2rad(size / 10.0)
+    lab.true_robot = robot
+    return change

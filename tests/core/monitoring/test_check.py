@@ -1,0 +1,116 @@
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from core.errors import RoboCalError
+from core.monitoring.check import check_limits, run_check
+from core.monitoring.log import read_check_log
+from core.monitoring.uncertainty import calibration_uncertainty
+from core.virtual_lab.ideal_measurements import ideal_measure
+from tests.core.monitoring.cell import SIGMA, calibrate, cell
+
+ROOT = Path(__file__).resolve().parents[3]
+
+
+def test_check_logs_every_point_and_closes_with_the_overall_row(tmp_path):
+    c = cell()
+    log = tmp_path / "checks.csv"
+    first = run_check(c.model, c.unc, c.Q, ideal_measure(c.lab, sigma_mm=SIGMA, seed=1), log=log)
+    second = run_check(c.model, c.unc, c.Q, ideal_measure(c.lab, sigma_mm=SIGMA, seed=2), log=log)
+    assert first.within and second.within
+    logged = read_check_log(log)
+    assert len(logged.checks) in (1, 2)         # two runs in the same second share a name
+    points = [p for ch in logged.checks for p in ch.points]
+    assert len(points) == 16
+    assert points[3].error_mm == pytest.approx(first.points[3].error_mm, abs=1e-4)
+    np.testing.assert_allclose(points[3].measured, first.points[3].measured, atol=1e-4)
+    assert logged.checks[-1].rms_mm == pytest.approx(second.rms_mm, abs=1e-4)
+    # a no-change error is of the order of the noise; the limit a few σ
+    assert 0.5 * SIGMA * np.sqrt(3) < first.rms_mm < 2 * SIGMA * np.sqrt(3)
+    assert 1.5 * first.rms_mm < first.rms_limit_mm < 6 * SIGMA
+
+
+def test_missing_marker_is_reported_not_judged(tmp_path):
+    c = cell()
+    ideal = ideal_measure(c.lab, sigma_mm=SIGMA, seed=1)
+    calls = []
+
+    def measure(q):
+        calls.append(1)
+        return None if len(calls) == 2 else ideal(q)
+    result = run_check(c.model, c.unc, c.Q, measure)
+    assert [p for p, _ in result.missing] == [1] and len(result.points) == 7
+
+
+def test_cancel_keeps_the_points_measured(tmp_path):
+    c = cell()
+    ideal = ideal_measure(c.lab, sigma_mm=SIGMA, seed=1)
+    done = []
+
+    def measure(q):
+        done.append(1)
+        return ideal(q)
+    result = run_check(c.model, c.unc, c.Q, measure, log=tmp_path / "c.csv", cancelled=lambda: len(done) >= 3)
+    assert result.cancelled and not result.within and len(result.points) == 3
+    logged = read_check_log(tmp_path / "c.csv")
+    assert len(logged.checks[0].points) == 3 and not logged.checks[0].finished
+
+
+KILL_SCRIPT = """
+import os, signal, sys
+sys.path.insert(0, {root!r})
+from tests.core.monitoring.cell import SIGMA, cell
+from core.monitoring.check import check_limits, run_check
+from core.virtual_lab.ideal_measurements import ideal_measure
+c = cell()
+ideal = ideal_measure(c.lab, sigma_mm=SIGMA, seed=1)
+n = []
+def measure(q):
+    n.append(1)
+    if len(n) == 5:
+        os.kill(os.getpid(), signal.SIGKILL)
+    return ideal(q)
+run_check(c.model, c.unc, c.Q, measure, log={log!r})
+"""
+
+
+def test_killed_check_loses_nothing_it_measured(tmp_path):
+    log = tmp_path / "checks.csv"
+    proc = subprocess.run([sys.executable, "-c", KILL_SCRIPT.format(root=str(ROOT), log=str(log))],
+                          env={**os.environ, "PYTHONPATH": str(ROOT)}, capture_output=True, timeout=120)
+    assert proc.returncode == -9, proc.stderr.decode()[-500:]
+    logged = read_check_log(log)
+    assert len(logged.checks[0].points) == 4 and not logged.checks[0].finished
+    # appending again works after the kill
+    c = cell()
+    run_check(c.model, c.unc, c.Q, ideal_measure(c.lab, sigma_mm=SIGMA, seed=3), log=log)
+    assert sum(len(ch.points) for ch in read_check_log(log).checks) == 12
+
+
+def test_false_alarm_rate_is_near_the_nominal_one():
+    """No change: over 15 calibrations × 40 checks at α = 5 %, the alarm rate is 5 % ± 2.2 %
+    (3 binomial σ for 600 checks); the per-pose and overall limits are split by Bonferroni, so
+    the rate may fall below α but not far above."""
+    c = cell()
+    alarms = total = 0
+    for seed in range(15):
+        model = calibrate(c.lab, 100 + seed)
+        unc = calibration_uncertainty(model)
+        limits = check_limits(model, unc, c.Q, ["marker"] * len(c.Q), 0.05)
+        for k in range(40):
+            r = run_check(model, unc, c.Q, ideal_measure(c.lab, sigma_mm=SIGMA, seed=1000 * seed + k), alpha=0.05,
+                          limits=limits)
+            alarms += not r.within
+            total += 1
+    rate = alarms / total
+    assert 0.02 <= rate <= 0.072, rate
+
+
+def test_wrong_poses_refused():
+    c = cell()
+    with pytest.raises(RoboCalError, match="joint values"):
+        run_check(c.model, c.unc, c.Q[:, :5], ideal_measure(c.lab))

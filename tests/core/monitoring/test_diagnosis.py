@@ -1,0 +1,131 @@
+import numpy as np
+import pytest
+
+from core.errors import RoboCalError, UsageError
+from core.measurement.file import Measurements
+from core.monitoring.check import run_check
+from core.monitoring.diagnosis import BASE, JOINT, NONE, SEVERAL, TOOL, diagnose
+from core.monitoring.reidentify import poses_for, propose_poses, reidentify, write_reidentified
+from core.monitoring.uncertainty import calibration_uncertainty
+from core.robot.file import read_robot
+from core.virtual_lab.changes import apply_change, parse_change
+from core.virtual_lab.ideal_measurements import ideal_measure
+from core.virtual_lab.synthetic import simulate_measurements
+from tests.core.monitoring.cell import SIGMA, cell
+
+
+def checked(change, seed=0):
+    c = cell()
+    c.reset()
+    if change:
+        apply_change(c.lab, change, seed=seed)
+    try:
+        result = run_check(c.model, c.unc, c.Q, ideal_measure(c.lab, sigma_mm=SIGMA, seed=50 + seed))
+        return c, result, diagnose(c.model, c.unc, result)
+    finally:
+        pass
+
+
+@pytest.mark.parametrize("change, kind, joint", [
+    ("tool:1.5", TOOL, -1), ("base:2", BASE, -1), ("joint2:0.2", JOINT, 1), ("joint3:0.2", JOINT, 2),
+    ("joint4:0.3", JOINT, 3), ("joint1:0.2", JOINT, 0),
+])
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_each_change_is_detected_and_diagnosed(change, kind, joint, seed):
+    c, result, diag = checked(change, seed)
+    c.reset()
+    assert not result.within
+    assert diag.explained and diag.kind == kind and diag.chosen.joint == joint, diag.text
+
+
+def test_tool_change_is_measured_in_words():
+    c, result, diag = checked("tool:1.8", 0)
+    c.reset()
+    moved = c.lab.true_robot.targets["marker"]     # after reset: the calibrated truth
+    assert diag.text.startswith("The marker moved 1.8 mm on the tool")
+    assert "base and joints unchanged" in diag.text
+    change = np.array([diag.chosen.change()[f"marker.{a}"] for a in "xyz"])
+    apply_change(c.lab, "tool:1.8", seed=0)
+    truth = c.lab.true_robot.targets["marker"] - moved
+    c.reset()
+    np.testing.assert_allclose(change, truth, atol=0.1)
+
+
+def test_bent_link_is_not_a_simple_change():
+    c, result, diag = checked("link3:1.0")
+    c.reset()
+    assert not result.within and diag.kind == SEVERAL and diag.full_calibration
+    assert "full calibration" in diag.text
+
+
+def test_no_change_is_diagnosed_as_none():
+    c, result, diag = checked(None)
+    assert result.within and diag.chosen.kind == NONE and not diag.full_calibration
+
+
+@pytest.mark.parametrize("change", ["tool:1.5", "base:2", "joint3:0.3"])
+def test_reidentification_from_a_few_poses_brings_the_error_back(tmp_path, change):
+    c, result, diag = checked(change, 4)
+    try:
+        proposal = propose_poses(c.model, diag.parameters, candidates=500, **c.options)
+        assert len(proposal.Q) == poses_for(c.model, diag.parameters) <= 5
+        new = simulate_measurements(c.lab.true_robot, len(proposal.Q), Q=proposal.Q, sigma_mm=SIGMA,
+                                    targets=["marker"], rng=9)
+        re = reidentify(c.model, c.unc, diag.parameters, new, reason=diag.text, previous="calibrated.json")
+        out = write_reidentified(re, tmp_path / "updated.json")
+        model = read_robot(out)
+        unc = calibration_uncertainty(model)
+        after = run_check(model, unc, c.Q, ideal_measure(c.lab, sigma_mm=SIGMA, seed=77))
+    finally:
+        c.reset()
+    assert not result.within and after.within
+    assert after.rms_mm < 0.3 * result.rms_mm
+    (entry,) = model.calibration["history"]
+    assert entry["updated"] == "calibrated.json" and entry["changed"] == re.changed and entry["reason"] == diag.text
+
+
+def test_failed_reidentification_writes_nothing(tmp_path):
+    c, result, diag = checked("link3:1.0")
+    try:
+        tool = [p for p in c.unc.parameters if p.group == "target"]
+        new = simulate_measurements(c.lab.true_robot, len(c.Q), Q=c.Q, sigma_mm=SIGMA, targets=["marker"], rng=9)
+        (tmp_path / "updated.json").write_text("good")
+        with pytest.raises(RoboCalError, match="full calibration"):
+            write_reidentified(reidentify(c.model, c.unc, tool, new), tmp_path / "updated.json")
+    finally:
+        c.reset()
+    assert (tmp_path / "updated.json").read_text() == "good"
+
+
+def test_reidentify_requires_a_change():
+    c = cell()
+    meas = Measurements(pose=[0], target=["marker"], q_file=np.zeros((1, 6)), xyz=np.zeros((1, 3)))
+    with pytest.raises(RoboCalError, match="nothing changed"):
+        reidentify(c.model, c.unc, [], meas)
+
+
+@pytest.mark.parametrize("text, kind, size, joint", [
+    ("tool:1.5", "tool", 1.5, 0), ("base:2", "base", 2.0, 0), ("joint3:-0.4", "joint", -0.4, 3),
+    ("LINK2:1", "link", 1.0, 2)])
+def test_change_specifications(text, kind, size, joint):
+    ch = parse_change(text, 6)
+    assert (ch.kind, ch.size, ch.joint) == (kind, size, joint)
+
+
+@pytest.mark.parametrize("text", ["tool", "tool:-1", "joint:1", "joint7:1", "tool3:1", "base:100", "bend:1"])
+def test_bad_change_specifications(text):
+    with pytest.raises(UsageError):
+        parse_change(text, 6)
+
+
+def test_change_moves_only_what_it_says():
+    c = cell()
+    c.reset()
+    try:
+        apply_change(c.lab, "joint2:0.5")
+        changed = c.lab.true_robot
+    finally:
+        c.reset()
+    assert np.rad2deg(changed.joints[1].theta - c.true.joints[1].theta) == pytest.approx(0.5)
+    assert changed.joints[2].theta == c.true.joints[2].theta
+    np.testing.assert_array_equal(changed.base, c.true.base)

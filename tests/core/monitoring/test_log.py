@@ -1,0 +1,72 @@
+import pytest
+
+from core.errors import RoboCalError
+from core.monitoring.log import TAG, CheckLogWriter, header_columns, read_check_log
+
+
+def write_two(path):
+    with CheckLogWriter(path, 2) as w:
+        w.point("r1", "t", 0, "marker", [10.0, -5.0], [1, 2, 3], [1.1, 2, 3], 0.1, 0.3, True)
+        w.point("r1", "t", 1, "marker", [20.0, 5.0], [4, 5, 6], [4, 5, 7], 1.0, 0.3, False)
+        w.overall("r1", "t", 0.71, 0.25, False)
+
+
+def test_round_trip(tmp_path):
+    path = tmp_path / "checks.csv"
+    write_two(path)
+    log = read_check_log(path)
+    (check,) = log.checks
+    assert log.dof == 2 and check.finished and check.within is False
+    assert [p.within for p in check.points] == [True, False]
+    assert check.points[1].q_file.tolist() == [20.0, 5.0] and check.rms_mm == pytest.approx(0.71)
+
+
+def test_file_written_from_the_format_description(tmp_path):
+    path = tmp_path / "checks.csv"
+    path.write_text(TAG + "\n" + ",".join(header_columns(1)) + "\n"
+                    "a,2025-01-01T10:00:00+00:00,point,3,marker,12.5,1,2,3,1,2,3.5,0.5,0.9,1\n"
+                    "a,2025-01-01T10:00:09+00:00,overall,,,,,,,,,,0.5,0.8,1\n")
+    (check,) = read_check_log(path).checks
+    assert check.points[0].pose == 3 and check.points[0].predicted.tolist() == [1, 2, 3.5]
+    assert check.rms_limit_mm == 0.8 and check.within
+
+
+def test_cut_off_last_row_is_dropped_and_repaired_on_append(tmp_path):
+    path = tmp_path / "checks.csv"
+    write_two(path)
+    with open(path, "a") as f:
+        f.write("r2,t,point,0,marker,1.0,")
+    assert len(read_check_log(path).checks) == 1
+    with CheckLogWriter(path, 2) as w:
+        w.point("r2", "t", 0, "marker", [1.0, 2.0], [1, 2, 3], [1, 2, 3], 0.0, 0.3, True)
+    log = read_check_log(path)
+    assert [len(c.points) for c in log.checks] == [2, 1]
+
+
+@pytest.mark.parametrize("old, new, field", [
+    (",0.3000,1\n", ",0.3000,yes\n", "within"),
+    (",0.3000,1\n", ",abc,1\n", "limit_mm"),
+    (",point,0,", ",dot,0,", "kind"),
+    (",point,0,", ",point,zero,", "pose"),
+])
+def test_bad_values_name_file_line_and_column(tmp_path, old, new, field):
+    path = tmp_path / "checks.csv"
+    write_two(path)
+    path.write_text(path.read_text().replace(old, new, 1))
+    with pytest.raises(RoboCalError) as err:
+        read_check_log(path)
+    assert err.value.field == field and str(path) in str(err.value) and "line" in str(err.value)
+
+
+def test_not_a_check_log(tmp_path):
+    path = tmp_path / "m.csv"
+    path.write_text("pose,q1\n0,1\n")
+    with pytest.raises(RoboCalError, match="not a RoboCal check log"):
+        read_check_log(path)
+
+
+def test_other_robot_refused(tmp_path):
+    path = tmp_path / "checks.csv"
+    write_two(path)
+    with pytest.raises(RoboCalError, match="2 joints"):
+        CheckLogWriter(path, 6)

@@ -1,0 +1,65 @@
+import json
+
+import numpy as np
+import pytest
+from scipy.stats import chi2
+
+from core.errors import RoboCalError
+from core.monitoring.uncertainty import calibration_uncertainty, norm_limit, prediction_covariance
+from core.robot.file import read_robot, robot_to_dict
+from tests.core.monitoring.cell import cell
+
+
+def test_calibrated_file_carries_the_covariance_of_the_estimated_parameters():
+    c = cell()
+    cov = c.model.calibration["covariance"]
+    assert len(cov["parameters"]) == len(cov["matrix"]) == c.unc.covariance.shape[0] > 20
+    assert "marker.x" in cov["parameters"] and "base.rz" in cov["parameters"]
+    # the std of the parameter table is the square root of the diagonal (file units)
+    row = next(r for r in c.model.calibration["parameters"] if r["name"] == "marker.x")
+    k = cov["parameters"].index("marker.x")
+    assert row["std"] == pytest.approx(np.sqrt(c.unc.covariance[k, k]), rel=1e-9)
+    assert c.unc.sigma_mm == pytest.approx(c.model.calibration["statistics"]["sigma_hat"])
+
+
+def test_isotropic_limit_is_the_chi_quantile():
+    S = 0.04 * np.eye(3)
+    assert norm_limit(S, 0.99) == pytest.approx(0.2 * np.sqrt(chi2.ppf(0.99, 3)), rel=1e-8)
+
+
+def test_anisotropic_limit_matches_sampled_quantile():
+    rng = np.random.default_rng(0)
+    S = np.diag([0.01, 0.02, 0.09])
+    x = rng.normal(size=(400_000, 3)) * np.sqrt(np.diag(S))
+    sampled = np.quantile(np.linalg.norm(x, axis=1), 0.99)
+    assert norm_limit(S, 0.99) == pytest.approx(sampled, rel=0.004)
+
+
+def test_prediction_covariance_adds_the_model_part_to_the_noise():
+    c = cell()
+    S = prediction_covariance(c.model, c.unc, c.Q[:2], ["marker"] * 2)
+    noise = c.unc.sigma_mm ** 2
+    assert S.shape == (6, 6) and np.all(np.diag(S) > noise)
+    assert np.all(np.diag(S) < 3 * noise)        # a 50-pose calibration predicts well
+    assert abs(S[0, 3]) > 0                       # points share the model: correlated
+
+
+@pytest.mark.parametrize("edit, field", [
+    (lambda d: d.pop("calibration"), "calibration"),
+    (lambda d: d["calibration"].pop("covariance"), "calibration.covariance"),
+    (lambda d: d["calibration"]["covariance"]["parameters"].__setitem__(0, "J9.a"),
+     "calibration.covariance.parameters"),
+    (lambda d: d["calibration"]["covariance"]["matrix"][0].__setitem__(1, "x"), "calibration.covariance.matrix"),
+    (lambda d: d["calibration"]["covariance"]["matrix"].pop(), "calibration.covariance.matrix"),
+    (lambda d: d["calibration"]["statistics"].__setitem__("sigma_hat", -1), "calibration.statistics.sigma_hat"),
+])
+def test_bad_calibration_names_file_and_field(tmp_path, edit, field):
+    data = robot_to_dict(cell().model)
+    data = json.loads(json.dumps(data))
+    edit(data)
+    path = tmp_path / "calibrated.json"
+    path.write_text(json.dumps(data))
+    with pytest.raises(RoboCalError) as err:
+        calibration_uncertainty(read_robot(path), source=path)
+    assert err.value.source == str(path) and err.value.field == field
+    assert str(path) in str(err.value)
