@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 from PySide6.QtWidgets import QFileDialog, QTabWidget, QVBoxLayout
@@ -17,6 +16,7 @@ from app.jobs.marker import (Comparison, LiveResult, Training, TrainingImage, Ve
                              run_comparison, run_verification, save_trained, train_job, write_verification)
 from app.lab import VirtualLab
 from app.pages.base import WizardPage
+from app.pages.marker.autopilot import MarkerAutopilot
 from app.safety import motion_refused
 from app.pages.marker.compare_panel import ComparePanel
 from app.pages.marker.live_panel import LivePanel
@@ -30,11 +30,10 @@ from core.errors import RoboCalError
 from core.marker.location import LocatorOptions, MarkerLocator
 from core.marker.training import TrainedMarker
 
-DEMO_VERIFY = 10             # verification poses of the autopilot
 TAB_TRAINING, TAB_LIVE, TAB_SSD, TAB_VERIFY, TAB_COMPARE = range(5)
 
 
-class MarkerPage(WizardPage):
+class MarkerPage(MarkerAutopilot, WizardPage):
     step = Step.MARKER
 
     def __init__(self, state, tasks, **kwargs):
@@ -168,51 +167,6 @@ class MarkerPage(WizardPage):
 
     def is_complete(self) -> bool:
         return self.trained is not None and self.saved_path is not None and self.verified
-
-    def autopilot(self, done) -> None:
-        if self.state.project is None or self.state.robot is None:
-            done(False, "no project or robot model (Setup step)")
-            return
-        if not self.state.virtual:
-            done(False, "the marker autopilot needs the virtual lab (load and train a marker image by hand)")
-            return
-        if self.busy:
-            done(False, "the page is busy")
-            return
-        self._autopilot_done = done
-        self._autopilot_next()
-
-    def _autopilot_next(self) -> None:
-        """One step of the demo: stereo (or preview) → training image → train → live pair → verify."""
-        if self._autopilot_done is None:
-            return
-        step = self._autopilot_step()
-        if step is not None:
-            action, why = step
-            if not action(then=self._autopilot_next):
-                self._finish_autopilot(False, self.status.text() or why)
-            return
-        v = self.verification
-        if self.is_complete():
-            self._finish_autopilot(True, f"{self.trained.n_image_features} SIFT features; {v.n_located}/{v.n} "
-                                         f"located, median 3D error {number(v.median_error, 3, 'mm')}")
-        else:
-            self._finish_autopilot(False, "the marker was not located in any verification pose")
-
-    def _autopilot_step(self) -> tuple[Callable[..., bool], str] | None:
-        """The demo's next action and what to say if it cannot start; None once it has verified."""
-        if self.stereo.rect is None:
-            return self.use_preview, "no stereo calibration"
-        if self.trained is None or self.saved_path is None:
-            if self.training_image is None or self.training_image.source != "virtual lab camera":
-                return self.capture_training, "no training image"
-            return self.train, "training could not start"
-        if self.live is None:
-            return self.next_pose, "no live pair"
-        if self.verification is None:
-            self.verification_panel.verify_spin.setValue(DEMO_VERIFY)
-            return self.verify, "verification could not start"
-        return None
 
     # -- tasks --------------------------------------------------------------------------------
     def on_busy_changed(self) -> None:
