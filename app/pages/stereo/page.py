@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Callable
 
 from PySide6.QtCore import Qt, QTimer
-from PySide6.QtWidgets import QFileDialog, QSplitter, QVBoxLayout, QWidget
+from PySide6.QtWidgets import QSplitter, QVBoxLayout, QWidget
 
 from app.jobs.stereo import AddedPair
 from app.html import number
@@ -33,6 +33,7 @@ from app.pages.steps import Step
 from app.pages.stereo.options_panel import OptionsPanel
 from app.pages.stereo.pairs_panel import VIRTUAL_PAIRS, PairsActions, PairsPanel
 from app.pages.stereo.job_queue import Job, JobQueueMixin
+from app.pages.stereo.file_actions import StereoFileActions
 from app.pages.stereo.results_panel import ResultsActions, ResultsPanel
 from app.pages.stereo.texts import (CAMERA_TOOLTIP_HARDWARE, CAMERA_TOOLTIP_LIVE, CAMERA_TOOLTIP_VIRTUAL,
                                     VIRTUAL_TOOLTIP)
@@ -40,12 +41,11 @@ from core.errors import RoboCalError
 from core.stereo.board import Board
 from core.stereo.calibration import StereoCalibrationResult, calibrate_stereo
 from core.stereo.checkerboard import MIN_PAIRS_TO_CALIBRATE, screen_pairs
-from core.locks import output_lock, output_locks
-from core.stereo.file import read_stereo_yaml, write_ros_camera_info, write_stereo_json, write_stereo_yaml
-from core.stereo.importers import FORMATS, read_any_stereo
+from core.stereo.file import read_stereo_yaml
+from core.stereo.importers import FORMATS
 
 
-class StereoPage(JobQueueMixin, PairsActions, ResultsActions, WizardPage):
+class StereoPage(JobQueueMixin, PairsActions, ResultsActions, StereoFileActions, WizardPage):
     step = Step.STEREO
 
     def __init__(self, state, tasks, **kwargs):
@@ -314,102 +314,3 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, WizardPage):
         self._set_status(text, ok=True)
         if self._autopilot_done is not None:
             QTimer.singleShot(0, self._autopilot_save)
-
-    # -- save and exports ---------------------------------------------------------------------------
-    def save_stereo(self) -> Path | None:
-        """Accept the calibration: stereo.yaml and its details (stereo.json, for the report)
-        into the project (atomic) and the result into the wizard's state."""
-        r, project = self.result, self.state.project
-        if r is None or project is None:
-            self._set_status("Nothing to save: calibrate first." if project is not None
-                             else "No project: create or open one in the Setup step (1).", ok=False)
-            return None
-        path = project.path("stereo")
-        try:
-            details = project.path("stereo_details")
-            with output_locks([path, details]):         # not while a robocal command writes them
-                write_stereo_yaml(path, r)
-                write_stereo_json(details, r)
-        except RoboCalError as exc:
-            self._set_status(f"stereo.yaml was not written: {exc.message}", ok=False)
-            return None
-        self.saved_path = path
-        self.state.set_stereo(r)
-        self._set_status(f"Saved {path} ({r.pairs_used} pairs, stereo RMS {r.file.rms_stereo:.3f} px). "
-                         "This step is done.", ok=True)
-        self.notify_complete()
-        return path
-
-    def import_stereo(self, paths: list[str] | None = None) -> Path | None:
-        """Make another tool's stereo calibration (one file, a pair, or ROS left + right) the
-        project's stereo.yaml; the page's own pairs and calibration stay as they are."""
-        project = self.state.project
-        if project is None or self.busy:
-            self._set_status("No project: create or open one in the Setup step (1)." if project is None
-                             else "Busy: wait for the running task or cancel it.", ok=False)
-            return None
-        if paths is None:
-            paths, _ = QFileDialog.getOpenFileNames(
-                self, "Import a stereo calibration (for a pair, select both files)", str(project.folder),
-                "Stereo calibrations (*.yaml *.yml *.xml *.json);;All files (*)")
-            if not paths:
-                return None
-        try:
-            imported = read_any_stereo(sorted(paths, key=_left_first))
-            path = write_stereo_yaml(project.path("stereo"), imported.file)
-        except RoboCalError as exc:
-            self._set_status(f"Not imported: {exc.message}", ok=False)
-            return None
-        self.saved_path = path
-        self.state.set_stereo(None)               # the project's calibration is now the imported file
-        sf = imported.file
-        notes = "".join(f" Note: {n}." for n in imported.notes)
-        errors = ("reprojection errors unknown" if sf.rms_stereo is None
-                  else f"stereo RMS {number(sf.rms_stereo, 3, 'px')}")
-        self._set_status(f"Imported {imported.kind} ({', '.join(p.name for p in imported.sources)}) as "
-                         f"{path.name}: {sf.image_size[0]}x{sf.image_size[1]} px, baseline {sf.baseline_mm:.1f} mm, "
-                         f"{errors}.{notes} This step is done.", ok=True)
-        self.notify_complete()
-        return path
-
-    def export_ros(self, folder: str | None = None) -> tuple[Path, Path] | None:
-        if self.result is None:
-            return None
-        if folder is None:
-            start = str(self.state.project.folder) if self.state.project is not None else ""
-            folder = QFileDialog.getExistingDirectory(self, "Folder for left.yaml and right.yaml (ROS camera_info)",
-                                                      start)
-            if not folder:
-                return None
-        try:
-            with output_locks([Path(folder) / "left.yaml", Path(folder) / "right.yaml"]):
-                paths = write_ros_camera_info(folder, self.result)
-        except RoboCalError as exc:
-            self._set_status(f"ROS camera_info not written: {exc.message}", ok=False)
-            return None
-        self._set_status(f"Wrote {paths[0]} and {paths[1].name} (ROS camera_info).", ok=True)
-        return paths
-
-    def export_json(self, path: str | None = None) -> Path | None:
-        if self.result is None:
-            return None
-        if path is None:
-            start = self.state.project.folder / "stereo.json" if self.state.project is not None else Path("stereo.json")
-            path, _ = QFileDialog.getSaveFileName(self, "Export the stereo calibration as JSON", str(start),
-                                                  "JSON (*.json)")
-            if not path:
-                return None
-        try:
-            with output_lock(path):
-                out = write_stereo_json(path, self.result)
-        except RoboCalError as exc:
-            self._set_status(f"JSON not written: {exc.message}", ok=False)
-            return None
-        self._set_status(f"Wrote {out}.", ok=True)
-        return Path(out)
-
-
-def _left_first(path: str) -> tuple[int, str]:
-    """File dialogs return names sorted alphabetically: ROS's left.yaml goes before right.yaml."""
-    name = Path(path).name.lower()
-    return (0 if "left" in name else 1 if "right" in name else 2, name)
