@@ -12,7 +12,7 @@ import pytest
 from PySide6.QtCore import QTimer
 
 from app import messages
-from app.pages.setup_page import SetupPage
+from app.pages.setup.page import SetupPage
 from app.state import WizardState
 from app.worker import TaskRunner
 from core.robot.controller_sim import ControllerSim

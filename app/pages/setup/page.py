@@ -1,8 +1,8 @@
 """Step 1, Setup: project folder, robot model (DH table), robot connection, cameras.
 
 The robot is the virtual lab's simulated robot or a controller on a serial port, tested here
-(setup_robot.py); the cameras are the virtual lab's or two live cameras, video files or image
-folders, previewed here (setup_cameras.py). A hardware project offers only real hardware."""
+(robot_panel.py); the cameras are the virtual lab's or two live cameras, video files or image
+folders, previewed here (cameras_panel.py). A hardware project offers only real hardware."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -16,8 +16,8 @@ from app import project_actions
 from app.html import esc
 from app.pages import forms
 from app.pages.base import WizardPage
-from app.pages.setup_cameras import CameraPanel
-from app.pages.setup_robot import RobotPanel
+from app.pages.setup.cameras_panel import CameraPanel
+from app.pages.setup.robot_panel import RobotPanel
 from app.pages.steps import Step
 from core import project as projects
 from core.errors import RoboCalError
