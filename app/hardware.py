@@ -20,7 +20,7 @@ from core.files import read_json
 from core.measurement.capture import CameraSettings, StereoFrames, StereoSource, open_camera
 from core.robot.joint_map import JointMap
 from core.robot.model import RobotModel
-from core.robot.profile import builtin_names, builtin_profile, read_profile
+from core.robot.profile import load_profile
 from core.robot.serial_robot import DEFAULT_SPEED, SerialRobot
 from core.robot.simulated import SimulatedRobot
 
@@ -60,8 +60,7 @@ def open_serial_robot(model: RobotModel, choice: RobotChoice, *, speed: float = 
     if not choice.port.strip():
         raise RoboCalError("no serial port given", field="port",
                            hint="Type the controller's device, e.g. /dev/ttyUSB0 or the path sim-robot printed.")
-    name = choice.profile.strip() or "robocal_v1"
-    profile = builtin_profile(name) if name in builtin_names() else read_profile(name)
+    profile = load_profile(choice.profile)
     joint_map = None
     if choice.joint_map.strip():
         data = read_json(choice.joint_map)

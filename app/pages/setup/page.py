@@ -17,6 +17,7 @@ from app.html import esc
 from app.pages import forms
 from app.pages.base import WizardPage
 from app.pages.setup.cameras_panel import CameraPanel
+from app.pages.setup.protocol_panel import ProtocolPanel
 from app.pages.setup.robot_panel import RobotPanel
 from app.pages.steps import Step
 from core import project as projects
@@ -102,6 +103,7 @@ class SetupPage(WizardPage):
 
         # -- connection and cameras ----------------------------------------------------
         self.robot_panel = RobotPanel(self)
+        self.protocol_panel = ProtocolPanel(self, self.robot_panel)
         self.camera_panel = CameraPanel(self)
         self.camera_panel.preview.setMinimumHeight(220)
 
@@ -111,6 +113,9 @@ class SetupPage(WizardPage):
         inner.addWidget(project_box)
         inner.addWidget(robot_box)
         inner.addWidget(self.robot_panel)
+        inner.addWidget(self.protocol_panel)
+        self.protocol_panel.setVisible(self.robot_panel.serial_radio.isChecked())
+        self.robot_panel.serial_radio.toggled.connect(self.protocol_panel.setVisible)
         inner.addWidget(self.camera_panel, 1)
         scroll = self.scroll = QScrollArea()
         scroll.setWidgetResizable(True)
@@ -174,9 +179,11 @@ class SetupPage(WizardPage):
 
     def on_leave(self) -> None:
         self.camera_panel.stop_preview()
+        self.protocol_panel.close_probe()
 
     def on_busy_changed(self) -> None:
         self.robot_panel.refresh()
+        self.protocol_panel.refresh()
         self.camera_panel.refresh()
 
     def autopilot(self, done) -> None:

@@ -8,6 +8,7 @@ calls the driver from the GUI thread at once, also during a move."""
 from __future__ import annotations
 
 import numpy as np
+from PySide6.QtCore import Signal
 from PySide6.QtWidgets import (QButtonGroup, QComboBox, QFileDialog, QGridLayout, QGroupBox, QLabel, QLineEdit,
                                QRadioButton, QVBoxLayout, QWidget)
 
@@ -24,7 +25,10 @@ BAUD_RATES = ("9600", "57600", "115200", "230400", "250000", "1000000")
 
 
 class RobotPanel(QGroupBox):
-    """`page`: the Setup page (its state, `start` and status line)."""
+    """`page`: the Setup page (its state, `start` and status line). `connecting`: emitted
+    before the port is opened for a connection."""
+
+    connecting = Signal()
 
     def __init__(self, page, parent: QWidget | None = None):
         super().__init__("Robot connection", parent)
@@ -146,6 +150,7 @@ class RobotPanel(QGroupBox):
             return False
         self.serial_radio.setChecked(True)
         choice = self.choice()
+        self.connecting.emit()
         return self.page.start(connect_serial, self.state.robot, choice, float(self.speed_spin.value()),
                                on_done=lambda c: self._connected(c, choice), label="Connecting the robot",
                                status=f"Connecting to {choice.port or '(no port)'}…")
