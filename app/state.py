@@ -18,7 +18,8 @@ The hardware chosen on the Setup page: `robot_choice` (app.hardware.RobotChoice)
 `robot_connection` (the driver every page moves: the virtual lab's SimulatedRobot, or a
 connected SerialRobot given by `use_serial_robot`), `camera_choice` and `cameras`
 (app.hardware.LiveCameras, None for the virtual lab's cameras; `set_cameras`,
-`camerasChanged`). `motion_confirmed`: the technician confirmed the first motion of this
+`camerasChanged`), `simulator` (a ControllerSim the Setup page started for a class without a
+robot, closed with the project; `set_simulator`, `simulatorChanged`). `motion_confirmed`: the technician confirmed the first motion of this
 real robot connection (app.safety).
 """
 from __future__ import annotations
@@ -39,6 +40,7 @@ from core.identification.model_comparison import TruthAccuracy
 from core.identification.solver import IdentificationResult
 from core.marker.training import TrainedMarker
 from core.poses.selection import PoseSelectionResult
+from core.robot.controller_sim import ControllerSim
 from core.robot.driver import RobotDriver
 from core.robot.file import read_robot
 from core.robot.model import RobotModel, robot_path
@@ -60,6 +62,7 @@ class WizardState(QObject):
     robotChanged = Signal(object)
     connectionChanged = Signal(object)
     camerasChanged = Signal(object)
+    simulatorChanged = Signal(object)
     stoppedChanged = Signal(bool)
     labChanged = Signal(object)
     stereoChanged = Signal(object)
@@ -78,6 +81,7 @@ class WizardState(QObject):
         self.motion_confirmed = False
         self.camera_choice = CameraChoice()
         self.cameras: LiveCameras | None = None
+        self.simulator: ControllerSim | None = None    # the Setup page's classroom controller simulator
         self.seed = seed                          # virtual lab: same seed, same lab
         self.noise = noise                        # virtual lab: sensor noise (grey levels)
         self.stereo: StereoCalibrationResult | None = None
@@ -105,6 +109,8 @@ class WizardState(QObject):
         """Make `project` current. Its robot (if any) becomes the robot; if it has none and a
         robot is already chosen, that robot is written into the project."""
         robot = projects.load_robot(project) if (project is not None and load_robot) else None
+        if project is not self.project:
+            self.set_simulator(None)
         self.project = project
         self._clear_results()
         self.projectChanged.emit(project)
@@ -221,6 +227,17 @@ class WizardState(QObject):
         self.camerasChanged.emit(cameras)          # previews of the old cameras stop first
         if old is not None and old is not cameras:
             old.close()
+
+    def set_simulator(self, sim: ControllerSim | None) -> None:
+        """The running controller simulator (None: none); the old one is closed, after a robot
+        connected to it was disconnected."""
+        old, self.simulator = self.simulator, sim
+        if old is not None and old is not sim:
+            driver = self.robot_connection
+            if is_real(driver) and getattr(driver, "port", None) == old.port:
+                self.use_virtual_robot()
+            old.close()
+        self.simulatorChanged.emit(sim)
 
     def stop_robot(self) -> bool:
         """Stop the robot now (the Stop key). Returns True if there was a robot to stop."""
@@ -359,6 +376,7 @@ class WizardState(QObject):
             self.robot_connection.disconnect()
         if self.cameras is not None:
             self.set_cameras(None)
+        self.set_simulator(None)
         for folder in self._temp_dirs:
             shutil.rmtree(folder, ignore_errors=True)
         self._temp_dirs.clear()

@@ -183,6 +183,7 @@ class SetupPage(WizardPage):
 
     def on_busy_changed(self) -> None:
         self.robot_panel.refresh()
+        self.robot_panel.simulator_row.refresh()
         self.protocol_panel.refresh()
         self.camera_panel.refresh()
 

@@ -16,6 +16,7 @@ from app.hardware import SERIAL, RobotChoice
 from app.html import esc
 from app.jobs.robot import Connected, connect_serial, move_and_read, read_joints
 from app.pages import forms
+from app.pages.setup.simulator_row import SimulatorRow
 from app.safety import motion_refused
 from core.errors import RoboCalError
 from core.robot.profile import builtin_names
@@ -119,6 +120,8 @@ class RobotPanel(QGroupBox):
         layout.addWidget(self.virtual_radio)
         layout.addWidget(self.serial_radio)
         layout.addWidget(self.serial_form)
+        self.simulator_row = SimulatorRow(page, self)
+        layout.addWidget(self.simulator_row)
         layout.addLayout(test)
 
         self.state.connectionChanged.connect(self.refresh)

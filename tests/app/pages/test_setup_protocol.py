@@ -130,3 +130,43 @@ def test_a_wrong_port_is_one_clear_message(page, qtbot, tmp_path):
     log = send(page, qtbot, "identify")
     assert "no-such-port" in log and "no-such-port" in page.status.text()
     assert page.protocol_panel.probe is None
+
+
+def test_the_classroom_simulator_starts_fills_the_port_and_stops_with_the_project(page, qtbot, tmp_path):
+    messages.set_non_interactive(True)
+    try:
+        row = page.robot_panel.simulator_row
+        row.protocol_combo.setCurrentIndex(row.protocol_combo.findData("grbl"))
+        row.seed_spin.setValue(3)
+        assert row.start()
+        qtbot.waitUntil(lambda: page.state.simulator is not None and not page.busy, timeout=30000)
+        sim = page.state.simulator
+        assert sim.protocol == "grbl" and sim.port.startswith("/dev/")
+        assert page.robot_panel.port_edit.text() == sim.port
+        assert page.robot_panel.profile_combo.currentText() == "grbl_joint_arm"
+        assert sim.port in row.device_label.text() and not row.start_button.isEnabled()
+        assert page.robot_panel.connect_robot()
+        qtbot.waitUntil(lambda: page.state.real_robot and not page.busy, timeout=10000)
+        assert page.state.robot_connection.port == sim.port
+        page.grab().save(str(tmp_path / "setup_simulator.png"))
+
+        page.state.new_project(tmp_path / "other")                  # the project closes: the simulator stops
+        assert page.state.simulator is None and not sim._thread.is_alive()
+        assert not page.state.real_robot
+        assert row.start_button.isEnabled() and row.device_label.text() == ""
+    finally:
+        messages.set_non_interactive(False)
+
+
+def test_closing_the_app_stops_the_simulator(qtbot, tmp_path):
+    state, tasks = WizardState(), TaskRunner()
+    state.choose_preset("educational_6r")
+    p = SetupPage(state, tasks)
+    qtbot.addWidget(p)
+    assert p.robot_panel.simulator_row.start()
+    qtbot.waitUntil(lambda: state.simulator is not None and not p.busy, timeout=30000)
+    sim = state.simulator
+    assert sim.protocol == "robocal" and p.robot_panel.profile_combo.currentText() == "robocal_v1"
+    tasks.shutdown()
+    state.close()
+    assert state.simulator is None and not sim._thread.is_alive()
