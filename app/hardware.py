@@ -17,7 +17,7 @@ import numpy as np
 
 from core.errors import RoboCalError
 from core.files import read_json
-from core.measurement.capture import CameraSettings, StereoFrames, StereoSource, open_camera
+from core.measurement.capture import CameraSettings, StereoFrames, StereoSource, open_camera, open_stereo
 from core.robot.joint_map import JointMap
 from core.robot.model import RobotModel
 from core.robot.profile import load_profile
@@ -94,13 +94,10 @@ class LiveCameras:
 
     @classmethod
     def open(cls, choice: CameraChoice, settings: CameraSettings | None = None) -> "LiveCameras":
-        left = open_camera(camera_spec(choice.left), settings)
-        try:
-            right = open_camera(camera_spec(choice.right), settings)
-        except BaseException:
-            left.close()
-            raise
-        return cls(StereoSource(left, right), choice)
+        left = camera_spec(choice.left)
+        if not str(choice.right).strip():
+            open_camera(left, settings).close()          # a bad left source is named first
+        return cls(open_stereo(left, camera_spec(choice.right), settings), choice)
 
     @property
     def warnings(self) -> list[str]:
