@@ -87,9 +87,11 @@ def camera_spec(text: str) -> int | str:
 class LiveCameras:
     """Two opened cameras (left, right), one lock for previews and captures."""
 
-    def __init__(self, source: StereoSource, choice: CameraChoice | None = None):
+    def __init__(self, source: StereoSource, choice: CameraChoice | None = None,
+                 settings: CameraSettings | None = None):
         self.source = source
         self.choice = choice
+        self.settings = settings
         self._lock = threading.Lock()
 
     @classmethod
@@ -97,7 +99,7 @@ class LiveCameras:
         left = camera_spec(choice.left)
         if not str(choice.right).strip():
             open_camera(left, settings).close()          # a bad left source is named first
-        return cls(open_stereo(left, camera_spec(choice.right), settings), choice)
+        return cls(open_stereo(left, camera_spec(choice.right), settings), choice, settings)
 
     @property
     def warnings(self) -> list[str]:

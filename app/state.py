@@ -19,13 +19,16 @@ The hardware chosen on the Setup page: `robot_choice` (app.hardware.RobotChoice)
 connected SerialRobot given by `use_serial_robot`), `camera_choice` and `cameras`
 (app.hardware.LiveCameras, None for the virtual lab's cameras; `set_cameras`,
 `camerasChanged`), `simulator` (a ControllerSim the Setup page started for a class without a
-robot, closed with the project; `set_simulator`, `simulatorChanged`). `motion_confirmed`: the technician confirmed the first motion of this
+robot, closed with the project; `set_simulator`, `simulatorChanged`). The robot connection
+and the cameras opened are recorded in project.json; `camera_changes` says how the cameras
+opened differ from those the project recorded (a swapped cable). `motion_confirmed`: the technician confirmed the first motion of this
 real robot connection (app.safety).
 """
 from __future__ import annotations
 
 import shutil
 import tempfile
+from dataclasses import asdict
 from pathlib import Path
 from typing import Callable
 
@@ -40,6 +43,7 @@ from core.identification.model_comparison import TruthAccuracy
 from core.identification.solver import IdentificationResult
 from core.marker.training import TrainedMarker
 from core.poses.selection import PoseSelectionResult
+from core.measurement.capture import CameraIdentity
 from core.robot.controller_sim import ControllerSim
 from core.robot.driver import RobotDriver
 from core.robot.file import read_robot
@@ -81,6 +85,7 @@ class WizardState(QObject):
         self.motion_confirmed = False
         self.camera_choice = CameraChoice()
         self.cameras: LiveCameras | None = None
+        self.camera_changes: list[str] = []      # what differs from the cameras the project recorded
         self.simulator: ControllerSim | None = None    # the Setup page's classroom controller simulator
         self.seed = seed                          # virtual lab: same seed, same lab
         self.noise = noise                        # virtual lab: sensor noise (grey levels)
@@ -208,6 +213,10 @@ class WizardState(QObject):
             old.stop()
             old.disconnect()
         self.robot_connection = driver
+        if self.project is not None:
+            projects.save_hardware(self.project, robot_connection={
+                "kind": choice.kind, "port": choice.port, "profile": choice.profile, "joint_map": choice.joint_map,
+                "baud": choice.baud, "speed": float(driver.speed)})
         self.connectionChanged.emit(driver)
 
     def use_virtual_robot(self) -> None:
@@ -224,9 +233,31 @@ class WizardState(QObject):
         """The two cameras to capture from (None: the virtual lab's); the old ones are closed."""
         old, self.cameras = self.cameras, cameras
         self.camera_choice = choice or (cameras.choice if cameras is not None else None) or CameraChoice()
+        self.camera_changes = self._remember_cameras(cameras) if cameras is not None else []
         self.camerasChanged.emit(cameras)          # previews of the old cameras stop first
         if old is not None and old is not cameras:
             old.close()
+
+    def _remember_cameras(self, cameras: LiveCameras) -> list[str]:
+        """Record the opened cameras in the project (sources, settings, identity); returns what
+        changed since the identity recorded before (a swapped cable, another camera)."""
+        if self.project is None:
+            return []
+        now = cameras.source.identities()
+        before = (self.project.cameras or {}).get("identity") or {}
+        changes = []
+        try:
+            expected = (CameraIdentity(**before["left"]), CameraIdentity(**before["right"]))
+        except (KeyError, TypeError):
+            expected = None
+        if expected is not None:
+            changes = cameras.source.check_identities(expected)
+        choice = self.camera_choice
+        projects.save_hardware(self.project, cameras={
+            "kind": choice.kind, "left": choice.left, "right": choice.right,
+            "settings": asdict(cameras.settings) if cameras.settings is not None else None,
+            "identity": {side: {"name": i.name, "bus": i.bus} for side, i in zip(("left", "right"), now)}})
+        return changes
 
     def set_simulator(self, sim: ControllerSim | None) -> None:
         """The running controller simulator (None: none); the old one is closed, after a robot

@@ -70,10 +70,24 @@ class CameraPanel(QGroupBox):
         layout.addWidget(self.preview, 1)
         layout.addWidget(self.status_label)
         self.state.camerasChanged.connect(self._cameras_changed)
+        self.state.projectChanged.connect(self.restore)
         self.refresh()
 
     def choice(self) -> CameraChoice:
         return CameraChoice(SOURCES, self.left_edit.text().strip(), self.right_edit.text().strip())
+
+    def restore(self, project) -> None:
+        """Fill the fields with the cameras the project recorded (opened with Open cameras)."""
+        saved = (project.cameras if project is not None else None) or {}
+        if saved.get("kind") != SOURCES:
+            return
+        self.left_edit.setText(str(saved.get("left") or ""))
+        self.right_edit.setText(str(saved.get("right") or ""))
+        try:
+            self.settings_form.set_settings(CameraSettings(**(saved.get("settings") or {})))
+        except TypeError:                       # settings of another version: the form's defaults
+            pass
+        self.sources_radio.setChecked(True)
 
     def _browse(self, edit: QLineEdit, folder: bool) -> None:
         if folder:
@@ -124,7 +138,10 @@ class CameraPanel(QGroupBox):
     def _cameras_changed(self, cams) -> None:
         self.stop_preview()
         self.preview.clear()
-        if cams is not None:
+        if cams is not None and self.state.camera_changes:
+            self.page._set_status("⚠ Not the cameras this project used: " + "; ".join(self.state.camera_changes)
+                                  + ". Check the cables (left and right) before capturing.", False)
+        elif cams is not None:
             self.page._set_status("✓ Cameras open.", True)
             if self.isVisible():
                 self.start_preview()
@@ -155,5 +172,6 @@ class CameraPanel(QGroupBox):
             self.status_label.setText("Give the left and right camera, then Open cameras. Auto focus is switched "
                                       "off and the MJPG format asked for, so both cameras fit on the USB bus.")
         else:
-            self.status_label.setText(esc(cams.describe()) + "<br>"
+            changed = "".join(f"<br><b style='color:#c5221f'>⚠ {esc(c)}</b>" for c in self.state.camera_changes)
+            self.status_label.setText(esc(cams.describe()) + changed + "<br>"
                                       + actual_table(cams.source.left, cams.source.right))

@@ -126,6 +126,7 @@ class RobotPanel(QGroupBox):
 
         self.state.connectionChanged.connect(self.refresh)
         self.state.robotChanged.connect(self._robot_changed)
+        self.state.projectChanged.connect(self.restore)
         self.state.stoppedChanged.connect(self.refresh)
         self._robot_changed()
 
@@ -134,6 +135,19 @@ class RobotPanel(QGroupBox):
         baud = self.baud_combo.currentText().strip()
         return RobotChoice(SERIAL, self.port_edit.text().strip(), self.profile_combo.currentText().strip(),
                            self.joint_map_edit.text().strip(), int(baud) if baud.isdigit() else None)
+
+    def restore(self, project) -> None:
+        """Fill the fields with the serial robot the project recorded (not connected yet)."""
+        saved = (project.robot_connection if project is not None else None) or {}
+        if saved.get("kind") != SERIAL:
+            return
+        self.port_edit.setText(str(saved.get("port") or ""))
+        self.profile_combo.setCurrentText(str(saved.get("profile") or "robocal_v1"))
+        self.joint_map_edit.setText(str(saved.get("joint_map") or ""))
+        self.baud_combo.setCurrentText(str(saved.get("baud") or "115200"))
+        if isinstance(saved.get("speed"), (int, float)):
+            self.speed_spin.setValue(int(round(saved["speed"])))
+        self.serial_radio.setChecked(True)
 
     def _browse_joint_map(self) -> None:
         path, _ = QFileDialog.getOpenFileName(self, "Joint map", "", "Joint map (*.json);;All files (*)")
