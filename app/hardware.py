@@ -17,10 +17,10 @@ import numpy as np
 
 from core.errors import RoboCalError
 from core.files import read_json
-from core.measurement.capture import CameraSettings, StereoFrames, StereoSource, open_camera
+from core.measurement.capture import CameraSettings, StereoFrames, StereoSource, open_camera, open_stereo
 from core.robot.joint_map import JointMap
 from core.robot.model import RobotModel
-from core.robot.profile import builtin_names, builtin_profile, read_profile
+from core.robot.profile import load_profile
 from core.robot.serial_robot import DEFAULT_SPEED, SerialRobot
 from core.robot.simulated import SimulatedRobot
 
@@ -60,8 +60,7 @@ def open_serial_robot(model: RobotModel, choice: RobotChoice, *, speed: float = 
     if not choice.port.strip():
         raise RoboCalError("no serial port given", field="port",
                            hint="Type the controller's device, e.g. /dev/ttyUSB0 or the path sim-robot printed.")
-    name = choice.profile.strip() or "robocal_v1"
-    profile = builtin_profile(name) if name in builtin_names() else read_profile(name)
+    profile = load_profile(choice.profile)
     joint_map = None
     if choice.joint_map.strip():
         data = read_json(choice.joint_map)
@@ -88,20 +87,19 @@ def camera_spec(text: str) -> int | str:
 class LiveCameras:
     """Two opened cameras (left, right), one lock for previews and captures."""
 
-    def __init__(self, source: StereoSource, choice: CameraChoice | None = None):
+    def __init__(self, source: StereoSource, choice: CameraChoice | None = None,
+                 settings: CameraSettings | None = None):
         self.source = source
         self.choice = choice
+        self.settings = settings
         self._lock = threading.Lock()
 
     @classmethod
     def open(cls, choice: CameraChoice, settings: CameraSettings | None = None) -> "LiveCameras":
-        left = open_camera(camera_spec(choice.left), settings)
-        try:
-            right = open_camera(camera_spec(choice.right), settings)
-        except BaseException:
-            left.close()
-            raise
-        return cls(StereoSource(left, right), choice)
+        left = camera_spec(choice.left)
+        if not str(choice.right).strip():
+            open_camera(left, settings).close()          # a bad left source is named first
+        return cls(open_stereo(left, camera_spec(choice.right), settings), choice, settings)
 
     @property
     def warnings(self) -> list[str]:

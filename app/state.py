@@ -18,13 +18,17 @@ The hardware chosen on the Setup page: `robot_choice` (app.hardware.RobotChoice)
 `robot_connection` (the driver every page moves: the virtual lab's SimulatedRobot, or a
 connected SerialRobot given by `use_serial_robot`), `camera_choice` and `cameras`
 (app.hardware.LiveCameras, None for the virtual lab's cameras; `set_cameras`,
-`camerasChanged`). `motion_confirmed`: the technician confirmed the first motion of this
+`camerasChanged`), `simulator` (a ControllerSim the Setup page started for a class without a
+robot, closed with the project; `set_simulator`, `simulatorChanged`). The robot connection
+and the cameras opened are recorded in project.json; `camera_changes` says how the cameras
+opened differ from those the project recorded (a swapped cable). `motion_confirmed`: the technician confirmed the first motion of this
 real robot connection (app.safety).
 """
 from __future__ import annotations
 
 import shutil
 import tempfile
+from dataclasses import asdict
 from pathlib import Path
 from typing import Callable
 
@@ -39,6 +43,8 @@ from core.identification.model_comparison import TruthAccuracy
 from core.identification.solver import IdentificationResult
 from core.marker.training import TrainedMarker
 from core.poses.selection import PoseSelectionResult
+from core.measurement.capture import CameraIdentity
+from core.robot.controller_sim import ControllerSim
 from core.robot.driver import RobotDriver
 from core.robot.file import read_robot
 from core.robot.model import RobotModel, robot_path
@@ -60,6 +66,7 @@ class WizardState(QObject):
     robotChanged = Signal(object)
     connectionChanged = Signal(object)
     camerasChanged = Signal(object)
+    simulatorChanged = Signal(object)
     stoppedChanged = Signal(bool)
     labChanged = Signal(object)
     stereoChanged = Signal(object)
@@ -78,6 +85,8 @@ class WizardState(QObject):
         self.motion_confirmed = False
         self.camera_choice = CameraChoice()
         self.cameras: LiveCameras | None = None
+        self.camera_changes: list[str] = []      # what differs from the cameras the project recorded
+        self.simulator: ControllerSim | None = None    # the Setup page's classroom controller simulator
         self.seed = seed                          # virtual lab: same seed, same lab
         self.noise = noise                        # virtual lab: sensor noise (grey levels)
         self.stereo: StereoCalibrationResult | None = None
@@ -105,6 +114,8 @@ class WizardState(QObject):
         """Make `project` current. Its robot (if any) becomes the robot; if it has none and a
         robot is already chosen, that robot is written into the project."""
         robot = projects.load_robot(project) if (project is not None and load_robot) else None
+        if project is not self.project:
+            self.set_simulator(None)
         self.project = project
         self._clear_results()
         self.projectChanged.emit(project)
@@ -202,6 +213,10 @@ class WizardState(QObject):
             old.stop()
             old.disconnect()
         self.robot_connection = driver
+        if self.project is not None:
+            projects.save_hardware(self.project, robot_connection={
+                "kind": choice.kind, "port": choice.port, "profile": choice.profile, "joint_map": choice.joint_map,
+                "baud": choice.baud, "speed": float(driver.speed)})
         self.connectionChanged.emit(driver)
 
     def use_virtual_robot(self) -> None:
@@ -218,9 +233,42 @@ class WizardState(QObject):
         """The two cameras to capture from (None: the virtual lab's); the old ones are closed."""
         old, self.cameras = self.cameras, cameras
         self.camera_choice = choice or (cameras.choice if cameras is not None else None) or CameraChoice()
+        self.camera_changes = self._remember_cameras(cameras) if cameras is not None else []
         self.camerasChanged.emit(cameras)          # previews of the old cameras stop first
         if old is not None and old is not cameras:
             old.close()
+
+    def _remember_cameras(self, cameras: LiveCameras) -> list[str]:
+        """Record the opened cameras in the project (sources, settings, identity); returns what
+        changed since the identity recorded before (a swapped cable, another camera)."""
+        if self.project is None:
+            return []
+        now = cameras.source.identities()
+        before = (self.project.cameras or {}).get("identity") or {}
+        changes = []
+        try:
+            expected = (CameraIdentity(**before["left"]), CameraIdentity(**before["right"]))
+        except (KeyError, TypeError):
+            expected = None
+        if expected is not None:
+            changes = cameras.source.check_identities(expected)
+        choice = self.camera_choice
+        projects.save_hardware(self.project, cameras={
+            "kind": choice.kind, "left": choice.left, "right": choice.right,
+            "settings": asdict(cameras.settings) if cameras.settings is not None else None,
+            "identity": {side: {"name": i.name, "bus": i.bus} for side, i in zip(("left", "right"), now)}})
+        return changes
+
+    def set_simulator(self, sim: ControllerSim | None) -> None:
+        """The running controller simulator (None: none); the old one is closed, after a robot
+        connected to it was disconnected."""
+        old, self.simulator = self.simulator, sim
+        if old is not None and old is not sim:
+            driver = self.robot_connection
+            if is_real(driver) and getattr(driver, "port", None) == old.port:
+                self.use_virtual_robot()
+            old.close()
+        self.simulatorChanged.emit(sim)
 
     def stop_robot(self) -> bool:
         """Stop the robot now (the Stop key). Returns True if there was a robot to stop."""
@@ -359,6 +407,7 @@ class WizardState(QObject):
             self.robot_connection.disconnect()
         if self.cameras is not None:
             self.set_cameras(None)
+        self.set_simulator(None)
         for folder in self._temp_dirs:
             shutil.rmtree(folder, ignore_errors=True)
         self._temp_dirs.clear()

@@ -11,7 +11,9 @@ my-robot/
   calibrated.json     identified robot model (Identification)
 ```
 The project file names the robot file (relative to the folder) and the mode: "virtual-lab"
-(simulated robot and cameras) or "hardware". No Qt here: the wizard and the command line
+(simulated robot and cameras) or "hardware". The Setup page records there the serial robot it
+connected (`robot_connection`: kind, port, profile, joint_map, baud, speed %) and the cameras it
+opened (`cameras`: kind, left, right, settings, identity {left, right: {name, bus}}). No Qt here: the wizard and the command line
 share this module.
 """
 from __future__ import annotations
@@ -53,6 +55,8 @@ class Project:
     robot: str | None = None          # robot file name, relative to the folder
     robot_source: str | None = None   # where it came from ("preset:ur5", a path), for the user
     created: str = ""                 # ISO 8601, UTC
+    robot_connection: dict | None = None   # Setup: the serial robot (port, profile, joint_map, baud, speed)
+    cameras: dict | None = None            # Setup: the two sources (left, right, settings, identity)
 
     @property
     def file(self) -> Path:
@@ -72,8 +76,13 @@ class Project:
         return self.path(output).is_file()
 
     def to_dict(self) -> dict:
-        return {"format": FORMAT, "name": self.name, "robot": self.robot,
+        data = {"format": FORMAT, "name": self.name, "robot": self.robot,
                 "robot_source": self.robot_source, "mode": self.mode, "created": self.created}
+        if self.robot_connection is not None:
+            data["robot_connection"] = self.robot_connection
+        if self.cameras is not None:
+            data["cameras"] = self.cameras
+        return data
 
 
 def _now() -> str:
@@ -125,13 +134,30 @@ def open_project(path: str | Path) -> Project:
     if source is not None:
         source = text(source, file, "robot_source")
     created = text(data.get("created", ""), file, "created")
+    hardware = {}
+    for key in ("robot_connection", "cameras"):
+        value = data.get(key)
+        if value is not None and not isinstance(value, dict):
+            raise RoboCalError("expected an object", source=file, field=key,
+                               hint="Delete the field and choose the hardware again on the Setup page.")
+        hardware[key] = value
     return Project(folder=file.parent, name=name, mode=mode, robot=robot, robot_source=source,
-                   created=created)
+                   created=created, **hardware)
 
 
 def save_project(project: Project) -> Path:
     """Write project.json atomically."""
     return atomic_write_json(project.file, project.to_dict())
+
+
+def save_hardware(project: Project, *, robot_connection: dict | None = None, cameras: dict | None = None) -> Path:
+    """Record the Setup page's robot connection and/or cameras in project.json (atomically);
+    a section not given is kept."""
+    if robot_connection is not None:
+        project.robot_connection = robot_connection
+    if cameras is not None:
+        project.cameras = cameras
+    return save_project(project)
 
 
 def save_robot(project: Project, model: RobotModel, source: str | None = None) -> Path:

@@ -32,7 +32,7 @@ def add_arguments(parser) -> None:
 
 
 def _prepare_state(state, args) -> None:
-    from app.pages.setup_page import DEMO_PRESET
+    from app.pages.setup.page import DEMO_PRESET
     from core.project import PROJECT_FILE
 
     if args.project:

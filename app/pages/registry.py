@@ -15,7 +15,7 @@ from app.pages.load_error_page import PageLoadErrorPage
 from app.pages.marker.page import MarkerPage
 from app.pages.measurement.page import MeasurementPage
 from app.pages.poses.page import PosesPage
-from app.pages.setup_page import SetupPage
+from app.pages.setup.page import SetupPage
 from app.pages.steps import Step
 from app.pages.stereo.page import StereoPage
 from app.worker import error_message

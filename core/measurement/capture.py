@@ -39,7 +39,9 @@ USB_BANDWIDTH_HINT = ("Use the MJPG pixel format, a lower resolution or frame ra
 @dataclass
 class CameraSettings:
     """Wanted settings; None leaves the camera's own value. Exposure and gain in the
-    driver's units (V4L2: exposure in 100 µs steps), white balance in kelvin."""
+    driver's units (V4L2: exposure in 100 µs steps), white balance in kelvin. Exposure and
+    white balance are locked to manual (at the camera's current value when none is given)
+    unless `lock_exposure` / `lock_white_balance` is False."""
 
     width: int | None = None
     height: int | None = None
@@ -50,6 +52,8 @@ class CameraSettings:
     autofocus: bool = False
     focus: float | None = None
     white_balance: float | None = None
+    lock_exposure: bool = True
+    lock_white_balance: bool = True
 
 
 @dataclass(frozen=True)
@@ -114,8 +118,7 @@ class VideoCamera(Camera):
             raise RoboCalError("cannot open the camera or video" + _explain(err()), source=spec,
                                hint=USB_BANDWIDTH_HINT if _bandwidth(err()) else "Check the cable, the path "
                                "and that no other program uses the camera.")
-        if self.live:
-            self._apply(settings or CameraSettings())
+        self._apply(settings or CameraSettings())
         self._first = True
 
     @property
@@ -131,35 +134,28 @@ class VideoCamera(Camera):
         return CameraIdentity(name, bus)
 
     def _apply(self, s: CameraSettings) -> None:
-        """Format first, then size, then the rest; each set() checked, actual values read back."""
+        """Each step of `setting_steps` set() and read back: `settings` holds what the source
+        really uses, `warnings` a line per setting that did not take. A video file takes none
+        of them (its images are recorded): the values asked for are reported as not taken."""
         cap = self._cap
-        steps = []
-        if s.pixel_format:
-            steps.append(("pixel format", cv2.CAP_PROP_FOURCC, cv2.VideoWriter_fourcc(*s.pixel_format[:4])))
-        steps += [("width", cv2.CAP_PROP_FRAME_WIDTH, s.width), ("height", cv2.CAP_PROP_FRAME_HEIGHT, s.height),
-                  ("frame rate", cv2.CAP_PROP_FPS, s.fps)]
-        if s.exposure is not None:
-            steps += [("auto exposure off", cv2.CAP_PROP_AUTO_EXPOSURE, 1), ("exposure", cv2.CAP_PROP_EXPOSURE,
-                                                                               s.exposure)]
-        steps.append(("gain", cv2.CAP_PROP_GAIN, s.gain))
-        steps.append(("auto focus", cv2.CAP_PROP_AUTOFOCUS, 1 if s.autofocus else 0))
-        if not s.autofocus:
-            steps.append(("focus", cv2.CAP_PROP_FOCUS, s.focus))
-        if s.white_balance is not None:
-            steps += [("auto white balance off", cv2.CAP_PROP_AUTO_WB, 0),
-                      ("white balance", cv2.CAP_PROP_WB_TEMPERATURE, s.white_balance)]
-        for label, prop, value in steps:
-            if value is None:
-                continue
+        kind = "the camera" if self.live else "the video file"
+        for label, prop, value in setting_steps(s, live=self.live):
             ok = cap.set(prop, float(value))
             actual = cap.get(prop)
             shown = _fourcc_text(actual) if prop == cv2.CAP_PROP_FOURCC else actual
             self.settings[label] = shown
-            wanted = s.pixel_format if prop == cv2.CAP_PROP_FOURCC else value
+            wanted = _fourcc_text(value) if prop == cv2.CAP_PROP_FOURCC else value
             if not ok:
-                self.warnings.append(f"{self.spec}: the camera refused {label} = {wanted} (it uses {shown})")
+                has = "it has no such control" if shown == -1 else f"it uses {_text(shown)}"
+                self.warnings.append(f"{self.spec}: {kind} refused {label} = {_text(wanted)} ({has})")
             elif (shown != wanted) if prop == cv2.CAP_PROP_FOURCC else abs(float(actual) - float(value)) > 1e-6:
-                self.warnings.append(f"{self.spec}: {label} = {wanted} did not take (the camera uses {shown})")
+                self.warnings.append(f"{self.spec}: {label} = {_text(wanted)} did not take "
+                                     f"({kind} uses {_text(shown)})")
+        for label, prop in (("width", cv2.CAP_PROP_FRAME_WIDTH), ("height", cv2.CAP_PROP_FRAME_HEIGHT),
+                            ("frame rate", cv2.CAP_PROP_FPS), ("pixel format", cv2.CAP_PROP_FOURCC)):
+            if label not in self.settings:
+                value = cap.get(prop)
+                self.settings[label] = _fourcc_text(value) if prop == cv2.CAP_PROP_FOURCC else value
 
     def grab(self) -> bool:
         if self._first and self.live:
@@ -186,9 +182,10 @@ class VideoCamera(Camera):
 
 
 class FolderCamera(Camera):
-    """The images of a folder in sorted name order, one per grab."""
+    """The images of a folder in sorted name order, one per grab. It takes no setting: the
+    values asked for are reported as not taken, its size is the first image's."""
 
-    def __init__(self, folder: str | Path):
+    def __init__(self, folder: str | Path, settings: CameraSettings | None = None):
         super().__init__(folder)
         self.files = sorted(p for p in Path(folder).iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
         if not self.files:
@@ -196,6 +193,12 @@ class FolderCamera(Camera):
                                hint=f"Put {', '.join(sorted(IMAGE_SUFFIXES))} files in it.")
         self._next = 0
         self._current: Path | None = None
+        first = cv2.imread(str(self.files[0]), cv2.IMREAD_UNCHANGED)
+        if first is not None:
+            self.settings = {"width": float(first.shape[1]), "height": float(first.shape[0])}
+        for label, _, value in setting_steps(settings or CameraSettings(), live=False):
+            has = f" (its images have {_text(self.settings[label])})" if label in self.settings else ""
+            self.warnings.append(f"{folder}: the image folder cannot take {label} = {_text(value)}{has}")
 
     @property
     def identity(self) -> CameraIdentity:
@@ -224,8 +227,32 @@ class FolderCamera(Camera):
 def open_camera(spec, settings: CameraSettings | None = None) -> Camera:
     """A camera from a device index or path, a video file or an image folder."""
     if not isinstance(spec, int) and Path(str(spec)).is_dir():
-        return FolderCamera(spec)
+        return FolderCamera(spec, settings)
     return VideoCamera(spec, settings)
+
+
+def open_stereo(left_spec, right_spec, settings: CameraSettings | None = None) -> StereoSource:
+    """Both cameras opened, each live one giving its first frame (so a stream the USB bus
+    cannot carry fails here). When the second live camera fails while the first one runs, the
+    message says what to change (MJPG, a lower resolution or frame rate, two USB controllers)."""
+    left = open_camera(left_spec, settings)
+    try:
+        if left.live:
+            left.grab()
+        try:
+            right = open_camera(right_spec, settings)
+            if right.live:
+                right.grab()
+        except RoboCalError as exc:
+            if left.live and _device_path(right_spec) is not None and exc.hint != USB_BANDWIDTH_HINT:
+                raise RoboCalError(f"{exc.problem}; the first camera ({left.spec}) runs, so the USB bus likely "
+                                   "has no bandwidth left for the second one", source=right_spec,
+                                   hint=USB_BANDWIDTH_HINT) from None
+            raise
+    except BaseException:
+        left.close()
+        raise
+    return StereoSource(left, right)
 
 
 class StereoSource:
@@ -299,11 +326,39 @@ class RenderedSource:
 
 # -- helpers -------------------------------------------------------------------------------------
 
+def setting_steps(s: CameraSettings, *, live: bool = True) -> list[tuple[str, int, float]]:
+    """(label, cv2 property, value) in the order they are set: the pixel format BEFORE width
+    and height (a format change resets the size; MJPG first keeps two cameras within the USB
+    bandwidth), then frame rate, exposure, gain, focus and white balance with their automatic
+    modes off. For a recording (`live` False) only the values asked for: it has no automatic
+    modes and no format to choose."""
+    steps: list[tuple[str, int, float | None]] = []
+    if live and s.pixel_format:
+        steps.append(("pixel format", cv2.CAP_PROP_FOURCC, cv2.VideoWriter_fourcc(*s.pixel_format[:4].ljust(4))))
+    steps += [("width", cv2.CAP_PROP_FRAME_WIDTH, s.width), ("height", cv2.CAP_PROP_FRAME_HEIGHT, s.height),
+              ("frame rate", cv2.CAP_PROP_FPS, s.fps)]
+    if live and (s.lock_exposure or s.exposure is not None):
+        steps.append(("auto exposure off", cv2.CAP_PROP_AUTO_EXPOSURE, 1))       # V4L2_EXPOSURE_MANUAL
+    steps += [("exposure", cv2.CAP_PROP_EXPOSURE, s.exposure), ("gain", cv2.CAP_PROP_GAIN, s.gain)]
+    if live:
+        steps.append(("auto focus", cv2.CAP_PROP_AUTOFOCUS, 1 if s.autofocus else 0))
+    if not s.autofocus:
+        steps.append(("focus", cv2.CAP_PROP_FOCUS, s.focus))
+    if live and (s.lock_white_balance or s.white_balance is not None):
+        steps.append(("auto white balance off", cv2.CAP_PROP_AUTO_WB, 0))
+    steps.append(("white balance", cv2.CAP_PROP_WB_TEMPERATURE, s.white_balance))
+    return [(label, prop, float(value)) for label, prop, value in steps if value is not None]
+
+
 def _device_path(spec) -> str | None:
     if isinstance(spec, int) or str(spec).isdigit():
         return f"/dev/video{int(spec)}"
     text = str(spec)
     return text if text.startswith("/dev/") else None
+
+
+def _text(value) -> str:
+    return f"{value:g}" if isinstance(value, float) else str(value)
 
 
 def _fourcc_text(value: float) -> str:

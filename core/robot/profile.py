@@ -115,6 +115,12 @@ def builtin_profile(name: str) -> ProtocolProfile:
     return read_profile(resource_path("robots", "profiles", f"{name}.json"))
 
 
+def load_profile(name: str) -> ProtocolProfile:
+    """A built-in profile by its name, or a profile file by its path."""
+    name = name.strip() or "robocal_v1"
+    return builtin_profile(name) if name in builtin_names() else read_profile(name)
+
+
 def builtin_names() -> list[str]:
     return sorted(p.stem for p in Path(resource_path("robots", "profiles")).glob("*.json"))
 

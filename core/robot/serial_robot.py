@@ -17,6 +17,7 @@ from __future__ import annotations
 import re
 import threading
 import time
+from contextlib import contextmanager
 
 import numpy as np
 
@@ -114,6 +115,19 @@ class SerialRobot(RobotDriver):
         link, self._link = self._link, None
         if link is not None:
             link.close()
+
+    @contextmanager
+    def borrow_link(self):
+        """The open link, for a protocol test between two of the driver's exchanges (lines
+        that came meanwhile are dropped before and after, so the driver starts clean)."""
+        self._require_link()
+        with self._tx:
+            self._link.discard_pending()
+            try:
+                yield self._link
+            finally:
+                if self._link is not None:
+                    self._link.discard_pending()
 
     # -- motion --------------------------------------------------------------------------
     def _apply_speed(self, percent: float) -> None:

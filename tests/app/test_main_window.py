@@ -249,7 +249,7 @@ def test_every_registered_page_is_a_wizard_page_of_its_step():
 
 
 def test_page_registered_for_the_wrong_step_is_refused(qtbot):
-    from app.pages.setup_page import SetupPage
+    from app.pages.setup.page import SetupPage
     from app.worker import TaskRunner
     state, tasks = WizardState(), TaskRunner()
     with pytest.raises(TypeError, match="registered for STEREO"):

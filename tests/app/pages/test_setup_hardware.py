@@ -12,7 +12,7 @@ import pytest
 from PySide6.QtCore import QTimer
 
 from app import messages
-from app.pages.setup_page import SetupPage
+from app.pages.setup.page import SetupPage
 from app.state import WizardState
 from app.worker import TaskRunner
 from core.robot.controller_sim import ControllerSim
@@ -200,3 +200,30 @@ def test_a_missing_camera_source_names_it(page, qtbot, tmp_path):
     assert panel.open_cameras()
     qtbot.waitUntil(lambda: not page.busy, timeout=10000)
     assert "nothing.avi" in page.status.text() and page.state.cameras is None
+
+
+def test_camera_settings_are_asked_and_what_did_not_take_is_shown(page, qtbot, tmp_path):
+    left, right = write_video(tmp_path / "left.avi", frames=5), tmp_path / "right"
+    right.mkdir()
+    for i in range(3):
+        cv2.imwrite(str(right / f"img_{i}.png"), np.full((120, 160), 60 * i, np.uint8))
+    panel = page.camera_panel
+    form = panel.settings_form
+    assert not form.autofocus_check.isChecked() and form.format_combo.currentData() == "MJPG"
+    assert form.settings().width is None and form.width_spin.text() == "camera's"
+    form.width_spin.setValue(1280)
+    form.height_spin.setValue(1024)
+    form.gain_spin.setValue(4)
+    panel.left_edit.setText(str(left))
+    panel.right_edit.setText(str(right))
+    assert panel.open_cameras()
+    qtbot.waitUntil(lambda: page.state.cameras is not None, timeout=10000)
+    text = panel.status_label.text()
+    assert "Settings that did not take" in text
+    assert "the video file refused width = 1280 (it uses 640)" in text
+    assert "the image folder cannot take height = 1024 (its images have 120)" in text
+    assert "the image folder cannot take gain = 4" in text
+    assert "<td align='right'>640</td><td align='right'>160</td>" in text     # actual widths, left and right
+    qtbot.wait(300)                                                  # frames shown, layout settled
+    panel.grab().save(str(tmp_path / "setup_cameras.png"))
+    print(tmp_path / "setup_cameras.png")

@@ -8,7 +8,7 @@ import pytest
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QAbstractButton, QGroupBox, QLabel, QRadioButton
 
-from app.pages.setup_page import SetupPage
+from app.pages.setup.page import SetupPage
 from app.state import WizardState
 from app.worker import TaskRunner
 from core import project as projects

@@ -84,3 +84,58 @@ def test_video_files_and_folders_rewind_to_their_first_frame(tmp_path):
         assert cam.grab()
         assert abs(float(cam.retrieve().mean()) - LEVELS[0]) < 3
         cam.close()
+
+
+def test_the_pixel_format_is_set_before_width_and_height_and_automatic_modes_are_locked():
+    from core.measurement.capture import CameraSettings, setting_steps
+    steps = setting_steps(CameraSettings(width=1280, height=1024, fps=15))
+    labels = [label for label, _, _ in steps]
+    assert labels == ["pixel format", "width", "height", "frame rate", "auto exposure off", "auto focus",
+                      "auto white balance off"]
+    assert steps[0][2] == cv2.VideoWriter_fourcc(*"MJPG") and steps[5][2] == 0.0      # auto focus off
+    steps = setting_steps(CameraSettings(pixel_format="YUYV", exposure=150, autofocus=True, focus=30,
+                                         white_balance=4500, lock_exposure=False))
+    assert [label for label, _, _ in steps] == ["pixel format", "auto exposure off", "exposure", "auto focus",
+                                                "auto white balance off", "white balance"]
+    assert dict((label, v) for label, _, v in steps)["auto focus"] == 1.0             # focus left to the camera
+    assert [label for label, _, _ in setting_steps(CameraSettings(width=640), live=False)] == ["width"]
+
+
+def test_settings_a_video_file_cannot_take_are_reported_with_its_actual_values(tmp_path):
+    from core.measurement.capture import CameraSettings
+    video = write_video(tmp_path / "left.avi", LEVELS)
+    cam = open_camera(str(video), CameraSettings(width=1280, height=1024, fps=15, exposure=100))
+    assert cam.settings["width"] == 320 and cam.settings["height"] == 240 and cam.settings["frame rate"] == 10
+    assert cam.settings["pixel format"] == "MJPG"
+    assert cam.warnings == [f"{video}: the video file refused width = 1280 (it uses 320)",
+                            f"{video}: the video file refused height = 1024 (it uses 240)",
+                            f"{video}: the video file refused frame rate = 15 (it uses 10)",
+                            f"{video}: the video file refused exposure = 100 (it has no such control)"]
+    assert open_camera(str(video)).warnings == []                  # nothing asked, nothing to report
+
+
+def test_settings_an_image_folder_cannot_take_are_reported(tmp_path):
+    from core.measurement.capture import CameraSettings
+    folder = write_folder(tmp_path / "right", LEVELS)
+    cam = open_camera(folder, CameraSettings(width=1280, gain=4))
+    assert cam.settings == {"width": 64.0, "height": 48.0}
+    assert cam.warnings == [f"{folder}: the image folder cannot take width = 1280 (its images have 64)",
+                            f"{folder}: the image folder cannot take gain = 4"]
+
+
+def test_usb_bandwidth_text_becomes_one_message():
+    from core.measurement.capture import _bandwidth, _explain
+    kernel = "[ WARN:0@1.2] global cap_v4l.cpp:1119 tryIoctl VIDEOIO(V4L2:/dev/video2): failed VIDIOC_STREAMON: " \
+             "No space left on device"
+    assert _bandwidth(kernel) and "not enough bandwidth" in _explain(kernel)
+    assert not _bandwidth("VIDIOC_QBUF: Invalid argument") and _explain("anything") == ""
+
+
+def test_a_stereo_pair_of_recordings_opens_and_a_missing_second_source_is_named(tmp_path):
+    from core.measurement.capture import open_stereo
+    video = write_video(tmp_path / "left.avi", LEVELS)
+    with open_stereo(str(video), write_folder(tmp_path / "right", LEVELS)) as source:
+        assert source.capture().left.shape == (240, 320, 3)
+    with pytest.raises(RoboCalError) as info:
+        open_stereo(str(video), tmp_path / "nothing.avi")
+    assert "nothing.avi" in info.value.message and "USB" not in info.value.message

@@ -8,6 +8,7 @@ calls the driver from the GUI thread at once, also during a move."""
 from __future__ import annotations
 
 import numpy as np
+from PySide6.QtCore import Signal
 from PySide6.QtWidgets import (QButtonGroup, QComboBox, QFileDialog, QGridLayout, QGroupBox, QLabel, QLineEdit,
                                QRadioButton, QVBoxLayout, QWidget)
 
@@ -15,6 +16,7 @@ from app.hardware import SERIAL, RobotChoice
 from app.html import esc
 from app.jobs.robot import Connected, connect_serial, move_and_read, read_joints
 from app.pages import forms
+from app.pages.setup.simulator_row import SimulatorRow
 from app.safety import motion_refused
 from core.errors import RoboCalError
 from core.robot.profile import builtin_names
@@ -24,7 +26,10 @@ BAUD_RATES = ("9600", "57600", "115200", "230400", "250000", "1000000")
 
 
 class RobotPanel(QGroupBox):
-    """`page`: the Setup page (its state, `start` and status line)."""
+    """`page`: the Setup page (its state, `start` and status line). `connecting`: emitted
+    before the port is opened for a connection."""
+
+    connecting = Signal()
 
     def __init__(self, page, parent: QWidget | None = None):
         super().__init__("Robot connection", parent)
@@ -115,10 +120,13 @@ class RobotPanel(QGroupBox):
         layout.addWidget(self.virtual_radio)
         layout.addWidget(self.serial_radio)
         layout.addWidget(self.serial_form)
+        self.simulator_row = SimulatorRow(page, self)
+        layout.addWidget(self.simulator_row)
         layout.addLayout(test)
 
         self.state.connectionChanged.connect(self.refresh)
         self.state.robotChanged.connect(self._robot_changed)
+        self.state.projectChanged.connect(self.restore)
         self.state.stoppedChanged.connect(self.refresh)
         self._robot_changed()
 
@@ -127,6 +135,19 @@ class RobotPanel(QGroupBox):
         baud = self.baud_combo.currentText().strip()
         return RobotChoice(SERIAL, self.port_edit.text().strip(), self.profile_combo.currentText().strip(),
                            self.joint_map_edit.text().strip(), int(baud) if baud.isdigit() else None)
+
+    def restore(self, project) -> None:
+        """Fill the fields with the serial robot the project recorded (not connected yet)."""
+        saved = (project.robot_connection if project is not None else None) or {}
+        if saved.get("kind") != SERIAL:
+            return
+        self.port_edit.setText(str(saved.get("port") or ""))
+        self.profile_combo.setCurrentText(str(saved.get("profile") or "robocal_v1"))
+        self.joint_map_edit.setText(str(saved.get("joint_map") or ""))
+        self.baud_combo.setCurrentText(str(saved.get("baud") or "115200"))
+        if isinstance(saved.get("speed"), (int, float)):
+            self.speed_spin.setValue(int(round(saved["speed"])))
+        self.serial_radio.setChecked(True)
 
     def _browse_joint_map(self) -> None:
         path, _ = QFileDialog.getOpenFileName(self, "Joint map", "", "Joint map (*.json);;All files (*)")
@@ -146,6 +167,7 @@ class RobotPanel(QGroupBox):
             return False
         self.serial_radio.setChecked(True)
         choice = self.choice()
+        self.connecting.emit()
         return self.page.start(connect_serial, self.state.robot, choice, float(self.speed_spin.value()),
                                on_done=lambda c: self._connected(c, choice), label="Connecting the robot",
                                status=f"Connecting to {choice.port or '(no port)'}…")

@@ -1,8 +1,8 @@
 """Step 1, Setup: project folder, robot model (DH table), robot connection, cameras.
 
 The robot is the virtual lab's simulated robot or a controller on a serial port, tested here
-(setup_robot.py); the cameras are the virtual lab's or two live cameras, video files or image
-folders, previewed here (setup_cameras.py). A hardware project offers only real hardware."""
+(robot_panel.py); the cameras are the virtual lab's or two live cameras, video files or image
+folders, previewed here (cameras_panel.py). A hardware project offers only real hardware."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -16,8 +16,9 @@ from app import project_actions
 from app.html import esc
 from app.pages import forms
 from app.pages.base import WizardPage
-from app.pages.setup_cameras import CameraPanel
-from app.pages.setup_robot import RobotPanel
+from app.pages.setup.cameras_panel import CameraPanel
+from app.pages.setup.protocol_panel import ProtocolPanel
+from app.pages.setup.robot_panel import RobotPanel
 from app.pages.steps import Step
 from core import project as projects
 from core.errors import RoboCalError
@@ -102,6 +103,7 @@ class SetupPage(WizardPage):
 
         # -- connection and cameras ----------------------------------------------------
         self.robot_panel = RobotPanel(self)
+        self.protocol_panel = ProtocolPanel(self, self.robot_panel)
         self.camera_panel = CameraPanel(self)
         self.camera_panel.preview.setMinimumHeight(220)
 
@@ -111,6 +113,9 @@ class SetupPage(WizardPage):
         inner.addWidget(project_box)
         inner.addWidget(robot_box)
         inner.addWidget(self.robot_panel)
+        inner.addWidget(self.protocol_panel)
+        self.protocol_panel.setVisible(self.robot_panel.serial_radio.isChecked())
+        self.robot_panel.serial_radio.toggled.connect(self.protocol_panel.setVisible)
         inner.addWidget(self.camera_panel, 1)
         scroll = self.scroll = QScrollArea()
         scroll.setWidgetResizable(True)
@@ -174,9 +179,12 @@ class SetupPage(WizardPage):
 
     def on_leave(self) -> None:
         self.camera_panel.stop_preview()
+        self.protocol_panel.close_probe()
 
     def on_busy_changed(self) -> None:
         self.robot_panel.refresh()
+        self.robot_panel.simulator_row.refresh()
+        self.protocol_panel.refresh()
         self.camera_panel.refresh()
 
     def autopilot(self, done) -> None:

@@ -8,14 +8,17 @@ from PySide6.QtWidgets import (QButtonGroup, QFileDialog, QGridLayout, QGroupBox
                                QVBoxLayout, QWidget)
 
 from app.hardware import SOURCES, CameraChoice, LiveCameras
+from app.html import esc
 from app.pages import forms
+from app.pages.setup.camera_settings import CameraSettingsForm, actual_table
 from app.preview import PreviewPump
+from core.measurement.capture import CameraSettings
 from widgets.stereo_preview import StereoPreview
 
 
-def open_cameras(choice: CameraChoice) -> LiveCameras:
-    """Open both sources (worker thread: a camera may take a second to start)."""
-    return LiveCameras.open(choice)
+def open_cameras(choice: CameraChoice, settings: CameraSettings | None = None) -> LiveCameras:
+    """Open both sources with `settings` (worker thread: a camera may take a second to start)."""
+    return LiveCameras.open(choice, settings)
 
 
 class CameraPanel(QGroupBox):
@@ -47,9 +50,11 @@ class CameraPanel(QGroupBox):
             grid.addWidget(edit, r, 1)
             grid.addWidget(forms.button("File…", on_click=lambda e=edit: self._browse(e, folder=False)), r, 2)
             grid.addWidget(forms.button("Folder…", on_click=lambda e=edit: self._browse(e, folder=True)), r, 3)
+        self.settings_form = CameraSettingsForm()
+        grid.addWidget(self.settings_form, 2, 1, 1, 3)
         self.open_button = forms.button("Open cameras", "openCamerasButton", on_click=self.open_cameras)
         self.preview_button = forms.button("Stop preview", "previewButton", on_click=self.toggle_preview)
-        grid.addLayout(forms.row(self.open_button, self.preview_button), 2, 1, 1, 3)
+        grid.addLayout(forms.row(self.open_button, self.preview_button), 3, 1, 1, 3)
         self.sources_form = QWidget()
         self.sources_form.setLayout(grid)
 
@@ -65,10 +70,24 @@ class CameraPanel(QGroupBox):
         layout.addWidget(self.preview, 1)
         layout.addWidget(self.status_label)
         self.state.camerasChanged.connect(self._cameras_changed)
+        self.state.projectChanged.connect(self.restore)
         self.refresh()
 
     def choice(self) -> CameraChoice:
         return CameraChoice(SOURCES, self.left_edit.text().strip(), self.right_edit.text().strip())
+
+    def restore(self, project) -> None:
+        """Fill the fields with the cameras the project recorded (opened with Open cameras)."""
+        saved = (project.cameras if project is not None else None) or {}
+        if saved.get("kind") != SOURCES:
+            return
+        self.left_edit.setText(str(saved.get("left") or ""))
+        self.right_edit.setText(str(saved.get("right") or ""))
+        try:
+            self.settings_form.set_settings(CameraSettings(**(saved.get("settings") or {})))
+        except TypeError:                       # settings of another version: the form's defaults
+            pass
+        self.sources_radio.setChecked(True)
 
     def _browse(self, edit: QLineEdit, folder: bool) -> None:
         if folder:
@@ -89,7 +108,7 @@ class CameraPanel(QGroupBox):
         self.sources_radio.setChecked(True)
         choice = self.choice()
         self.stop_preview()
-        return self.page.start(open_cameras, choice, on_done=lambda cams: self.state.set_cameras(cams, choice),
+        return self.page.start(open_cameras, choice, self.settings_form.settings(), on_done=lambda cams: self.state.set_cameras(cams, choice),
                                label="Opening the cameras", status="Opening the cameras…")
 
     def start_preview(self) -> None:
@@ -119,7 +138,10 @@ class CameraPanel(QGroupBox):
     def _cameras_changed(self, cams) -> None:
         self.stop_preview()
         self.preview.clear()
-        if cams is not None:
+        if cams is not None and self.state.camera_changes:
+            self.page._set_status("⚠ Not the cameras this project used: " + "; ".join(self.state.camera_changes)
+                                  + ". Check the cables (left and right) before capturing.", False)
+        elif cams is not None:
             self.page._set_status("✓ Cameras open.", True)
             if self.isVisible():
                 self.start_preview()
@@ -150,7 +172,6 @@ class CameraPanel(QGroupBox):
             self.status_label.setText("Give the left and right camera, then Open cameras. Auto focus is switched "
                                       "off and the MJPG format asked for, so both cameras fit on the USB bus.")
         else:
-            text = cams.describe()
-            if cams.warnings:
-                text += "<br><b>Settings that did not take:</b> " + "; ".join(cams.warnings)
-            self.status_label.setText(text)
+            changed = "".join(f"<br><b style='color:#c5221f'>⚠ {esc(c)}</b>" for c in self.state.camera_changes)
+            self.status_label.setText(esc(cams.describe()) + changed + "<br>"
+                                      + actual_table(cams.source.left, cams.source.right))

@@ -1,0 +1,2 @@
+"""Step 1, Setup: the page (page.py), the robot connection panel (robot_panel.py) and the
+cameras panel (cameras_panel.py)."""
