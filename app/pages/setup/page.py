@@ -58,48 +58,8 @@ class SetupPage(WizardPage):
         super().__init__(state, tasks, **kwargs)
         self._syncing = False
 
-        # -- project -------------------------------------------------------------------
-        self.project_folder = QLabel()
-        self.project_folder.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
-        self.project_folder.setWordWrap(True)
-        self.project_details = QLabel()
-        self.project_details.setObjectName("hint")
-        self.project_details.setWordWrap(True)
-        self.new_button = forms.button("New project…", on_click=self.new_project)
-        self.open_button = forms.button("Open project…", on_click=self.open_project)
-        project_box = QGroupBox("Project")
-        row = QHBoxLayout()
-        text_col = QVBoxLayout()
-        text_col.addWidget(self.project_folder)
-        text_col.addWidget(self.project_details)
-        row.addLayout(text_col, 1)
-        row.addWidget(self.new_button)
-        row.addWidget(self.open_button)
-        project_box.setLayout(row)
-
-        # -- robot model ---------------------------------------------------------------
-        self.preset_combo = QComboBox()
-        self.preset_combo.setObjectName("presetCombo")
-        self.preset_combo.addItem("— choose a preset —", None)
-        for name in preset_names():
-            self.preset_combo.addItem(preset_title(name), name)
-        self.preset_combo.setMinimumContentsLength(18)
-        self.preset_combo.currentIndexChanged.connect(self._preset_picked)
-        self.load_button = forms.button("Load robot.json…", on_click=self.load_robot_file)
-        self.robot_name = QLabel()
-        self.robot_name.setObjectName("robotName")
-        self.robot_summary = QLabel()
-        self.robot_summary.setWordWrap(True)
-        self.robot_summary.setObjectName("hint")
-        self.dh_table = DHTable()
-        robot_box = QGroupBox("Robot model (nominal DH parameters, eq. 1)")
-        rl = QVBoxLayout(robot_box)
-        pick = forms.row("Preset:", self.preset_combo, "or", self.load_button, stretch=False)
-        pick.setStretchFactor(self.preset_combo, 1)
-        rl.addLayout(pick)
-        rl.addWidget(self.robot_name)
-        rl.addWidget(self.dh_table)
-        rl.addWidget(self.robot_summary)
+        project_box = self._build_project_box()
+        robot_box = self._build_robot_box()
 
         # -- connection and cameras ----------------------------------------------------
         self.robot_panel = RobotPanel(self)
@@ -132,6 +92,53 @@ class SetupPage(WizardPage):
         state.robotChanged.connect(self._refresh)
         state.connectionChanged.connect(self._refresh)
         self._refresh()
+
+    def _build_project_box(self) -> QGroupBox:
+        """The project folder, its details, New and Open."""
+        self.project_folder = QLabel()
+        self.project_folder.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
+        self.project_folder.setWordWrap(True)
+        self.project_details = QLabel()
+        self.project_details.setObjectName("hint")
+        self.project_details.setWordWrap(True)
+        self.new_button = forms.button("New project…", on_click=self.new_project)
+        self.open_button = forms.button("Open project…", on_click=self.open_project)
+        project_box = QGroupBox("Project")
+        row = QHBoxLayout()
+        text_col = QVBoxLayout()
+        text_col.addWidget(self.project_folder)
+        text_col.addWidget(self.project_details)
+        row.addLayout(text_col, 1)
+        row.addWidget(self.new_button)
+        row.addWidget(self.open_button)
+        project_box.setLayout(row)
+        return project_box
+
+    def _build_robot_box(self) -> QGroupBox:
+        """The robot model: a preset or a robot.json, its name, DH table and summary."""
+        self.preset_combo = QComboBox()
+        self.preset_combo.setObjectName("presetCombo")
+        self.preset_combo.addItem("— choose a preset —", None)
+        for name in preset_names():
+            self.preset_combo.addItem(preset_title(name), name)
+        self.preset_combo.setMinimumContentsLength(18)
+        self.preset_combo.currentIndexChanged.connect(self._preset_picked)
+        self.load_button = forms.button("Load robot.json…", on_click=self.load_robot_file)
+        self.robot_name = QLabel()
+        self.robot_name.setObjectName("robotName")
+        self.robot_summary = QLabel()
+        self.robot_summary.setWordWrap(True)
+        self.robot_summary.setObjectName("hint")
+        self.dh_table = DHTable()
+        robot_box = QGroupBox("Robot model (nominal DH parameters, eq. 1)")
+        rl = QVBoxLayout(robot_box)
+        pick = forms.row("Preset:", self.preset_combo, "or", self.load_button, stretch=False)
+        pick.setStretchFactor(self.preset_combo, 1)
+        rl.addLayout(pick)
+        rl.addWidget(self.robot_name)
+        rl.addWidget(self.dh_table)
+        rl.addWidget(self.robot_summary)
+        return robot_box
 
     # -- actions (also called by tests with explicit paths) ------------------------------
     def new_project(self, folder: str | Path | None = None):

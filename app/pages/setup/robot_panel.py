@@ -47,6 +47,25 @@ class RobotPanel(QGroupBox):
         self.virtual_radio.setChecked(True)
         self.virtual_radio.toggled.connect(self._kind_toggled)
 
+        self.serial_form = self._build_serial_form()
+        test = self._build_test()
+
+        layout = QVBoxLayout(self)
+        layout.addWidget(self.virtual_radio)
+        layout.addWidget(self.serial_radio)
+        layout.addWidget(self.serial_form)
+        self.simulator_row = SimulatorRow(page, self)
+        layout.addWidget(self.simulator_row)
+        layout.addLayout(test)
+
+        self.state.connectionChanged.connect(self.refresh)
+        self.state.robotChanged.connect(self._robot_changed)
+        self.state.projectChanged.connect(self.restore)
+        self.state.stoppedChanged.connect(self.refresh)
+        self._robot_changed()
+
+    def _build_serial_form(self) -> QWidget:
+        """Port, protocol, baud, joint map and speed, with Connect / Disconnect."""
         self.port_edit = QLineEdit()
         self.port_edit.setObjectName("portEdit")
         self.port_edit.setPlaceholderText("/dev/ttyUSB0, /dev/ttyACM0, COM3 …")
@@ -83,10 +102,12 @@ class RobotPanel(QGroupBox):
         form.addLayout(forms.row(self.joint_map_edit, self.joint_map_button, stretch=False), 2, 1, 1, 3)
         form.addWidget(QLabel("Speed:"), 3, 0)
         form.addLayout(forms.row(self.speed_spin, self.connect_button, self.disconnect_button), 3, 1, 1, 3)
-        self.serial_form = QWidget()
-        self.serial_form.setLayout(form)
+        widget = QWidget()
+        widget.setLayout(form)
+        return widget
 
-        # -- test ------------------------------------------------------------------------
+    def _build_test(self) -> QVBoxLayout:
+        """The controller's identity, joints read, a one-joint test move, Stop and Resume."""
         self.info_label = QLabel()
         self.info_label.setObjectName("robotInfo")
         self.info_label.setWordWrap(True)
@@ -115,20 +136,7 @@ class RobotPanel(QGroupBox):
         test.addLayout(forms.row("Test move:", self.joint_combo, self.step_spin, self.jog_minus, self.jog_plus))
         test.addLayout(forms.row(self.stop_button, self.resume_button))
         test.addWidget(self.limits_label)
-
-        layout = QVBoxLayout(self)
-        layout.addWidget(self.virtual_radio)
-        layout.addWidget(self.serial_radio)
-        layout.addWidget(self.serial_form)
-        self.simulator_row = SimulatorRow(page, self)
-        layout.addWidget(self.simulator_row)
-        layout.addLayout(test)
-
-        self.state.connectionChanged.connect(self.refresh)
-        self.state.robotChanged.connect(self._robot_changed)
-        self.state.projectChanged.connect(self.restore)
-        self.state.stoppedChanged.connect(self.refresh)
-        self._robot_changed()
+        return test
 
     # -- choices -------------------------------------------------------------------------
     def choice(self) -> RobotChoice:
