@@ -64,7 +64,7 @@ def chain(seed: int, folder: Path) -> dict:
               for pid, q in zip(poses.pose, selection.Q)}
     Q_eval = lab.random_visible_poses(EVALUATION_POSES, np.random.default_rng([seed, 3]))
     out = {"stereo": calibration}
-    for label, rect in (("calibrated", StereoRectification.from_stereo_file(stereo)),
+    for label, rect in (("calibrated", StereoRectification.from_calibration(stereo)),
                         ("true", StereoRectification.from_rig(lab.rig))):
         path = folder / f"measurements-{label}.csv"
         run = run_measurements(poses, path, locate=MarkerLocator(trained, rect).locate,
