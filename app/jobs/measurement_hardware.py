@@ -20,6 +20,7 @@ camera frame.
 """
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -132,15 +133,33 @@ def record_taught_pose(pose: int, q_planned_file, out: str | Path, trained, rect
     else:
         raise RoboCalError("no joint values: connect a robot whose joints can be read, or type them",
                            field="joints")
-    try:
-        q = check_joint_values(model, q, "the joint values")
-    except RoboCalError as exc:
-        raise RoboCalError(exc.problem.replace("; the robot was not moved", ""), source=exc.source,
-                           hint="Move the robot inside its joint limits, or correct the typed values.") from None
+    q = inside_limits(model, q)
     out = Path(out)
     if out.is_file() and out.read_bytes().strip() and pose in {int(p) for p in read_measurements(out).pose}:
         raise RoboCalError(f"pose {pose} is already measured", source=out, hint="Go on with the next pose.")
     q_file = np.asarray(model.q_to_file(q), dtype=float)
+    warnings = off_plan(model, q_file, q_planned_file, tolerance)
+    rec = _Recorder(source, _locator(trained, rect), None)
+    result = run_measurements(poses_from_internal(q[None, :], model, ids=[pose]), out, locate=rec.locate,
+                              source=rec, target=target, resume=True, retry_rejected=True, keep_locations=False,
+                              progress=progress, cancelled=cancelled)
+    outcome = result.outcomes[0] if result.outcomes else PoseOutcome(0, pose, q_file, "skipped", "cancelled")
+    return TaughtPose(outcome, q_file, warnings, rec.thumbnail(outcome.status == "measured"))
+
+
+def inside_limits(model: RobotModel, q) -> np.ndarray:
+    """`q` (rad / mm) when every joint is inside its limits, else a RoboCalError naming the
+    joint, its value and its limits (deg / mm)."""
+    try:
+        return check_joint_values(model, q, "the joint values")
+    except RoboCalError as exc:
+        raise RoboCalError(exc.problem.replace("; the robot was not moved", ""), source=exc.source,
+                           hint="Move the robot inside its joint limits, or correct the typed values.") from None
+
+
+def off_plan(model: RobotModel, q_file, q_planned_file, tolerance: float = TEACH_TOLERANCE) -> list[str]:
+    """One warning per joint further than `tolerance` (deg / mm) from the planned pose."""
+    q_file = np.asarray(q_file, dtype=float).reshape(-1)
     planned = np.asarray(q_planned_file, dtype=float).reshape(-1)
     warnings = []
     for i, joint in enumerate(model.joints):
@@ -148,9 +167,37 @@ def record_taught_pose(pose: int, q_planned_file, out: str | Path, trained, rect
         if off > tolerance:
             unit = "°" if joint.revolute else " mm"
             warnings.append(f"{joint.name or f'J{i + 1}'} is {off:.2f}{unit} from the planned pose")
-    rec = _Recorder(source, _locator(trained, rect), None)
-    result = run_measurements(poses_from_internal(q[None, :], model, ids=[pose]), out, locate=rec.locate,
-                              source=rec, target=target, resume=True, retry_rejected=True, keep_locations=False,
-                              progress=progress, cancelled=cancelled)
-    outcome = result.outcomes[0] if result.outcomes else PoseOutcome(0, pose, q_file, "skipped", "cancelled")
-    return TaughtPose(outcome, q_file, warnings, rec.thumbnail(outcome.status == "measured"))
+    return warnings
+
+
+def typed_joints(text: str, model: RobotModel) -> np.ndarray:
+    """Joint values typed or pasted by the technician (deg / mm; separated by spaces, commas,
+    semicolons or tabs; a comma is a decimal mark when semicolons, or tabs without spaces,
+    separate them, as a spreadsheet pastes them), checked against the joint limits.
+    RoboCalError saying what is wrong."""
+    text = text.strip()
+    if not text:
+        raise RoboCalError("no joint values typed", field="joints",
+                           hint=f"Type the {model.dof} values the robot's pendant shows.")
+    if ";" in text or ("\t" in text and " " not in text):
+        parts = [p.strip().replace(",", ".") for p in re.split(r"[;\t\n]+", text) if p.strip()]
+    else:
+        parts = [p for p in re.split(r"[,\s]+", text) if p]
+    try:
+        values = np.array([float(p) for p in parts])
+    except ValueError:
+        bad = next(p for p in parts if not _is_number(p))
+        raise RoboCalError(f"'{bad}' is not a number", field="joints",
+                           hint="Type numbers only: degrees, or mm for sliding joints.") from None
+    if values.size != model.dof:
+        raise RoboCalError(f"{values.size} joint values typed, the robot has {model.dof}", field="joints",
+                           hint="Type one value per joint, J1 first.")
+    return np.asarray(model.q_to_file(inside_limits(model, model.q_from_file(values))), dtype=float)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True

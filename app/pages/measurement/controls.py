@@ -1,11 +1,11 @@
 """The Measurement page's top rows: where the inputs come from, Load poses, Start / Resume,
-Pause / Continue, the progress row with Cancel, Start over."""
+Pause / Continue, the progress row with Cancel, Start over, Teach mode."""
 from __future__ import annotations
 
 from typing import Callable
 
 from PySide6.QtCore import Qt
-from PySide6.QtWidgets import QGridLayout, QLabel, QWidget
+from PySide6.QtWidgets import QCheckBox, QGridLayout, QLabel, QWidget
 
 from app.pages.forms import button
 from widgets.progress_row import ProgressRow
@@ -13,10 +13,11 @@ from widgets.progress_row import ProgressRow
 
 class RunControls(QWidget):
     """The run's buttons around the page's `progress` row. `on_load()`, `on_start()`,
-    `on_pause(on)` and `on_start_over()` are the page's handlers."""
+    `on_pause(on)`, `on_start_over()` and `on_teach(on)` are the page's handlers."""
 
     def __init__(self, progress: ProgressRow, *, on_load: Callable, on_start: Callable,
-                 on_pause: Callable[[bool], None], on_start_over: Callable, parent: QWidget | None = None):
+                 on_pause: Callable[[bool], None], on_start_over: Callable, on_teach: Callable[[bool], None],
+                 parent: QWidget | None = None):
         super().__init__(parent)
         self.progress = progress
         self.source_label = QLabel()
@@ -35,6 +36,9 @@ class RunControls(QWidget):
         self.over_button = button("Start over…", "startOverButton", on_click=on_start_over,
                                   tooltip="Move the measurements taken so far aside (renamed, not deleted) and "
                                           "measure every pose again")
+        self.teach_check = QCheckBox("Teach mode")
+        self.teach_check.setObjectName("teachModeCheck")
+        self.teach_check.toggled.connect(on_teach)
         progress.cancel_button.setToolTip("Stop the run after the current pose; Resume continues from there")
         progress.bar.setObjectName("runProgress")
 
@@ -43,18 +47,21 @@ class RunControls(QWidget):
         grid.setHorizontalSpacing(8)
         grid.setVerticalSpacing(4)
         grid.addWidget(self.source_label, 0, 0, 1, 4)
-        grid.addWidget(self.load_button, 0, 4)
+        grid.addWidget(self.load_button, 0, 4, 1, 2)
         grid.addWidget(self.start_button, 1, 0)
         grid.addWidget(self.pause_button, 1, 1)
         grid.addWidget(progress, 1, 2, 1, 2)
         grid.addWidget(self.over_button, 1, 4)
+        grid.addWidget(self.teach_check, 1, 5)
         grid.setColumnStretch(3, 1)
 
-    def set_buttons(self, *, busy: bool, can_start: bool, resume: bool, can_start_over: bool) -> None:
-        """Enable what makes sense now; Start reads Resume when poses are left after a run."""
-        self.start_button.setEnabled(not busy and can_start)
+    def set_buttons(self, *, busy: bool, can_start: bool, resume: bool, can_start_over: bool,
+                    teach: bool = False) -> None:
+        """Enable what makes sense now; Start reads Resume when poses are left after a run; in
+        teach mode the technician moves the robot (no Start, no Pause)."""
+        self.start_button.setEnabled(not busy and can_start and not teach)
         self.start_button.setText("Resume" if resume else "Start")
-        self.pause_button.setEnabled(busy)
+        self.pause_button.setEnabled(busy and not teach)
         self.over_button.setEnabled(not busy and can_start_over)
         self.load_button.setEnabled(not busy)
 

@@ -12,7 +12,9 @@ Pause waits between poses; Cancel stops after the current pose; Start again resu
 the run stopped (the poses already measured or rejected are skipped, nothing is measured
 twice). Start over moves the old files aside (never deletes them). Stop (Esc, the main
 window) stops the robot and cancels the run: the driver refuses every motion until the user
-resumes it, and the run ends before the next pose.
+resumes it, and the run ends before the next pose. With a serial robot or chosen cameras the
+run goes over them (run.py); teach mode records poses the technician brings the robot to
+(teach.py).
 
 The page shows the poses with their status (measured / rejected with the reason / pending),
 the current pair as a thumbnail, the measured points in two orthographic views (with the
@@ -35,6 +37,8 @@ from app.pages.measurement.controls import RunControls
 from app.pages.measurement.pair_view import PairView
 from app.pages.measurement.pose_table import PoseTable
 from app.pages.measurement.run import RunMixin
+from app.pages.measurement.teach import TeachMixin
+from app.pages.measurement.teach_panel import TeachPanel
 from app.pages.measurement.texts import counts, ready_text, sources_html, summary_html
 from app.pages.measurement.views import MeasurementViews
 from app.pages.measurement_inputs import project_marker, stereo_source
@@ -45,7 +49,7 @@ from core.poses.file import PoseList, read_pose_list
 from widgets.workspace_views import camera_wedges
 
 
-class MeasurementPage(RunMixin, WizardPage):
+class MeasurementPage(RunMixin, TeachMixin, WizardPage):
     step = Step.MEASUREMENT
 
     #: (run id, PoseOutcome, thumbnail or None), emitted from the worker thread
@@ -73,15 +77,16 @@ class MeasurementPage(RunMixin, WizardPage):
         state.posesChanged.connect(lambda *_: self._poses_changed())
         state.markerChanged.connect(lambda *_: self._sources_changed())
         state.stereoChanged.connect(lambda *_: self._sources_changed())
-        state.connectionChanged.connect(lambda *_: self._update_buttons())
+        state.connectionChanged.connect(self._connection_changed)
+        state.camerasChanged.connect(lambda *_: self._update_mode())
         self._context_changed()
 
     def _build(self) -> None:
         self.controls = RunControls(self.progress_row(), on_load=self.load_dialog, on_start=self.start_run,
-                                    on_pause=self._pause_toggled, on_start_over=self.start_over)
+                                    on_pause=self._pause_toggled, on_start_over=self.start_over,
+                                    on_teach=self._teach_toggled)
         self.table = PoseTable()
-        self.table.itemSelectionChanged.connect(lambda: self.views.highlight_row(
-            self.rows, self._joints(), self._lab(), self.table.selected()))
+        self.table.itemSelectionChanged.connect(self._selection_changed)
         self.pair = PairView()
         upper = QSplitter(Qt.Orientation.Horizontal)
         upper.addWidget(self.table)
@@ -93,6 +98,9 @@ class MeasurementPage(RunMixin, WizardPage):
         self.splitter = QSplitter(Qt.Orientation.Vertical)
         self.splitter.addWidget(upper)
         self.splitter.addWidget(self.views)
+        self.teach = TeachPanel(on_record=self.record_pose, on_typed=self._typed_changed, on_use_plan=self._use_plan)
+        self.teach.setVisible(False)
+        self.splitter.addWidget(self.teach)
         self.splitter.setChildrenCollapsible(False)
         self.splitter.setStretchFactor(0, 5)
         self.splitter.setStretchFactor(1, 5)
@@ -149,6 +157,7 @@ class MeasurementPage(RunMixin, WizardPage):
         self.loaded_csv = None
         self.result = None
         self._load_poses()
+        self._connection_changed()
         self.notify_complete()
 
     # -- poses and files ------------------------------------------------------------------------
@@ -256,13 +265,16 @@ class MeasurementPage(RunMixin, WizardPage):
         done_before = any(r.status != PENDING for r in self.rows)
         pending = bool(self._pending())
         self.controls.set_buttons(busy=self.busy, can_start=self.poses is not None and pending,
-                                  resume=done_before and pending, can_start_over=done_before or on_disk)
+                                  resume=done_before and pending, can_start_over=done_before or on_disk,
+                                  teach=self.teach_mode)
+        self.controls.teach_check.setEnabled(not self.busy and (self.state.virtual or self._drivable()))
+        self._show_teach()
 
     def _ready_status(self) -> None:
         c = self.counts()
         complete = self.is_complete()
         ok = False if self._file_problem else (complete if not self._pending() and c[MEASURED] else None)
-        self._set_status(ready_text(self.rows, self.n_min, self._file_problem, complete), ok)
+        self._set_status(ready_text(self.rows, self.n_min, self._file_problem, complete, self.teach_mode), ok)
 
     def _show_sources(self) -> None:
         src = stereo_source(self.state) if self.state.project is not None else None
@@ -283,6 +295,10 @@ class MeasurementPage(RunMixin, WizardPage):
     def _joints(self):
         """Every pose's joint values (rad / mm), or None."""
         return self.poses.Q if self.poses is not None else None
+
+    def _selection_changed(self) -> None:
+        self.views.highlight_row(self.rows, self._joints(), self._lab(), self.table.selected())
+        self._show_teach()
 
     def _show_views(self, highlight: int | None = None) -> None:
         self.views.show_rows(self.rows, self._joints(), self._lab(), self._wedges,

@@ -1,6 +1,12 @@
 """The measurement run of the Measurement page: start or resume, pause and continue, cancel,
 the poses as they come in, the outcome, start over.
 
+In the virtual lab the simulated robot moves and the lab renders each pair
+(app.jobs.measurement.measure_virtual). With a serial robot or chosen cameras the run goes
+over them (app.jobs.measurement_hardware.measure_hardware): app.safety checks every target and
+asks before the first motion; a fault stops the run, keeps what was measured, and Resume
+continues with the first pose not measured once the robot is connected again.
+
 A mixin of MeasurementPage (before WizardPage): it uses the page's `rows`,
 `poses`, `controls`, `table`, `pair`, `poseDone` signal and drawing methods.
 """
@@ -10,7 +16,9 @@ from PySide6.QtWidgets import QMessageBox
 
 from app import messages
 from app.jobs.measurement import MEASURED, PENDING, REJECTED, RUNNING, measure_virtual, move_aside
+from app.jobs.measurement_hardware import capture_source, measure_hardware
 from app.pages.measurement_inputs import project_marker, stereo_source
+from app.safety import motion_refused
 from core.errors import RoboCalError
 from core.measurement.run import PoseOutcome, rejects_path_for
 
@@ -56,14 +64,40 @@ class RunMixin:
         except RoboCalError as exc:
             self._set_status(f"Cannot measure: {exc.message}. {exc.hint or ''}".strip(), False)
             return False
-        if not self.state.virtual:
-            self._set_status("This page measures in the virtual lab. With your own cameras, save each pose's "
-                             "image pair with the camera software and run `robocal measure` on the folder.", False)
+        if self.teach_mode:
+            self._set_status("Teach mode: bring the robot to the pose shown below, then Record pose.", None)
             return False
-        if not self._robot_ready():
+        if self.on_hardware:
+            refused = self._hardware_refused()
+            if refused:
+                self._set_status(refused, False)
+                return False
+            if self.state.cameras is not None:
+                return self._measure(None)
+        elif not self._robot_ready():
             return False
-        # the lab first (it replaces the robot connection), then the run
+        # the lab first (it replaces the simulated robot connection, renders the pairs), then the run
         return self.with_lab(self._measure)
+
+    @property
+    def on_hardware(self) -> bool:
+        """The run goes over a serial robot or the chosen cameras, not the virtual lab alone."""
+        state = self.state
+        return state.real_robot or state.cameras is not None or not state.virtual
+
+    def _hardware_refused(self) -> str | None:
+        """Why the robot may not go through the poses still to measure (None: it may; the first
+        motion of a real robot is confirmed here)."""
+        state = self.state
+        if state.cameras is None and not state.virtual:
+            return "No cameras: open the two cameras on the Setup page."
+        driver = state.robot_connection
+        lost = getattr(driver, "lost", None)
+        if lost:
+            return (f"The connection to the robot is lost ({lost}). Connect the robot again on the Setup page, "
+                    "then Resume.")
+        Q = self.poses.Q[[r.index for r in self._pending()]]
+        return motion_refused(self, state, Q)
 
     def _measure(self, lab) -> bool:
         try:
@@ -84,8 +118,18 @@ class RunMixin:
         done = len(self.rows) - pending
         status = (f"Measuring {pending} pose{'s' if pending != 1 else ''}"
                   + (f" (continuing after the {done} done earlier)" if done else "") + "… Esc stops the robot.")
-        return self.start(measure_virtual, self.poses, self.measurements_path(), trained, src.rect,
-                          self.state.robot_connection, lab, int(self.state.seed), paused=self._pause.is_set,
+        driver, path = self.state.robot_connection, self.measurements_path()
+        if self.on_hardware:
+            try:
+                source = capture_source(self.state.cameras, lab=lab, driver=driver, seed=int(self.state.seed))
+            except RoboCalError as exc:
+                self._set_status(f"Cannot measure: {exc.message}", False)
+                self._finish_autopilot(False, exc.message)
+                return False
+            job, args = measure_hardware, (self.poses, path, trained, src.rect, driver, source)
+        else:
+            job, args = measure_virtual, (self.poses, path, trained, src.rect, driver, lab, int(self.state.seed))
+        return self.start(job, *args, paused=self._pause.is_set,
                           report=lambda outcome, thumb: self.poseDone.emit(run_id, outcome, thumb),
                           on_done=self._finished, on_failed=self._run_failed, on_cancelled=self._run_cancelled,
                           label="Measuring", status=status)
@@ -156,6 +200,12 @@ class RunMixin:
         self._end()
         c = self.counts()
         kept = f"{c[MEASURED]} measured and {c[REJECTED]} rejected poses are in {result.measurements_path.name}"
+        if result.fault:
+            nxt = self._next_pose_text()
+            self._set_status(f"✗ Stopped before pose {nxt}: {result.fault.rstrip('.')}. {kept}; Resume continues "
+                             f"with pose {nxt} (connect the robot again on the Setup page first).", False)
+            self._finish_autopilot(False, result.fault)
+            return
         if result.cancelled:
             if self._robot_stopped():
                 self._set_status(self._stopped_text(kept), False)

@@ -59,8 +59,9 @@ def summary_html(rows: list[PoseRow], n_min: int) -> str:
     return text
 
 
-def ready_text(rows: list[PoseRow], n_min: int, file_problem: str, complete: bool) -> str:
-    """The status line before a run: what the files hold and what Start will do."""
+def ready_text(rows: list[PoseRow], n_min: int, file_problem: str, complete: bool, teach: bool = False) -> str:
+    """The status line before a run: what the files hold and what Start (or, in teach mode,
+    Record pose) will do."""
     c = counts(rows)
     pending = c[PENDING] + c[RUNNING]
     if file_problem:
@@ -69,6 +70,9 @@ def ready_text(rows: list[PoseRow], n_min: int, file_problem: str, complete: boo
     if not pending and c[MEASURED]:
         return (f"{'✓ ' if complete else ''}All {len(rows)} poses done: {c[MEASURED]} measured, "
                 f"{c[REJECTED]} rejected." + ("" if complete else f" Identification needs {n_min}."))
+    if teach:
+        return ("Teach mode: bring the robot to the pose shown below, then Record pose. Each pose is written "
+                "to measurements.csv as it is recorded.")
     if c[MEASURED] or c[REJECTED]:
         return (f"{c[MEASURED] + c[REJECTED]} of {len(rows)} poses done in an earlier run: Resume "
                 "continues with the others.")

@@ -162,3 +162,16 @@ def test_teach_mode_reads_the_joints_and_warns_off_the_plan(lab, trained, rect, 
     assert sorted(read_measurements(out).pose.tolist()) == [5, 6]
     assert read_rejects(rejects_path_for(out)) == {}
     cams.close()
+
+
+def test_typed_joint_values_are_read_and_checked(lab):
+    from app.jobs.measurement_hardware import off_plan, typed_joints
+
+    model = lab.nominal_robot
+    np.testing.assert_allclose(typed_joints("10, -20 30\t0 5 6", model), [10, -20, 30, 0, 5, 6])
+    np.testing.assert_allclose(typed_joints("10,5; -20; 30; 0; 5; 6", model), [10.5, -20, 30, 0, 5, 6])
+    for text, says in (("", "no joint values typed"), ("1 2 3", "3 joint values typed, the robot has 6"),
+                       ("1 2 x 4 5 6", "'x' is not a number"), ("1 2 500 4 5 6", "J3: 500.000° is outside")):
+        with pytest.raises(RoboCalError, match=says):
+            typed_joints(text, model)
+    assert off_plan(model, [10, 20, 30, 0, 5, 6], [10, 20, 31.5, 0, 5, 6]) == ["J3 is 1.50° from the planned pose"]
