@@ -201,6 +201,8 @@ class RunMixin:
         c = self.counts()
         kept = f"{c[MEASURED]} measured and {c[REJECTED]} rejected poses are in {result.measurements_path.name}"
         if result.fault:
+            if self._robot_stopped():                 # the run stopped the robot: the window offers Resume
+                self.state.stoppedChanged.emit(True)
             nxt = self._next_pose_text()
             self._set_status(f"✗ Stopped before pose {nxt}: {result.fault.rstrip('.')}. {kept}; Resume continues "
                              f"with pose {nxt} (connect the robot again on the Setup page first).", False)

@@ -125,10 +125,13 @@ def test_a_disconnect_keeps_what_was_measured_and_resume_finishes(qtbot, lab, tr
         state.use_serial_robot(open_serial_robot(state.robot, choice), choice)
         try:
             page = open_page(qtbot, state, tasks)
+            stopped_seen = []
+            state.stoppedChanged.connect(stopped_seen.append)
             assert not page.teach_mode and page.start_run()
             qtbot.waitUntil(lambda: not page.busy, timeout=60000)
             text = page.status.text()
             assert "Stopped before pose 3" in text and "connection is lost" in text, text
+            assert state.robot_connection.stopped and stopped_seen == [True]      # the window offers Resume
             assert "Resume continues with pose 3" in text and "Setup page" in text
             assert sorted(measured_ids(page)) == [0, 1, 2]                   # kept on disk
             assert [r.pose for r in page.rows if r.status == PENDING] == list(range(3, N_POSES))
