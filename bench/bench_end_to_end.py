@@ -81,7 +81,7 @@ def run(report) -> None:
     with tempfile.TemporaryDirectory(prefix="robocal-bench-") as tmp, report.timer() as elapsed:
         out = chain(SEED, Path(tmp))
     stereo = out["stereo"]
-    report.info(f"lab seed {SEED}: {PAIRS} pairs calibrated, stereo RMS", stereo.rms_stereo, "px")
+    report.info(f"lab seed {SEED}: {PAIRS} pairs calibrated, stereo RMS", stereo.file.rms_stereo, "px")
     for label in ("calibrated", "true"):
         result, measured, raw, aligned, nominal = out[label]
         report.info(f"{label} stereo: poses measured / RMS after identification",
