@@ -395,7 +395,6 @@ def _detection_details(det) -> dict:
         side = np.asarray(o.edge_side, int)
         used = side >= 0 if len(side) == len(edges) else np.ones(len(edges), bool)
         out["canny"] = {"ok": bool(o.ok), "roi": [int(v) for v in o.roi], "edge_points": _pts(edges[used], 1),
-                        "other_edge_points": _pts(edges[~used], 1),
                         "fitted": _pts(o.outline_polyline if o.outline_polyline is not None else o.corners, 3),
                         "corners": _pts(o.corners, 3), "reference": _vec(o.reference, 4),
                         "sigma_px": float(o.sigma_px)}

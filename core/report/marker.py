@@ -11,7 +11,7 @@ marker_details.json (format DETAILS_FORMAT), written by the Marker page:
                          "found", "reason",
                          "sift": {"mode", "matches", "agreeing", "agreeing_points", "other_points",
                                   "outline" (4x2), "reference", "roi" [x0, y0, x1, y1]},
-                         "canny": {"ok", "roi", "edge_points", "other_edge_points", "fitted" (polyline),
+                         "canny": {"ok", "roi", "edge_points" (on the four sides), "fitted" (polyline),
                                    "corners", "reference", "sigma_px"}}},   all points in image px
               "ssd": {"window" [h, w] px, "disparities" px, "criteria" (grey level² per pixel),
                       "searched" (pre-warped curve or null), "minimum" [d, C], "second" [d, C] or null,
