@@ -1,13 +1,15 @@
 """The Marker step's work, plain Python run on worker threads by app/pages/marker: the training
 image (virtual lab camera or a file), training, one live stereo pair, the verification over
 random robot poses, the comparison of candidate markers; and the step's files in the project
-(marker.npz, marker_training.png, marker_verification.json).
+(marker.npz, marker_training.png, marker_verification.json, and marker_details.json with the
+crops of the last located live pair: what the report draws).
 
 Points are in mm in the left camera frame; image coordinates in px. The virtual lab is an
 argument (the page asks `WizardState.request_lab` for it first).
 """
 from __future__ import annotations
 
+import json
 import math
 import re
 import time
@@ -21,12 +23,13 @@ import numpy as np
 from app.lab import ComparisonResult, VirtualLab, candidate_patterns, compare_markers
 from app.pages.measurement_inputs import TRAINING_FILE, VERIFICATION_FORMAT, marker_file, verification_file
 from core.errors import RoboCalError
-from core.files import atomic_write_json, atomic_write_many, read_json
+from core.files import atomic_write_json, atomic_write_many, read_json, strict_json
 from core.locks import output_lock, output_locks
 from core.images import load_gray
 from core.marker.correspondence import WindowSweep
 from core.marker.location import MarkerLocation, MarkerLocator
 from core.marker.training import TrainedMarker, find_outline, train_marker
+from core.report.marker import DETAILS_FILE, DETAILS_FORMAT, LIVE_IMAGES
 from core.task import Monitor
 
 CROP_MARGIN = 0.18           # default crop: the found outline enlarged by this fraction per side
@@ -299,11 +302,12 @@ def save_trained(project, trained: TrainedMarker) -> Path:
         files[Path(project.folder) / TRAINING_FILE] = png.tobytes()
     with output_locks(files):                   # not while a robocal command writes them
         atomic_write_many(files)                # both, or neither changed
-    try:
-        verification_file(project).unlink(missing_ok=True)
-    except OSError as exc:
-        raise RoboCalError(f"cannot remove the old verification record ({exc.strerror})",
-                           source=verification_file(project)) from exc
+    old = [verification_file(project), details_file(project)] + [Path(project.folder) / n for n in LIVE_IMAGES.values()]
+    for record in old:
+        try:
+            record.unlink(missing_ok=True)
+        except OSError as exc:
+            raise RoboCalError(f"cannot remove the old marker's record ({exc.strerror})", source=record) from exc
     return path
 
 
@@ -323,3 +327,141 @@ def recorded_verification(project) -> bool:
     except RoboCalError:
         return False
     return data.get("format") == VERIFICATION_FORMAT and int(data.get("located", 0) or 0) > 0
+
+
+# -- what the report draws (marker_details.json and the live pair's crops) --------------------
+DETAIL_MAX_POINTS = 400       # edge pixels / keypoints kept per layer and image (evenly subsampled)
+DETAIL_CROP_MARGIN = 0.45     # crop: the marker's box enlarged by this fraction per side
+DETAIL_CROP_SIDE = 360        # px: a larger crop is downsampled to this side
+
+
+def details_file(project) -> Path:
+    return Path(project.folder) / DETAILS_FILE
+
+
+def _pts(points, digits: int = 2) -> list:
+    """(N, 2) px as a list, at most DETAIL_MAX_POINTS (evenly spaced), rounded."""
+    p = np.asarray(points if points is not None else np.zeros((0, 2)), dtype=float).reshape(-1, 2)
+    if len(p) > DETAIL_MAX_POINTS:
+        p = p[np.linspace(0, len(p) - 1, DETAIL_MAX_POINTS).round().astype(int)]
+    return np.round(p, digits).tolist()
+
+
+def _vec(v, digits: int = 4):
+    return None if v is None else np.round(np.asarray(v, dtype=float), digits).reshape(-1).tolist()
+
+
+def _crop(image: np.ndarray, det) -> tuple[bytes, dict]:
+    """A PNG of `image` around the marker found by `det` and where it sits: `origin` (x0, y0) px
+    of its top-left pixel in the image, `scale` crop px per image px."""
+    h, w = image.shape[:2]
+    shapes = [s for s in (det.outline.corners if det.outline is not None else None,
+                          det.area.outline if det.area is not None else None) if s is not None]
+    if shapes:
+        q = np.vstack([np.asarray(s, float).reshape(-1, 2) for s in shapes])
+        (x0, y0), (x1, y1) = q.min(axis=0), q.max(axis=0)
+        m = DETAIL_CROP_MARGIN * max(x1 - x0, y1 - y0)
+        x0, y0 = int(max(0, np.floor(x0 - m))), int(max(0, np.floor(y0 - m)))
+        x1, y1 = int(min(w, np.ceil(x1 + m))), int(min(h, np.ceil(y1 + m)))
+    else:
+        x0, y0, x1, y1 = 0, 0, w, h
+    crop = np.ascontiguousarray(image[y0:y1, x0:x1])
+    scale = min(1.0, DETAIL_CROP_SIDE / max(crop.shape[:2]))
+    if scale < 1.0:
+        crop = cv2.resize(crop, (max(1, round(crop.shape[1] * scale)), max(1, round(crop.shape[0] * scale))),
+                          interpolation=cv2.INTER_AREA)
+        scale = crop.shape[1] / (x1 - x0)
+    ok, png = cv2.imencode(".png", crop)
+    if not ok:
+        raise RoboCalError("cannot encode the live pair's crop as PNG")
+    return png.tobytes(), {"origin": [x0, y0], "scale": round(float(scale), 6), "image_size": [w, h]}
+
+
+def _detection_details(det) -> dict:
+    """Every stage of one image's detection, in image px."""
+    out: dict = {"found": bool(det.ok), "reason": det.reason}
+    a, o = det.area, det.outline
+    if a is not None:
+        inl = np.asarray(a.inliers, bool)
+        scene = np.asarray(a.match_scene, float).reshape(-1, 2)
+        if len(inl) != len(scene):
+            inl = np.zeros(len(scene), bool)
+        out["sift"] = {"mode": a.mode, "matches": int(len(scene)), "agreeing": int(inl.sum()),
+                       "agreeing_points": _pts(scene[inl]), "other_points": _pts(scene[~inl]),
+                       "outline": _pts(a.outline), "reference": _vec(a.sift_reference, 3),
+                       "roi": [int(v) for v in a.roi]}
+    if o is not None:
+        edges = np.asarray(o.edge_pixels, float).reshape(-1, 2)
+        side = np.asarray(o.edge_side, int)
+        used = side >= 0 if len(side) == len(edges) else np.ones(len(edges), bool)
+        out["canny"] = {"ok": bool(o.ok), "roi": [int(v) for v in o.roi], "edge_points": _pts(edges[used], 1),
+                        "fitted": _pts(o.outline_polyline if o.outline_polyline is not None else o.corners, 3),
+                        "corners": _pts(o.corners, 3), "reference": _vec(o.reference, 4),
+                        "sigma_px": float(o.sigma_px)}
+    return out
+
+
+def live_details(live: LiveResult) -> tuple[dict, dict[str, bytes]]:
+    """The record of a located live pair for the report (marker_details.json's "live") and its
+    two crops as PNG (LIVE_IMAGES' keys)."""
+    loc = live.location
+    record: dict = {"pair": live.index, "error_mm": live.error, "point_mm": _vec(loc.point, 4),
+                    "sigma_mm": _vec(loc.sigma, 5) if loc.sigma is not None else None,
+                    "disparity_px": loc.disparity, "images": {}}
+    pngs = {}
+    for side, det, image in (("left", loc.left, live.left), ("right", loc.right, live.right)):
+        if det is None:
+            continue
+        pngs[side], where = _crop(image, det)
+        record["images"][side] = {"file": LIVE_IMAGES[side], **where, **_detection_details(det)}
+    c = loc.correspondence
+    if c is not None:
+        plain = np.asarray(c.plain_criteria if c.plain_criteria is not None else c.criteria, float)
+        hits = np.flatnonzero(plain == c.plain_second_minimum) if len(plain) else []
+        record["ssd"] = {"window": [int(v) for v in c.window], "disparities": _vec(c.disparities, 3),
+                         "criteria": _vec(plain, 3), "searched": _vec(c.criteria, 3) if c.warped else None,
+                         "minimum": [c.plain_disparity, c.plain_minimum],
+                         "second": [float(c.disparities[hits[0]]), float(c.plain_second_minimum)] if len(hits)
+                         else None,
+                         "disparity": c.disparity, "reliability": c.reliability}
+    if live.sweep is not None:
+        s = live.sweep
+        record["sweep"] = {"sizes": [int(v) for v in s.sizes], "minima": _vec(s.minima, 3),
+                           "disparities": _vec(s.disparities, 4), "reliabilities": _vec(s.reliabilities, 4),
+                           "located": c.disparity if c is not None and c.ok else None}
+    return record, pngs
+
+
+def verification_details(v: VerificationResult) -> dict:
+    """Per-pose numbers of a verification for the report (marker_details.json's "verification")."""
+    return {"poses": v.n, "located": v.n_located, "stereo": v.stereo, "depth_mm": _vec(v.depth, 3),
+            "errors_mm": _vec(v.errors, 6), "sigmas_mm": _vec(v.sigmas, 6),
+            "median_error_mm": v.median_error, "rms_error_mm": v.rms_error}
+
+
+def _details_text(record: dict) -> str:
+    return json.dumps(strict_json(record), separators=(",", ":"), ensure_ascii=False) + "\n"
+
+
+def write_details(project, marker_name: str, *, live: LiveResult | None = None,
+                  verification: VerificationResult | None = None) -> Path:
+    """Put the located `live` pair (its record and crops) or the `verification` into
+    marker_details.json, keeping the other part when it is of the same marker; one atomic write."""
+    path = details_file(project)
+    record = {"format": DETAILS_FORMAT, "marker": marker_name}
+    try:
+        old = read_json(path) if path.is_file() else {}
+    except RoboCalError:
+        old = {}
+    if old.get("format") == DETAILS_FORMAT and old.get("marker") == marker_name:
+        record.update({k: old[k] for k in ("live", "verification") if k in old})
+    files: dict = {}
+    if live is not None:
+        record["live"], pngs = live_details(live)
+        files.update({Path(project.folder) / LIVE_IMAGES[side]: png for side, png in pngs.items()})
+    if verification is not None:
+        record["verification"] = verification_details(verification)
+    files[path] = _details_text(record)
+    with output_locks(files):
+        atomic_write_many(files)
+    return path

@@ -13,7 +13,8 @@ from PySide6.QtWidgets import QFileDialog, QTabWidget, QVBoxLayout
 from app.html import number
 from app.jobs.marker import (Comparison, LiveResult, Training, TrainingImage, VerificationResult,
                              camera_live_pair, camera_training_image, capture_training_image, live_pair, load_training_image, recorded_verification,
-                             run_comparison, run_verification, save_trained, train_job, write_verification)
+                             run_comparison, run_verification, save_trained, train_job, write_details,
+                             write_verification)
 from app.lab import VirtualLab
 from app.pages.base import WizardPage
 from app.pages.marker.autopilot import MarkerAutopilot
@@ -324,6 +325,7 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         self._draw_live()
         loc = live.location
         if loc.ok:
+            self._save_details(live=live)
             self._mark_verified({"kind": "live pair", "poses": 1, "located": 1,
                                  "error_mm": None if not math.isfinite(live.error) else round(live.error, 6)})
             took = f"✓ Located in {1000 * loc.timings.get('total', live.seconds):.0f} ms"
@@ -362,6 +364,7 @@ class MarkerPage(MarkerAutopilot, WizardPage):
     def _verified(self, v: VerificationResult) -> None:
         self.verification = v
         self.verification_panel.draw(v)
+        self._save_details(verification=v)
         if v.n_located:
             self._mark_verified({"kind": "verification", **v.to_dict()})
             self._set_status(f"✓ Verification: {v.n_located} of {v.n} located, median 3D error "
@@ -369,6 +372,15 @@ class MarkerPage(MarkerAutopilot, WizardPage):
                              "The step is done.", True)
         else:
             self._set_status("✗ The marker was not located in any pose: see the reasons.", False)
+
+    def _save_details(self, **result) -> None:
+        """What the report draws of this live pair or verification, into marker_details.json."""
+        project = self.state.project
+        if project is not None and self.saved_path is not None:
+            try:
+                write_details(project, self.saved_path.name, **result)
+            except RoboCalError as exc:
+                self._set_status(f"The details for the report were not written: {exc.message}", False)
 
     def _mark_verified(self, record: dict) -> None:
         project = self.state.project

@@ -10,7 +10,7 @@ import cv2
 import numpy as np
 import pytest
 
-from app.jobs.marker import (VerificationResult, capture_training_image, crop_around, live_pair,
+from app.jobs.marker import (VerificationResult, capture_training_image, crop_around, details_file, live_pair,
                              load_training_image, recorded_verification, run_comparison, run_verification,
                              save_trained, short_reason, train_job, write_verification)
 from app.lab import build_lab
@@ -19,6 +19,7 @@ from app.pages.measurement_inputs import (MARKER_FILE, TRAINING_FILE, VERIFICATI
 from core.errors import Cancelled, RoboCalError
 from core.marker.location import LocatorOptions, MarkerLocator
 from core.marker.training import TrainedMarker
+from core.report.marker import LIVE_IMAGES
 from core.project import create_project
 from core.robot.simulated import SimulatedRobot
 
@@ -144,8 +145,12 @@ def test_comparison_trains_every_candidate_on_the_same_views(lab):
 def test_project_files_of_the_step(tmp_path, trained):
     project = create_project(tmp_path / "project")
     write_verification(project, "old.npz", {"located": 3})
+    old_details = [details_file(project)] + [project.folder / name for name in LIVE_IMAGES.values()]
+    for old in old_details:
+        old.write_bytes(b"of the old marker")
     assert recorded_verification(project)
     path = save_trained(project, trained)
+    assert not any(old.exists() for old in old_details)
     assert path == project.folder / MARKER_FILE
     assert TrainedMarker.load(path).n_features == trained.n_features
     assert cv2.imread(str(project.folder / TRAINING_FILE), cv2.IMREAD_GRAYSCALE).shape == trained.image.shape

@@ -4,6 +4,7 @@ run, a training image with too few features, the preview without a stereo calibr
 the saved marker on reopening, and the autopilot."""
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import cv2
@@ -17,6 +18,8 @@ from app.pages.registry import PAGES
 from app.pages.steps import Step
 from app.worker import TaskRunner
 from core.marker.training import TrainedMarker
+from core.report import build_report
+from core.report.marker import DETAILS_FILE, DETAILS_FORMAT, LIVE_IMAGES
 from tests.app.virtual_inputs import lab_state, make_lab
 
 @pytest.fixture(scope="module")
@@ -121,10 +124,45 @@ def test_train_locate_plot_and_verify(qtbot, page, boxes, tmp_path):
     assert page.verification_panel.precision_plot.n_errors == v.n_located
     assert page.verification_panel.precision_plot.n_sigmas == v.n_located
     assert "Verification" in page.status.text()
+    assert_the_report_draws_the_pair_and_the_verification(page)
     assert boxes == []
     shot = tmp_path / "page.png"
     page.grab().save(str(shot))
     assert shot.stat().st_size > 10000
+
+
+def assert_the_report_draws_the_pair_and_the_verification(page):
+    """marker_details.json and the crops hold the last live pair and the verification; the
+    report's marker figures show these numbers."""
+    folder = page.state.project.folder
+    live, v, c = page.live, page.verification, page.live.location.correspondence
+    details = json.loads((folder / DETAILS_FILE).read_text())
+    assert details["format"] == DETAILS_FORMAT and details["marker"] == MARKER_FILE
+    assert details["live"]["error_mm"] == pytest.approx(live.error, abs=1e-9)
+    for side, det, image in (("left", live.location.left, live.left), ("right", live.location.right, live.right)):
+        crop = cv2.imread(str(folder / LIVE_IMAGES[side]), cv2.IMREAD_GRAYSCALE)
+        record = details["live"]["images"][side]
+        x0, y0 = record["origin"]
+        assert record["scale"] == 1.0 and crop.shape[0] < 400
+        assert np.array_equal(crop, image[y0:y0 + crop.shape[0], x0:x0 + crop.shape[1]])
+        assert np.allclose(record["canny"]["reference"], det.outline.reference, atol=1e-4)
+        assert record["sift"]["agreeing"] == int(np.count_nonzero(det.area.inliers))
+    assert details["verification"]["errors_mm"] == pytest.approx(
+        [None if not np.isfinite(e) else e for e in v.errors], abs=1e-6)
+    figs = {f.key: f for f in build_report(page.state.project).figures()}
+    for key in ("marker_training", "marker_live", "marker_ssd", "marker_sweep", "marker_precision"):
+        assert figs[key].unavailable is None and figs[key].panels, key
+    left = {s["name"]: s for s in figs["marker_live"].panels[0]["series"]}
+    ref = live.location.left.outline.reference
+    x0, y0 = details["live"]["images"]["left"]["origin"]
+    assert left["reference point"]["x"][0] == pytest.approx(ref[0] - x0 + 0.5, abs=1e-4)
+    assert left["reference point"]["y"][0] == pytest.approx(ref[1] - y0 + 0.5, abs=1e-4)
+    curve = figs["marker_ssd"].panels[1]["series"][0]
+    assert curve["name"] == "C(d), eq. (26)"
+    assert min(curve["y"]) == pytest.approx(c.plain_minimum, abs=1e-3)
+    assert figs["marker_sweep"].panels[0]["series"][0]["x"] == list(range(5, 38, 2))
+    median, rms = (s["y"][0] for s in figs["marker_precision"].panels[0]["series"][2:])
+    assert rms == pytest.approx(v.rms_error, abs=1e-6) and median == pytest.approx(v.median_error, abs=1e-6)
 
 
 def test_too_few_features_says_why(qtbot, page, tmp_path, boxes):
