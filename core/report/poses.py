@@ -51,17 +51,37 @@ def poses_section(project: Project, robot: RobotModel | None, facts: dict, probl
     blocks.append(_index_curve(robot, poses.Q, target, facts))
     P = robot.target_positions(poses.Q, target)
     b = robot.base[:3, 3]
+    cams = _cameras_in_world(project, robot, facts.get("stereo"))
+    where = ("; the squares are the two cameras, placed by the calibrated model's base" if cams is not None
+             else " (the cameras are drawn once the project has a calibrated model)")
+
+    def view(title: str, k: int) -> dict:
+        out = [series("marker", P[:, 0], P[:, k], color=0), series("base", [b[0]], [b[k]], color=6, symbol="+")]
+        if cams is not None:
+            out.append(series("cameras (left, right)", cams[:, 0], cams[:, k], color=3, symbol="s"))
+        return panel("points", title, "x (mm)", f"{'yz'[k - 1]} (mm)", out, equal_aspect=True)
+
     blocks.append(Figure(
         "poses_views", "Marker positions",
         f"Where the nominal model puts the target '{target}' at each pose, in the model's world frame (mm), "
-        "seen from above and from the side; the black cross is the robot's base.",
-        [panel("points", "top view", "x (mm)", "y (mm)",
-               [series("marker", P[:, 0], P[:, 1], color=0), series("base", [b[0]], [b[1]], color=6, symbol="+")],
-               equal_aspect=True),
-         panel("points", "side view", "x (mm)", "z (mm)",
-               [series("marker", P[:, 0], P[:, 2], color=0), series("base", [b[0]], [b[2]], color=6, symbol="+")],
-               equal_aspect=True)], size=(900, 430)))
+        f"seen from above and from the side; the black cross is the robot's base{where}.",
+        [view("top view", 1), view("side view", 2)], size=(900, 430)))
     return Section(TITLE, blocks)
+
+
+def _cameras_in_world(project: Project, robot: RobotModel, stereo) -> np.ndarray | None:
+    """The left and right camera centres (2, 3) in the nominal model's world frame (mm), through
+    the calibrated model's base (robot base in the left camera frame); None without both files."""
+    if stereo is None or not project.has("calibrated"):
+        return None
+    from core.robot.file import read_robot
+    try:
+        base_in_camera = read_robot(project.path("calibrated")).base
+    except RoboCalError:
+        return None                       # the identification section names the unreadable file
+    centres = np.array([np.zeros(3), -stereo.R.T @ stereo.T])          # left camera frame
+    world_from_camera = robot.base @ np.linalg.inv(base_in_camera)
+    return centres @ world_from_camera[:3, :3].T + world_from_camera[:3, 3]
 
 
 def _index_curve(robot: RobotModel, Q: np.ndarray, target: str, facts: dict) -> Figure:

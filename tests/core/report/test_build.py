@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 
 from core.project import create_project, open_project
+from core.robot.file import read_robot
+from core.stereo.file import read_stereo_yaml
 from core.report import build_report, calibration_report, render_html
 from tests.core.report.sample_project import COVERAGE, CROSS_VALIDATION, THRESHOLD_PX, make_project
 
@@ -125,3 +127,19 @@ def test_a_calibrated_json_without_correlation_says_why(sample, tmp_path):
     (copy / "calibrated.json").write_text(json.dumps(data))
     fig = figures(build_report(open_project(copy)))["identification_correlation"]
     assert "does not record" in fig.unavailable and not fig.panels
+
+
+def test_the_pose_views_place_the_cameras_through_the_calibrated_base(sample):
+    project, result = sample
+    report = build_report(open_project(project.folder))
+    top = figures(report)["poses_views"].panels[0]
+    cams = next(s for s in top["series"] if s["name"].startswith("cameras"))
+    stereo = read_stereo_yaml(project.path("stereo"))
+    robot = read_robot(project.path("robot"))
+    left = robot.base @ np.linalg.inv(result.model.base)          # the left camera's pose in the world frame
+    assert cams["x"][0] == pytest.approx(left[0, 3], abs=1e-6) and cams["y"][0] == pytest.approx(left[1, 3], abs=1e-6)
+    side = figures(report)["poses_views"].panels[1]
+    cams_side = next(s for s in side["series"] if s["name"].startswith("cameras"))
+    gap = np.linalg.norm([cams["x"][1] - cams["x"][0], cams["y"][1] - cams["y"][0],
+                          cams_side["y"][1] - cams_side["y"][0]])
+    assert gap == pytest.approx(stereo.baseline_mm, rel=1e-9)
