@@ -25,7 +25,6 @@ from __future__ import annotations
 import csv
 import io
 import math
-import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -36,6 +35,7 @@ import numpy as np
 from core.bounds import ANGLE_DEG, LENGTH_MM, POINT_COUNT, POSE_ID, SIGMA_MM, Bound
 from core.errors import RoboCalError
 from core.files import atomic_write_text, drop_partial_last_line, read_text
+from core.measurement.appended_file import AppendedFile
 from core.robot.model import RobotModel
 
 FORMAT_FAMILY = "robocal.measurements"
@@ -381,7 +381,7 @@ def write_measurements(meas: Measurements, path: str | Path) -> Path:
 
 
 @dataclass
-class MeasurementWriter:
+class MeasurementWriter(AppendedFile):
     """Appends measured points to a measurements file as they are taken.
 
     The file is opened in append mode; each `append` writes one line, flushes it and fsyncs,
@@ -443,11 +443,6 @@ class MeasurementWriter:
             header = header.replace(" ", "")
         return header, data.endswith(b"\n")
 
-    def _write(self, text: str) -> None:
-        self._handle.write(text)
-        self._handle.flush()
-        os.fsync(self._handle.fileno())
-
     def append(self, pose: int, target: str, q_file: Sequence[float], xyz: Sequence[float],
                sigma: Sequence[float] | None = None) -> None:
         """Write one measured point (joint values in file units: deg / mm) and flush it to disk."""
@@ -458,28 +453,4 @@ class MeasurementWriter:
         if (sigma is not None) != self.sigmas:
             raise RoboCalError("sigmas given for a file without sx,sy,sz columns" if sigma is not None
                                else "this file needs sx, sy, sz for every point", source=self.path)
-        try:
-            self._write(format_row(pose, target, q_file, xyz, sigma) + "\n")
-        except OSError as exc:
-            self._write_failed = True
-            raise RoboCalError(f"cannot write the file ({exc.strerror})", source=self.path,
-                               hint="Check the disk space and permissions.") from exc
-
-    def close(self) -> None:
-        """Close the file. After a failed write (already reported) the unwritten rest is dropped
-        quietly, so the first, clear message is the one the user reads."""
-        handle, self._handle = self._handle, None
-        if handle is None:
-            return
-        try:
-            handle.close()
-        except OSError as exc:
-            if not self._write_failed:
-                raise RoboCalError(f"cannot finish writing the file ({exc.strerror})", source=self.path,
-                                   hint="Check the disk space and permissions.") from exc
-
-    def __enter__(self) -> "MeasurementWriter":
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
+        self._append(format_row(pose, target, q_file, xyz, sigma) + "\n")

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import csv
 import io
-import os
 import tempfile
 import time
 from dataclasses import dataclass, field
@@ -40,6 +39,7 @@ from core.errors import RoboCalError
 from core.files import drop_partial_last_line
 from core.robot.driver import RobotFault
 from core.robot.model import RobotModel
+from core.measurement.appended_file import AppendedFile
 from core.measurement.file import MeasurementWriter
 from core.poses.file import PoseList
 
@@ -108,7 +108,7 @@ def read_rejects(path: str | Path) -> dict[int, tuple[str, np.ndarray, str]]:
 
 
 @dataclass
-class RejectsWriter:
+class RejectsWriter(AppendedFile):
     """Appends rejected poses (pose, target, joints, reason), each row flushed and fsynced.
 
     Like core.measurement.file.MeasurementWriter: a failed write is one clear RoboCalError, and
@@ -132,7 +132,7 @@ class RejectsWriter:
             raise RoboCalError(f"cannot open the file for writing ({exc.strerror})", source=self.path) from exc
         try:
             if not existing.strip():
-                self._write(REJECTS_TAG + "\n" + header + "\n")
+                self._append(REJECTS_TAG + "\n" + header + "\n")
             else:
                 lines = [ln for ln in existing.decode("utf-8", "replace").splitlines() if ln.strip()]
                 found = next((ln for ln in lines if not ln.startswith("#")), None)
@@ -140,48 +140,21 @@ class RejectsWriter:
                     raise RoboCalError("the rejects file belongs to another run (other columns or no format tag)",
                                        source=self.path, hint="Write to a new file.")
                 if found is None:
-                    self._write(header + "\n")
+                    self._append(header + "\n")
         except BaseException:
             self._write_failed = True           # the error on its way is the one to read
             self.close()
             raise
-
-    def _write(self, text: str) -> None:
-        if self._handle is None:
-            raise RoboCalError("the rejects file is closed", source=self.path)
-        try:
-            self._handle.write(text)
-            self._handle.flush()
-            os.fsync(self._handle.fileno())
-        except OSError as exc:
-            self._write_failed = True
-            raise RoboCalError(f"cannot write the file ({exc.strerror})", source=self.path,
-                               hint="Check the disk space and permissions.") from exc
 
     def append(self, pose: int, target: str, q_file: Sequence[float], reason: str) -> None:
         """Write one rejected pose (joint values in file units: deg / mm) and flush it to disk."""
         buf = io.StringIO()
         csv.writer(buf, lineterminator="\n").writerow(
             [int(pose), target] + [f"{float(v):.6f}" for v in q_file] + [" ".join(str(reason).split())])
-        self._write(buf.getvalue())
+        if self._handle is None:
+            raise RoboCalError("the rejects file is closed", source=self.path)
+        self._append(buf.getvalue())
 
-    def close(self) -> None:
-        """Close the file; after a failed write (already reported) quietly."""
-        handle, self._handle = self._handle, None
-        if handle is None:
-            return
-        try:
-            handle.close()
-        except OSError as exc:
-            if not self._write_failed:
-                raise RoboCalError(f"cannot finish writing the file ({exc.strerror})", source=self.path,
-                                   hint="Check the disk space and permissions.") from exc
-
-    def __enter__(self) -> "RejectsWriter":
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
 
 
 # -- existing measurements ----------------------------------------------------------------------------

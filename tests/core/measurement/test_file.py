@@ -193,7 +193,7 @@ def test_writer_recovers_from_a_partial_last_line_and_checks_the_header(tmp_path
 
 
 def test_writer_uses_fsync(tmp_path, monkeypatch):
-    import core.measurement.file as mod
+    import core.measurement.appended_file as mod
     calls = []
     monkeypatch.setattr(mod.os, "fsync", lambda fd: calls.append(fd))
     with MeasurementWriter(tmp_path / "m.csv", dof=1) as w:
