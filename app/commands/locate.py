@@ -23,13 +23,18 @@ OUTPUTS = ()
 
 
 def add_arguments(parser) -> None:
+    add_locator_arguments(parser)
+    parser.add_argument("--left", required=True, metavar="L", help="left camera image")
+    parser.add_argument("--right", required=True, metavar="R", help="right camera image")
+
+
+def add_locator_arguments(parser) -> None:
+    """--stereo, --marker and --marker-size: what `setup_locator` reads (locate, measure)."""
     parser.add_argument("--stereo", required=True, metavar="S",
                         help="stereo calibration: stereo.yaml, another tool's file (OpenCV, Kalibr, MATLAB JSON) "
                              "or a folder holding one (docs/file-formats.md)")
     parser.add_argument("--marker", required=True, metavar="M",
                         help="marker training image (png/jpg), marker description (.json) or trained marker (.npz)")
-    parser.add_argument("--left", required=True, metavar="L", help="left camera image")
-    parser.add_argument("--right", required=True, metavar="R", help="right camera image")
     parser.add_argument("--marker-size", type=options.size_mm, metavar="MM",
                         help="side of the marker's outer black square in mm (default: from the marker "
                              "description beside the image, else 40)")

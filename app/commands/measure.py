@@ -13,7 +13,7 @@ import os
 from pathlib import Path
 
 from app.commands import CommandResult, ProgressLine
-from app.commands import options
+from app.commands.locate import add_locator_arguments
 
 HELP = "Batch of pose image pairs to a measurements file (marker located in 3D per pose)"
 
@@ -23,18 +23,11 @@ OUTPUTS = ("out",)
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--stereo", required=True, metavar="S",
-                        help="stereo calibration: stereo.yaml, another tool's file (OpenCV, Kalibr, MATLAB JSON) "
-                             "or a folder holding one (docs/file-formats.md)")
-    parser.add_argument("--marker", required=True, metavar="M",
-                        help="marker training image (png/jpg), marker description (.json) or trained marker (.npz)")
+    add_locator_arguments(parser)
     parser.add_argument("--images", required=True, metavar="DIR", help="folder with left/ and right/ image folders")
     parser.add_argument("--joints", required=True, metavar="J.csv", help="joint values per pose (pose,q1,...,qn)")
     parser.add_argument("--out", required=True, metavar="meas.csv", help="measurements file to write")
     parser.add_argument("--robot", metavar="R.json", help="robot model: checks the joint count and joint types")
-    parser.add_argument("--marker-size", type=options.size_mm, metavar="MM",
-                        help="side of the marker's outer black square in mm (default: from the marker "
-                             "description beside the image, else 40)")
     group = parser.add_mutually_exclusive_group()
     group.add_argument("--resume", action="store_true", help="continue an existing output (skip poses done)")
     group.add_argument("--overwrite", action="store_true",
