@@ -15,11 +15,11 @@ OUT = "#d93025"     # red: beyond the limit
 
 
 class ControlChart(pg.PlotWidget):
-    def __init__(self, title: str = "", parent=None, *, with_legend: bool = True):
+    def __init__(self, title: str = "", parent=None, *, with_legend: bool = True, y_label: str = "error (mm)"):
         super().__init__(parent=parent, background="w")
         self.setObjectName("controlChart")
         plot = self.getPlotItem()
-        style_plot(plot, "check number", "error (mm)", title or None)
+        style_plot(plot, "check number", y_label, title or None)
         if with_legend:
             legend(plot)
         self.curve = pg.PlotDataItem(pen=pg.mkPen(AFTER, width=1.5), symbol="o", symbolSize=6,

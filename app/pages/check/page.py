@@ -13,6 +13,7 @@ from app.jobs import check as job
 from app.pages.base import WizardPage
 from app.pages.check.controls_panel import CheckControls
 from app.pages.check.results_panel import CheckResults
+from app.pages.measurement_inputs import project_marker, stereo_source
 from app.pages.steps import Step
 from core.errors import RoboCalError
 from core.monitoring.log import CheckLog, read_check_log
@@ -42,6 +43,7 @@ class CheckPage(WizardPage):
         self.diagnosis = None
         self.update = None
         self.log: CheckLog | None = None
+        self._images = None                    # how the last check measured (see `images`)
 
         self.controls = CheckControls()
         self.controls.setFixedWidth(320)
@@ -73,6 +75,20 @@ class CheckPage(WizardPage):
 
     def log_path(self) -> Path | None:
         return self.state.project.folder / LOG_NAME if self.state.project is not None else None
+
+    def images(self):
+        """(trained marker, stereo rectification) when the project has both: checks then measure
+        through rendered images, as the calibration did; None: the lab's ideal measurements."""
+        try:
+            trained = project_marker(self.state)
+        except RoboCalError:
+            return None
+        rect = stereo_source(self.state).rect
+        return (trained, rect) if trained is not None and rect is not None else None
+
+    def _measured_by(self, images) -> str:
+        return ("measured through the cameras' images (trained marker, stereo calibration)" if images is not None
+                else "the virtual lab's ideal measurements (no trained marker or stereo calibration in the project)")
 
     def _ready(self) -> bool:
         path = self.calibrated_path()
@@ -139,7 +155,8 @@ class CheckPage(WizardPage):
     @staticmethod
     def _setup_job(path, count, *, lab, progress=None, cancelled=None):
         from app.lab import lab_options
-        return job.setup(path, lab_options=lab_options(lab), count=count, progress=progress, cancelled=cancelled)
+        return job.setup(path, lab_options=lab_options(lab), count=count, sigma_mm=job.weighted_sigma_mm(path),
+                         progress=progress, cancelled=cancelled)
 
     def _take_cell(self, cell: job.CheckSetup, key: tuple) -> None:
         self.cell, self._cell_key = cell, key
@@ -162,11 +179,16 @@ class CheckPage(WizardPage):
         """One check at every check pose (the poses are chosen first when needed)."""
         if not self._can_run():
             return False
-        key = self._key()
-        seed = 1 + sum(len(c.points) for c in self.log.checks) if self.log is not None else 1
+        key, images = self._key(), self.images()
+        self._images = images
         return self.start_with_lab(job.check_project, self.calibrated_path(), on_done=lambda r: self._checked(r, key),
                                    cell=self._cell(), count=key[2], change=self.controls.change_spec(),
-                                   log=self.log_path(), seed=seed, status="Checking…")
+                                   images=images, log=self.log_path(), seed=self._seed(),
+                                   status=f"Checking: {self._measured_by(images)}…")
+
+    def _seed(self) -> int:
+        """A new noise seed for every check, also after a restart (the log's length)."""
+        return 1 + len(self.log.checks) if self.log is not None else 1
 
     def _checked(self, value, key: tuple) -> None:
         cell, self.result, self.diagnosis = value
@@ -175,7 +197,8 @@ class CheckPage(WizardPage):
             self._take_cell(cell, key)
         self._show_result(self.result, self.diagnosis)
         self.refresh()
-        self._set_status(("✓ " if self.result.within else "⚠ ") + short_verdict(self.result), self.result.within)
+        self._set_status(("✓ " if self.result.within else "⚠ ") + short_verdict(self.result) + " Points "
+                         + self._measured_by(self._images) + ".", self.result.within)
         self._finish_autopilot(bool(self.result.points), "" if self.result.points else self.result.verdict())
 
     def _show_result(self, result, diagnosis) -> None:
@@ -195,8 +218,8 @@ class CheckPage(WizardPage):
 
         def go(lab):
             return self.start(job.reidentify_on_lab, self.cell, self.result, self.diagnosis, lab,
-                              self.controls.change_spec(), self.calibrated_path(), lab_options=lab_options(lab),
-                              log=self.log_path(), seed=len(self.log.checks) + 1 if self.log else 1,
+                              self.controls.change_spec(), self.calibrated_path(), images=self.images(),
+                              lab_options=lab_options(lab), log=self.log_path(), seed=self._seed(),
                               on_done=self._reidentified, status="Re-identifying from the proposed poses…")
         return self.with_lab(go, status="Re-identifying…")
 

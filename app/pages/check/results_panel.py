@@ -11,6 +11,7 @@ from core.monitoring.log import CheckLog
 from widgets.control_chart import ControlChart
 
 COLUMNS = 3
+CHART_HEIGHT = 170       # px, one check pose's chart
 
 
 class CheckResults(QWidget):
@@ -73,10 +74,12 @@ class CheckResults(QWidget):
             chart.deleteLater()
         self.pose_charts = {}
         for i, pose in enumerate(poses):
-            chart = ControlChart(f"Check pose {pose}", with_legend=False)
-            chart.setMinimumHeight(170)
+            chart = ControlChart(f"Pose {pose}: error (mm)", with_legend=False, y_label="")
+            chart.setFixedHeight(CHART_HEIGHT)
             self._grid.addWidget(chart, i // COLUMNS, i % COLUMNS)
             self.pose_charts[pose] = chart
+        rows = -(-len(poses) // COLUMNS)
+        self._grid_host.setMinimumHeight(rows * (CHART_HEIGHT + self._grid.spacing()))   # the scroll area scrolls
 
     def show_verdict(self, text: str, within: bool | None, details: str = "") -> None:
         colour = {True: "#188038", False: "#d93025", None: "#202124"}[within]
