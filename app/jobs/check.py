@@ -3,11 +3,15 @@ robot and its uncertainty, choose or read the check poses, measure them on the v
 diagnose, and re-identify what changed from the proposed poses."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+import copy
+from dataclasses import dataclass, replace
+from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
 
+from app.lab import apply_change, ideal_measure, image_measure, lab_options as lab_options_of
+from core.files import atomic_write_bytes
 from core.measurement.file import Measurements
 from core.monitoring.check import CheckLimits, CheckResult, check_limits, run_check
 from core.monitoring.check_poses import DEFAULT_CHECK_POSES, select_check_poses
@@ -73,6 +77,7 @@ class Update:
     path: Path
     proposed: np.ndarray
     after: CheckResult
+    cell: CheckSetup            # the updated robot, ready for the next check
 
 
 def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: Diagnosis, measure, out, *,
@@ -100,8 +105,80 @@ def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: D
     re = reidentify(cell.model, cell.unc, diagnosis.parameters, meas, reason=diagnosis.text,
                     previous=cell.source, progress=monitor.sub(0.6, 0.7), cancelled=cancelled)
     path = write_reidentified(re, out)
-    unc = calibration_uncertainty(re.model, source=out)
+    unc = calibration_uncertainty(re.model, source=out, sigma_mm=cell.unc.sigma_mm)
     updated = CheckSetup(re.model, unc, cell.Q, check_limits(re.model, unc, cell.Q, [cell.target] * len(cell.Q),
                                                             cell.limits.alpha), str(path))
     after, _ = check(updated, measure, log=log, progress=monitor.sub(0.7, 1.0), cancelled=cancelled)
-    return Update(re, Path(path), proposal.Q, after)
+    return Update(re, Path(path), proposal.Q, after, updated)
+
+
+CHANGE_SEED = 0     # one direction per simulated change, so every check sees the same change
+
+
+def lab_measure(lab, change: str | None, *, sigma_mm: float, seed: int = 0, images=None):
+    """`measure(q)` on the virtual lab as if `change` (tool:MM, base:MM, jointK:DEG, linkK:MM or
+    None) had happened. With `images` = (trained marker, stereo rectification): the lab renders
+    the pair and the marker is located in it, as the calibration measured; without: the lab's
+    true marker position plus noise `sigma_mm` (mm per axis). The change is made on a copy, so
+    the lab the other steps share keeps its robot."""
+    if change:
+        lab = copy.copy(lab)
+        apply_change(lab, change, seed=CHANGE_SEED)
+    if images is not None:
+        from core.marker.location import MarkerLocator
+        return image_measure(lab, MarkerLocator(*images).locate, seed=seed)
+    return ideal_measure(lab, sigma_mm=sigma_mm, seed=seed)
+
+
+def check_on_lab(cell: CheckSetup, lab, change: str | None, *, images=None, log=None, seed: int = 0,
+                 progress=None, cancelled=None) -> tuple[CheckResult, Diagnosis | None]:
+    """One check on the virtual lab (see `lab_measure`; ideal noise: the calibration's own σ)."""
+    measure = lab_measure(lab, change, sigma_mm=cell.unc.sigma_mm, seed=seed, images=images)
+    return check(cell, measure, log=log, progress=progress, cancelled=cancelled)
+
+
+def archive_calibration(path) -> Path:
+    """Copy the calibrated robot file `path` to history/<name>-<UTC time>.json beside it (the
+    calibration a re-identification updates stays readable)."""
+    path = Path(path)
+    stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ")
+    return atomic_write_bytes(path.parent / "history" / f"{path.stem}-{stamp}.json", path.read_bytes())
+
+
+def reidentify_on_lab(cell: CheckSetup, result: CheckResult, diagnosis: Diagnosis, lab, change: str | None,
+                      calibrated, *, images=None, lab_options: dict | None = None, log=None, seed: int = 0,
+                      progress=None, cancelled=None) -> Update:
+    """Re-identify what `diagnosis` found from the proposed poses measured on the virtual lab and
+    replace `calibrated` (atomically, only on success; the previous file is kept in history/)."""
+    previous = archive_calibration(calibrated)
+    measure = lab_measure(lab, change, sigma_mm=cell.unc.sigma_mm, seed=seed, images=images)
+    return reidentify_from_proposed(replace(cell, source=str(previous)), result, diagnosis, measure, calibrated,
+                                    lab_options=lab_options, log=log, seed=seed, progress=progress,
+                                    cancelled=cancelled)
+
+
+def weighted_sigma_mm(path) -> float | None:
+    """The measurement noise (mm per axis) of a calibration that weighted its points by their own
+    σ (its σ̂ is then a factor): its RMS 3D error after calibration per axis, corrected for the
+    parameters the fit absorbed: rms / √3 · √(3N / dof). None for an unweighted calibration (its
+    σ̂ is in mm and is used as it is)."""
+    stats = (read_robot(path).calibration or {}).get("statistics") or {}
+    rms, n, dof = stats.get("rms_after_mm"), stats.get("n_points"), stats.get("dof")
+    if stats.get("sigma_hat_unit", "mm") == "mm" or not isinstance(rms, (int, float)) or not rms > 0:
+        return None
+    absorbed = np.sqrt(3.0 * n / dof) if isinstance(n, int) and isinstance(dof, int) and 0 < dof <= 3 * n else 1.0
+    return float(rms) / np.sqrt(3.0) * float(absorbed)
+
+
+def check_project(calibrated, lab, *, cell: CheckSetup | None = None, count: int = DEFAULT_CHECK_POSES,
+                  change: str | None = None, images=None, log=None, seed: int = 0, progress=None,
+                  cancelled=None) -> tuple[CheckSetup, CheckResult, Diagnosis | None]:
+    """The Check page's run: choose the check poses of `calibrated` on the lab unless `cell` is
+    given, then one check (appended to `log`) and its diagnosis."""
+    monitor = Monitor(progress, cancelled)
+    if cell is None:
+        cell = setup(calibrated, lab_options=lab_options_of(lab), count=count, sigma_mm=weighted_sigma_mm(calibrated),
+                     progress=monitor.sub(0.0, 0.6), cancelled=cancelled)
+    result, diagnosis = check_on_lab(cell, lab, change, images=images, log=log, seed=seed,
+                                     progress=monitor.sub(0.6, 1.0), cancelled=cancelled)
+    return cell, result, diagnosis

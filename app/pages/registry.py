@@ -9,6 +9,7 @@ import logging
 import traceback
 
 from app.pages.base import WizardPage
+from app.pages.check.page import CheckPage
 from app.pages.export.page import ExportPage
 from app.pages.identification.page import IdentificationPage
 from app.pages.load_error_page import PageLoadErrorPage
@@ -30,6 +31,7 @@ PAGES: dict[Step, type[WizardPage]] = {
     Step.MEASUREMENT: MeasurementPage,
     Step.IDENTIFICATION: IdentificationPage,
     Step.EXPORT: ExportPage,
+    Step.CHECK: CheckPage,
 }
 
 

@@ -1,4 +1,4 @@
-"""The seven steps of the wizard (DESIGN.md), in order, with what the shell shows for each."""
+"""The eight steps of the wizard (DESIGN.md), in order, with what the shell shows for each."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -13,6 +13,7 @@ class Step(IntEnum):
     MEASUREMENT = 4
     IDENTIFICATION = 5
     EXPORT = 6
+    CHECK = 7
 
     @property
     def number(self) -> int:
@@ -80,4 +81,12 @@ STEP_INFO: dict[Step, StepInfo] = {
         "Writes the calibrated robot in the formats other tools read (RoboCal JSON, a DH "
         "table as CSV, URDF) and the camera calibration as OpenCV and ROS camera files, plus "
         "a report of the whole calibration with its figures and plots."),
+    Step.CHECK: StepInfo(
+        "Check", "Is the robot still as calibrated? Check poses, control charts, re-identify.",
+        "The robot goes to a few check poses and the cameras measure the marker. Each point is "
+        "compared with where the calibrated model puts it, against a limit that comes from the "
+        "calibration's own uncertainty, and written to a check log. When the checks leave their "
+        "limits, RoboCal says what most likely changed (the tool, the robot base or the cameras, "
+        "one joint's zero, or several things) and re-estimates only that from a few proposed "
+        "poses, writing a new calibrated.json."),
 }

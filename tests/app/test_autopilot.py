@@ -32,7 +32,7 @@ def test_autopilot_runs_every_page_and_writes_screenshots(tmp_path):
         assert image is not None and image.shape[0] >= 600 and image.shape[1] >= 1000, name
         assert image.std() > 5, f"{name} looks uniform"
     for step in Step:
-        assert f"[{step.number}/7] {step.info.title}:" in proc.stdout
+        assert f"[{step.number}/8] {step.info.title}:" in proc.stdout
     assert "every page finished" in proc.stdout
     assert "Traceback" not in proc.stderr
 
@@ -87,7 +87,7 @@ def test_autopilot_in_process_finishes_with_zero(quiet_window, qtbot, tmp_path):
     with qtbot.waitSignal(pilot.finished, timeout=180000) as blocker:
         pilot.start()
     assert blocker.args == [0]
-    assert len(pilot.saved) == 7 and quiet_window.current_step is Step.EXPORT
+    assert len(pilot.saved) == 8 and quiet_window.current_step is Step.CHECK
     assert quiet_window.state.project is not None and quiet_window.state.robot is not None
 
 
@@ -101,7 +101,7 @@ def test_autopilot_fails_when_a_page_fails(quiet_window, qtbot, tmp_path):
     with qtbot.waitSignal(pilot.finished, timeout=30000) as blocker:
         pilot.start()
     assert blocker.args == [1]
-    assert "[3/7] Marker: FAILED (no marker in view)" in out.getvalue()
+    assert "[3/8] Marker: FAILED (no marker in view)" in out.getvalue()
     assert "the Marker step failed: no marker in view" in out.getvalue()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["01-setup.png", "02-stereo.png", "03-marker.png"]
 

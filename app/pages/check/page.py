@@ -1,0 +1,252 @@
+"""Step 8, Check: measure the marker at a few check poses, compare it with the calibrated model's
+prediction against limits from the calibration's own uncertainty, append every point to the
+project's check log (checks.csv), draw the control charts, say in plain words what changed, and
+re-identify it from a few proposed poses (app/jobs/check.py does the work, on the virtual lab)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from PySide6.QtCore import QTimer
+from PySide6.QtWidgets import QHBoxLayout, QVBoxLayout
+
+from app.jobs import check as job
+from app.pages.base import WizardPage
+from app.pages.check.controls_panel import CheckControls
+from app.pages.check.results_panel import CheckResults
+from app.pages.measurement_inputs import project_marker, stereo_source
+from app.pages.steps import Step
+from core.errors import RoboCalError
+from core.monitoring.log import CheckLog, read_check_log
+
+LOG_NAME = "checks.csv"
+MISSING = "No calibrated robot in the project (calibrated.json). Run the Identification step first."
+
+
+def short_verdict(result) -> str:
+    """One line: within or out of limits, the RMS error against its limit, how many poses are out."""
+    if result.cancelled or not result.points:
+        return result.verdict()
+    out = sum(not p.within for p in result.points)
+    text = (f"Check {'within limits' if result.within else 'OUT OF LIMITS'}: RMS error {result.rms_mm:.3f} mm "
+            f"(limit {result.rms_limit_mm:.3f} mm); {out} of {len(result.points)} poses beyond their limits")
+    return text + (f"; {len(result.missing)} not measured." if result.missing else ".")
+
+
+class CheckPage(WizardPage):
+    step = Step.CHECK
+
+    def __init__(self, state, tasks, **kwargs):
+        super().__init__(state, tasks, **kwargs)
+        self.cell: job.CheckSetup | None = None
+        self._cell_key: tuple | None = None     # (calibrated file, its mtime, pose count) of `cell`
+        self.result = None
+        self.diagnosis = None
+        self.update = None
+        self.log: CheckLog | None = None
+        self._images = None                    # how the last check measured (see `images`)
+
+        self.controls = CheckControls()
+        self.controls.setFixedWidth(320)
+        self.results = CheckResults()
+        self.controls.run_button.clicked.connect(lambda *_: self.run_check())
+        self.controls.choose_button.clicked.connect(lambda *_: self.choose_poses())
+        self.controls.schedule_check.toggled.connect(lambda *_: self._schedule_changed())
+        self.controls.minutes_spin.valueChanged.connect(lambda *_: self._schedule_changed())
+        self.results.reidentify_button.clicked.connect(lambda *_: self.reidentify())
+        self.schedule_timer = QTimer(self)
+        self.schedule_timer.timeout.connect(self._scheduled)
+
+        body = QHBoxLayout()
+        body.addWidget(self.controls)
+        body.addWidget(self.results, 1)
+        layout = QVBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.addLayout(body, 1)
+        layout.addWidget(self.progress_row())
+        layout.addWidget(self.status)
+
+        state.projectChanged.connect(lambda *_: self._calibration_changed())
+        state.robotChanged.connect(lambda *_: self._calibration_changed())
+        self.refresh()
+
+    # -- sources -------------------------------------------------------------------------
+    def calibrated_path(self) -> Path | None:
+        return self.state.project.path("calibrated") if self.state.project is not None else None
+
+    def log_path(self) -> Path | None:
+        return self.state.project.folder / LOG_NAME if self.state.project is not None else None
+
+    def images(self):
+        """(trained marker, stereo rectification) when the project has both: checks then measure
+        through rendered images, as the calibration did; None: the lab's ideal measurements."""
+        try:
+            trained = project_marker(self.state)
+        except RoboCalError:
+            return None
+        rect = stereo_source(self.state).rect
+        return (trained, rect) if trained is not None and rect is not None else None
+
+    def _measured_by(self, images) -> str:
+        return ("measured through the cameras' images (trained marker, stereo calibration)" if images is not None
+                else "the virtual lab's ideal measurements (no trained marker or stereo calibration in the project)")
+
+    def _ready(self) -> bool:
+        path = self.calibrated_path()
+        return path is not None and path.is_file()
+
+    def _key(self) -> tuple:
+        path = self.calibrated_path()
+        return (str(path), path.stat().st_mtime_ns, self.controls.count_spin.value())
+
+    def _calibration_changed(self) -> None:
+        self.forget_task()
+        self.cell = self._cell_key = self.result = self.diagnosis = self.update = None
+        self.controls.poses_list.clear()
+        self.results.show_verdict("No check yet.", None)
+        self.results.show_diagnosis("", False)
+        self.refresh()
+
+    # -- page ----------------------------------------------------------------------------
+    def on_enter(self) -> None:
+        self.refresh()
+
+    def is_complete(self) -> bool:
+        return self.log is not None and any(c.finished for c in self.log.checks)
+
+    def refresh(self) -> None:
+        """Read the check log and the calibration's presence, and draw them."""
+        if self.state.robot is not None:
+            self.controls.set_dof(self.state.robot.dof)
+        self.log = None
+        path = self.log_path()
+        if path is not None and path.is_file():
+            try:
+                self.log = read_check_log(path)
+            except RoboCalError as exc:
+                self._set_status(f"✗ {exc.message}", False)
+        self.results.show_log(self.log)
+        if not self._ready() and not self.busy:
+            self._set_status(MISSING if self.state.project is not None else
+                             "No project: choose one in the Setup step.", False)
+        elif not self.state.virtual:
+            self._set_status("Checks measure on the virtual lab; this project uses a real robot.", False)
+        self.on_busy_changed()
+        self.notify_complete()
+
+    def on_busy_changed(self) -> None:
+        self.controls.set_enabled(self.busy, self._ready() and self.state.virtual, self.state.virtual)
+        can = self.diagnosis is not None and self.diagnosis.explained and bool(self.diagnosis.parameters)
+        self.results.reidentify_button.setEnabled(can and not self.busy)
+
+    # -- actions -------------------------------------------------------------------------
+    def _cell(self) -> job.CheckSetup | None:
+        """The current check setup, or None when the calibration file or the pose count changed."""
+        return self.cell if self.cell is not None and self._cell_key == self._key() else None
+
+    def choose_poses(self) -> bool:
+        """Choose the check poses now (they are chosen with the first check otherwise)."""
+        if not self._can_run():
+            return False
+        key, path = self._key(), self.calibrated_path()
+        return self.start_with_lab(self._setup_job, path, self.controls.count_spin.value(),
+                                   on_done=lambda cell: self._take_cell(cell, key),
+                                   status="Choosing check poses…")
+
+    @staticmethod
+    def _setup_job(path, count, *, lab, progress=None, cancelled=None):
+        from app.lab import lab_options
+        return job.setup(path, lab_options=lab_options(lab), count=count, sigma_mm=job.weighted_sigma_mm(path),
+                         progress=progress, cancelled=cancelled)
+
+    def _take_cell(self, cell: job.CheckSetup, key: tuple) -> None:
+        self.cell, self._cell_key = cell, key
+        self.controls.show_poses(cell.model.q_to_file(cell.Q))
+        self._set_status(f"✓ {len(cell.Q)} check poses chosen; limits from the calibration's uncertainty "
+                         f"(σ {cell.unc.sigma_mm:.3f} mm, false alarms {100 * cell.limits.alpha:g} %).", True)
+
+    def _can_run(self) -> bool:
+        if not self._ready():
+            self._set_status(MISSING, False)
+            self._finish_autopilot(False, MISSING)
+            return False
+        if not self.state.virtual:
+            self._set_status("Checks measure on the virtual lab; this project uses a real robot.", False)
+            self._finish_autopilot(False, "not on the virtual lab")
+            return False
+        return True
+
+    def run_check(self) -> bool:
+        """One check at every check pose (the poses are chosen first when needed)."""
+        if not self._can_run():
+            return False
+        key, images = self._key(), self.images()
+        self._images = images
+        return self.start_with_lab(job.check_project, self.calibrated_path(), on_done=lambda r: self._checked(r, key),
+                                   cell=self._cell(), count=key[2], change=self.controls.change_spec(),
+                                   images=images, log=self.log_path(), seed=self._seed(),
+                                   status=f"Checking: {self._measured_by(images)}…")
+
+    def _seed(self) -> int:
+        """A new noise seed for every check, also after a restart (the log's length)."""
+        return 1 + len(self.log.checks) if self.log is not None else 1
+
+    def _checked(self, value, key: tuple) -> None:
+        cell, self.result, self.diagnosis = value
+        self.update = None
+        if cell is not self.cell:
+            self._take_cell(cell, key)
+        self._show_result(self.result, self.diagnosis)
+        self.refresh()
+        self._set_status(("✓ " if self.result.within else "⚠ ") + short_verdict(self.result) + " Points "
+                         + self._measured_by(self._images) + ".", self.result.within)
+        self._finish_autopilot(bool(self.result.points), "" if self.result.points else self.result.verdict())
+
+    def _show_result(self, result, diagnosis) -> None:
+        self.results.show_verdict(short_verdict(result), result.within, result.verdict())
+        if diagnosis is None:
+            self.results.show_diagnosis("The marker is where the calibrated model puts it." if result.within
+                                        else "", False)
+        else:
+            self.results.show_diagnosis(diagnosis.text, diagnosis.explained and bool(diagnosis.parameters))
+        self.on_busy_changed()
+
+    def reidentify(self) -> bool:
+        """Re-identify what the diagnosis found and check the updated robot."""
+        if self.diagnosis is None or self.cell is None or not self._can_run():
+            return False
+        from app.lab import lab_options
+
+        def go(lab):
+            return self.start(job.reidentify_on_lab, self.cell, self.result, self.diagnosis, lab,
+                              self.controls.change_spec(), self.calibrated_path(), images=self.images(),
+                              lab_options=lab_options(lab), log=self.log_path(), seed=self._seed(),
+                              on_done=self._reidentified, status="Re-identifying from the proposed poses…")
+        return self.with_lab(go, status="Re-identifying…")
+
+    def _reidentified(self, update: job.Update) -> None:
+        self.update = update
+        self.cell, self._cell_key = update.cell, self._key()
+        self.result, self.diagnosis = update.after, None
+        self._show_result(update.after, None)
+        self.refresh()
+        changed = ", ".join(update.reidentification.changed)
+        self._set_status(f"✓ Re-identified {changed} from {len(update.proposed)} proposed poses and the check; "
+                         f"wrote {update.path.name} (the previous one is kept in history/). Check of the updated "
+                         f"robot: {short_verdict(update.after)}", update.after.within)
+
+    # -- schedule ------------------------------------------------------------------------
+    def _schedule_changed(self) -> None:
+        if self.controls.schedule_check.isChecked():
+            self.schedule_timer.start(self.controls.minutes_spin.value() * 60_000)
+        else:
+            self.schedule_timer.stop()
+
+    def _scheduled(self) -> None:
+        if not self.busy:
+            self.run_check()
+
+    def autopilot(self, done) -> None:
+        """One check on the virtual lab, no change simulated."""
+        self._autopilot_done = done
+        self.controls.choose_change("", 1.5)
+        self.run_check()

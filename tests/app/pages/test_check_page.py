@@ -1,0 +1,121 @@
+"""The Check page on the virtual lab: a check without change stays within limits and is logged,
+a simulated tool change is found and named, re-identification brings the next check back and
+writes a new calibrated.json (the previous kept in history/), a missing calibration is said
+plainly, the schedule, and a screenshot after a detected change."""
+from __future__ import annotations
+
+import pytest
+
+from app.lab import ideal_lab_measurements
+from app.pages.check.page import MISSING, CheckPage
+from app.state import WizardState
+from app.worker import TaskRunner
+from core.identification.solver import identify, write_calibrated_model
+from core.monitoring.log import read_check_log
+from core.robot.file import read_robot
+
+TIMEOUT = 120_000
+
+
+@pytest.fixture
+def page(qtbot, tmp_path):
+    state, tasks = WizardState(), TaskRunner()
+    state.new_project(tmp_path / "project")
+    state.choose_preset("educational_6r")
+    p = CheckPage(state, tasks)
+    qtbot.addWidget(p)
+    p.resize(1100, 760)
+    p.show()
+    p.on_enter()
+    yield p
+    tasks.shutdown()
+    state.close()
+
+
+def calibrate(page) -> None:
+    lab = page.state.lab
+    result = identify(lab.nominal_robot, ideal_lab_measurements(lab, 50, sigma_mm=0.05, seed=4))
+    write_calibrated_model(result, page.calibrated_path())
+    page.refresh()
+
+
+def run_check(page, qtbot) -> None:
+    assert page.run_check()
+    qtbot.waitUntil(lambda: not page.busy, timeout=TIMEOUT)
+    assert page.result is not None, page.status.text()
+
+
+def test_missing_calibration_is_said_plainly(page):
+    assert not page.run_check()
+    assert page.status.text() == MISSING and "Run the Identification step first" in MISSING
+    assert not page.controls.run_button.isEnabled() and not page.results.reidentify_button.isEnabled()
+
+
+def test_no_change_within_limits_and_logged(page, qtbot):
+    calibrate(page)
+    assert page.controls.run_button.isEnabled()
+    run_check(page, qtbot)
+    assert page.result.within and page.diagnosis is None, page.result.verdict()
+    assert page.controls.poses_list.count() == 8
+    log = read_check_log(page.log_path())
+    assert len(log.checks) == 1 and len(log.checks[0].points) == 8 and log.checks[0].within
+    assert page.results.overall_chart.beyond_count == 0 and len(page.results.pose_charts) == 8
+    assert page.is_complete()
+
+
+def test_tool_change_found_reidentified_and_back_within(page, qtbot, tmp_path):
+    calibrate(page)
+    before = page.calibrated_path().read_text()
+    page.controls.choose_change("tool", 1.5)
+    run_check(page, qtbot)
+    assert not page.result.within
+    assert page.diagnosis.kind == "tool" and "on the tool" in page.results.diagnosis_label.text()
+    assert page.results.reidentify_button.isEnabled()
+    assert page.results.overall_chart.beyond_count == 1
+    shot = tmp_path / "check-tool-change.png"
+    page.grab().save(str(shot))
+    assert shot.stat().st_size > 10_000
+
+    assert page.reidentify()
+    qtbot.waitUntil(lambda: not page.busy, timeout=TIMEOUT)
+    assert page.update is not None, page.status.text()
+    assert page.result.within and "Re-identified marker.x" in page.status.text()
+    after = read_robot(page.calibrated_path())
+    assert after.calibration["history"][-1]["changed"] == ["marker.x", "marker.y", "marker.z"]
+    kept = list((page.calibrated_path().parent / "history").glob("calibrated-*.json"))
+    assert len(kept) == 1 and kept[0].read_text() == before
+    assert after.calibration["history"][-1]["updated"] == kept[0].name
+
+    qtbot.wait(1100)     # a check's run name is its start time to the second; two in one second merge in the log
+    run_check(page, qtbot)                                # the change is still there: the new model fits it
+    assert page.result.within, page.result.verdict()
+    log = read_check_log(page.log_path())
+    assert [c.within for c in log.checks] == [False, True, True]
+    assert page.results.overall_chart.beyond_count == 1 and len(page.results.overall_chart.x) == 3
+
+
+def test_log_survives_a_new_page(page, qtbot):
+    calibrate(page)
+    run_check(page, qtbot)
+    again = CheckPage(page.state, page.tasks)
+    qtbot.addWidget(again)
+    again.on_enter()
+    assert len(again.results.overall_chart.x) == 1 and again.is_complete()
+
+
+def test_schedule_off_by_default_and_follows_the_minutes(page):
+    assert not page.schedule_timer.isActive()
+    page.controls.minutes_spin.setValue(3)
+    page.controls.schedule_check.setChecked(True)
+    assert page.schedule_timer.isActive() and page.schedule_timer.interval() == 3 * 60_000
+    page.controls.schedule_check.setChecked(False)
+    assert not page.schedule_timer.isActive()
+
+
+def test_the_change_as_the_lab_reads_it(page):
+    page.controls.choose_change("joint", -0.4, joint=3)
+    assert page.controls.change_spec() == "joint3:-0.4"
+    page.controls.choose_change("base", -2.0)
+    assert page.controls.change_spec() == "base:2"
+    page.controls.choose_change("", 1.0)
+    assert page.controls.change_spec() is None
