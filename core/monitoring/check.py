@@ -159,8 +159,8 @@ def run_check(model: RobotModel, unc: CalibrationUncertainty, Q, measure: Measur
         raise RoboCalError(f"target '{target}' is not defined in the robot '{model.name}'",
                            hint="Check the target name.")
     ids = np.arange(len(Q)) if pose_ids is None else np.asarray(pose_ids, dtype=int)
-    start = _now()
-    run = start.strftime("%Y%m%dT%H%M%SZ")
+    start = datetime.now(timezone.utc)
+    run = start.strftime("%Y%m%dT%H%M%S.%fZ")          # one name per check, also two in a second
     targets = [target] * len(Q)
     predicted = predict_points(model, Q, targets)
     if limits is None or len(limits.per_point) != len(Q) or limits.alpha != alpha:
