@@ -58,7 +58,7 @@ class CameraSettingsForm(QWidget):
                  ("Focus:", forms.row(self.focus_spin, self.autofocus_check, stretch=False)),
                  ("White balance:", self.wb_spin))
         for i, (label, item) in enumerate(cells):
-            r, c = divmod(i, 4)
+            r, c = divmod(i, 3)
             grid.addWidget(QLabel(label), r, 2 * c)
             if isinstance(item, QWidget):
                 grid.addWidget(item, r, 2 * c + 1)

@@ -79,7 +79,7 @@ class SetupPage(WizardPage):
         inner.addWidget(self.camera_panel, 1)
         scroll = self.scroll = QScrollArea()
         scroll.setWidgetResizable(True)
-        scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+        scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAsNeeded)   # a narrow window: scroll, never cut
         scroll.setFrameShape(QFrame.Shape.NoFrame)
         scroll.setWidget(content)
 
