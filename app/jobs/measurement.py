@@ -187,5 +187,5 @@ def poses_needed(robot, selection) -> int:
         return n_min
     try:
         return minimum_poses(robot)
-    except Exception:  # noqa: BLE001 - a robot without identifiable parameters: no minimum
+    except RoboCalError:              # a robot without identifiable parameters: no minimum
         return 0

@@ -10,7 +10,7 @@ from __future__ import annotations
 from typing import Sequence
 
 from core.identification.jacobian import Parameter, all_parameters
-from core.poses.selection import PoseSelectionResult, minimum_poses, select_poses
+from core.poses.selection import PoseSelectionResult, select_poses
 from core.robot.model import RobotModel
 
 DEFAULT_CHECK_POSES = 8
@@ -30,11 +30,6 @@ def watched_parameters(model: RobotModel, targets: Sequence[str]) -> list[Parame
 def unwatched_names(model: RobotModel, targets: Sequence[str]) -> list[str]:
     watched = {p.name for p in watched_parameters(model, targets)}
     return [p.name for p in all_parameters(model, list(targets)) if p.name not in watched]
-
-
-def minimum_check_poses(model: RobotModel, target: str = "marker") -> int:
-    """The fewest poses that determine every watched parameter."""
-    return minimum_poses(model, [target], fixed=unwatched_names(model, [target]))
 
 
 def select_check_poses(model: RobotModel, count: int = DEFAULT_CHECK_POSES, *, target: str = "marker",

@@ -23,7 +23,7 @@ from core import transforms as tf
 from core.errors import UsageError
 
 KINDS = ("tool", "base", "joint", "link")
-_SPEC = re.compile(r"^\s*(tool|base|joint|link)(\d*)\s*:\s*([-+]?\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)\s*$", re.I)
+_SPEC = re.compile(r"^\s*(" + "|".join(KINDS) + r")(\d*)\s*:\s*([-+]?\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)\s*$", re.I)
 MAX_SIZE = 50.0
 
 

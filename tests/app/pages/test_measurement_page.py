@@ -269,7 +269,7 @@ def test_demo_autopilot_identifies_from_the_measured_points(qtbot, tmp_path):
             pilot.start()
         assert blocker.args == [0], out.getvalue()
         text = out.getvalue()
-        assert "[3/7] Marker: done" in text and "[5/7] Measurement: done (30 poses measured" in text
+        assert "[3/8] Marker: done" in text and "[5/8] Measurement: done (30 poses measured" in text
         path = state.project.path("measurements")
         meas = read_measurements(path)
         assert len(meas.pose) >= 28 and meas.sigma is not None

@@ -224,6 +224,3 @@ def test_camera_settings_are_asked_and_what_did_not_take_is_shown(page, qtbot, t
     assert "the image folder cannot take height = 1024 (its images have 120)" in text
     assert "the image folder cannot take gain = 4" in text
     assert "<td align='right'>640</td><td align='right'>160</td>" in text     # actual widths, left and right
-    qtbot.wait(300)                                                  # frames shown, layout settled
-    panel.grab().save(str(tmp_path / "setup_cameras.png"))
-    print(tmp_path / "setup_cameras.png")
