@@ -1,14 +1,12 @@
 """Live previews of the two cameras without blocking the GUI: a worker thread grabs from the
 chosen cameras (app.hardware.LiveCameras) and keeps only the newest pair, shrunk to the
 preview width; a GUI timer shows it when a new one is there. Frames the GUI has no time for
-are dropped, never queued. An optional `check(left, right)` runs on the worker for every
-pair grabbed (full frames) and its answer comes with the pair it was made on (`checked`).
+are dropped, never queued.
 """
 from __future__ import annotations
 
 import threading
 import time
-from typing import Callable
 
 import cv2
 import numpy as np
@@ -35,24 +33,20 @@ class PreviewPump(QObject):
     """`framesReady(left, right)` on the GUI thread with the newest shrunk pair;
     `failed(message)` when the cameras stop giving images. `grabbed` counts the pairs the
     worker took, `shown` those shown (the others were dropped); `fps()` is the shown rate
-    since `start()`. `max_fps` paces the worker (0: as fast as the cameras give frames).
-    With `check`, `checked(answer)` follows each `framesReady` with `check(left, right)` of
-    that pair at full resolution (worker thread: a slow check drops frames, never blocks)."""
+    since `start()`. `max_fps` paces the worker (0: as fast as the cameras give frames)."""
 
     framesReady = Signal(object, object)
-    checked = Signal(object)
     failed = Signal(str)
 
     def __init__(self, cameras, parent: QObject | None = None, *, width: int = PREVIEW_WIDTH,
-                 max_fps: float = MAX_FPS, check: Callable[[np.ndarray, np.ndarray], object] | None = None):
+                 max_fps: float = MAX_FPS):
         super().__init__(parent)
         self.cameras = cameras
-        self.check = check
         self.width = int(width)
         self.max_fps = float(max_fps)
         self.shown = 0
         self.grabbed = 0
-        self._latest = None              # (sequence, left, right, check answer)
+        self._latest = None              # (sequence, left, right)
         self._error: str | None = None
         self._seen = 0
         self._lock = threading.Lock()
@@ -98,7 +92,6 @@ class PreviewPump(QObject):
             t0 = time.perf_counter()
             try:
                 left, right = self.cameras.preview()
-                answer = self.check(left, right) if self.check is not None else None
             except RoboCalError as exc:
                 with self._lock:
                     self._error = exc.message
@@ -106,7 +99,7 @@ class PreviewPump(QObject):
             pair = (shrink(left, self.width), shrink(right, self.width))
             seq += 1
             with self._lock:
-                self._latest = (seq, *pair, answer)
+                self._latest = (seq, *pair)
                 self.grabbed = seq
             rest = period - (time.perf_counter() - t0)
             if rest > 0:
@@ -119,8 +112,6 @@ class PreviewPump(QObject):
             self._seen = latest[0]
             self.shown += 1
             self.framesReady.emit(latest[1], latest[2])
-            if self.check is not None:
-                self.checked.emit(latest[3])
         if error is not None:
             self.stop()
             self.failed.emit(error)

@@ -15,7 +15,7 @@ from app.html import esc
 from app.jobs.stereo import THUMB_WIDTH, AddedPair, board_poses, detect_files, next_free_number, render_pairs
 from app.pages.forms import button, double_spin, row, spin
 from app.pages.stereo.live_capture import capture_live_pair
-from app.pages.stereo.texts import BAR_TIPS, CAMERA_TOOLTIP_HARDWARE, CAMERA_TOOLTIP_NO_BOARD, short_reason
+from app.pages.stereo.texts import BAR_TIPS, CAMERA_TOOLTIP_HARDWARE, short_reason
 from core.errors import RoboCalError
 from core.stereo.board import Board
 from core.stereo.checkerboard import (MIN_BAR, MIN_GOOD_PAIRS, MIN_PAIRS_TO_CALIBRATE, coverage, pair_images,
@@ -209,13 +209,9 @@ class PairsActions:
         return True
 
     def capture_pair(self) -> bool:
-        """One pair from the cameras opened on the Setup page (live_capture.py) while both see the
-        board (live_preview.py); without them,
+        """One pair from the cameras opened on the Setup page (live_capture.py); without them,
         in the virtual lab, one pair from the lab's cameras with the board at a random pose."""
         if self.state.cameras is not None:
-            if not self.live.both_seen:
-                self._set_status(CAMERA_TOOLTIP_NO_BOARD, ok=False)
-                return False
             return capture_live_pair(self)
         if not self.state.virtual:
             self._set_status(CAMERA_TOOLTIP_HARDWARE, ok=False)
