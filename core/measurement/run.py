@@ -366,9 +366,13 @@ def run_measurements(poses: PoseList, out: str | Path, *, locate: Callable, capt
                 rej_writer.append(pid, target, q_file, reason)
                 outcome.reason = reason
             except RobotFault as exc:
+                stop_key = driver is not None and driver.stopped     # stopped on purpose during the move
                 if driver is not None:
                     driver.stop()              # never raises; the robot stays stopped until resumed
-                result.fault = exc.message
+                if stop_key:
+                    result.cancelled = True    # the Stop key ends the run like a cancel, not as a fault
+                else:
+                    result.fault = exc.message
                 break
             outcome.location = location if keep_locations else None
             outcome.seconds = time.perf_counter() - t0
