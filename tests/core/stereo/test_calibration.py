@@ -106,7 +106,7 @@ def test_upside_down_right_camera_order_found_for_every_pair(synthetic):
     right = [c[::-1].copy() for c in right]
     r = calibrate_points(left, right, BOARD, SIZE, CalibrationOptions(cross_validate=False))
     assert not r.rejected and len(r.reordered) == 16
-    assert rotation_error_deg(r.file.R, ref.file.R) < 1e-6
+    assert rotation_error_deg(r.file.R, ref.file.R) < 1e-5     # arccos near 1 resolves ~1e-6 deg
 
 
 def test_wrongly_paired_view_is_rejected_with_reason(synthetic):
