@@ -18,11 +18,10 @@ from app.hardware import RobotChoice, open_serial_robot
 from app.jobs.measurement_hardware import capture_source, measure_hardware
 from core.identification.model_comparison import accuracy_against_truth
 from core.identification.solver import identify
-from core.marker.training import train_marker
 from core.measurement.file import read_measurements
 from core.measurement.run import poses_from_internal
 from core.stereo.rectification import load_rectification
-from tests.app.virtual_inputs import make_lab, true_stereo_yaml
+from tests.app.virtual_inputs import lab_marker, make_lab, true_stereo_yaml
 
 ROOT = Path(__file__).resolve().parents[2]
 N_POSES = 16
@@ -49,7 +48,7 @@ def sim_robot(tmp_path, protocol):
 def test_a_whole_calibration_over_sim_robot_beats_nominal(lab, tmp_path, protocol, profile):
     nominal = lab.nominal_robot
     rect = load_rectification(true_stereo_yaml(lab, tmp_path / "stereo.yaml"))
-    trained = train_marker(lab.render_training_image(), outer_size=lab.marker.outer_size)
+    trained = lab_marker(lab)
     Q = lab.random_visible_poses(N_POSES, np.random.default_rng(21))
     proc, port = sim_robot(tmp_path, protocol)
     try:

@@ -13,6 +13,12 @@ def make_lab():
     return VirtualLab.create(seed=0, noise=0.5)          # the educational 6R arm
 
 
+def lab_marker(lab):
+    """The lab's marker trained on its rendered training image, at its true outer size."""
+    from core.marker.training import train_marker
+    return train_marker(lab.render_training_image(), outer_size=lab.marker.outer_size)
+
+
 def true_stereo_yaml(lab, path):
     from core.virtual_lab.lab import DEFAULT_BOARD
 

@@ -12,13 +12,12 @@ from app.jobs.measurement import (MEASURED, PENDING, REJECTED, THUMB_WIDTH, choo
                                   move_aside, nominal_arm, nominal_predictions, pose_rows, poses_needed)
 from core.errors import RoboCalError
 from core.marker.correspondence import StereoRectification
-from core.marker.training import train_marker
 from core.measurement.file import Measurements, write_measurements
 from core.measurement.run import RejectsWriter, poses_from_internal, rejects_path_for
 from core.poses.file import write_poses
 from core.poses.selection import minimum_poses
 from core.robot.simulated import SimulatedRobot
-from tests.app.virtual_inputs import make_lab
+from tests.app.virtual_inputs import lab_marker, make_lab
 
 
 @pytest.fixture(scope="module")
@@ -115,7 +114,7 @@ def test_predictions_and_arms_of_the_nominal_model(lab, poses):
 
 
 def test_the_virtual_run_measures_reports_and_stops_with_the_robot(lab, poses, tmp_path):
-    trained = train_marker(lab.render_training_image(), outer_size=lab.marker.outer_size)
+    trained = lab_marker(lab)
     rect = StereoRectification.from_rig(lab.rig)
     robot = SimulatedRobot(lab.true_robot)
     robot.connect()

@@ -14,13 +14,12 @@ import pytest
 from app.hardware import CameraChoice, LiveCameras
 from app.jobs.measurement_hardware import capture_source, measure_hardware, record_taught_pose
 from core.errors import RoboCalError
-from core.marker.training import train_marker
 from core.measurement.file import read_measurements
 from core.measurement.run import poses_from_internal, read_rejects, rejects_path_for
 from core.robot.controller_sim import ControllerSim
 from core.robot.serial_robot import SerialRobot
 from core.stereo.rectification import load_rectification
-from tests.app.virtual_inputs import make_lab, true_stereo_yaml
+from tests.app.virtual_inputs import lab_marker, make_lab, true_stereo_yaml
 
 N = 6
 
@@ -32,7 +31,7 @@ def lab():
 
 @pytest.fixture(scope="module")
 def trained(lab):
-    return train_marker(lab.render_training_image(), outer_size=lab.marker.outer_size)
+    return lab_marker(lab)
 
 
 @pytest.fixture(scope="module")

@@ -12,7 +12,7 @@ from app.pages.marker.page import MarkerPage
 from app.state import WizardState
 from app.worker import TaskRunner
 from core.project import HARDWARE
-from tests.app.virtual_inputs import make_lab, true_stereo_yaml
+from tests.app.virtual_inputs import lab_marker, make_lab, true_stereo_yaml
 
 
 @pytest.fixture(scope="module")
@@ -74,13 +74,11 @@ def test_training_image_and_live_pair_from_the_cameras(page, qtbot, lab, tmp_pat
 def test_next_pose_moves_a_serial_robot_only_once_its_first_motion_is_confirmed(qtbot, lab, monkeypatch):
     from app import safety
     from app.hardware import RobotChoice, open_serial_robot
-    from core.marker.training import train_marker
     from core.robot.controller_sim import ControllerSim
     from tests.app.virtual_inputs import lab_state
 
     state, tasks = lab_state(lab), TaskRunner()
-    train_marker(lab.render_training_image(), outer_size=lab.marker.outer_size).save(
-        state.project.folder / "marker.npz")
+    lab_marker(lab).save(state.project.folder / "marker.npz")
     with ControllerSim(lab.true_robot, time_scale=0.01) as sim:
         choice = RobotChoice("serial", sim.port)
         state.use_serial_robot(open_serial_robot(state.robot, choice, reply_timeout=5.0), choice)

@@ -15,11 +15,10 @@ from app.pages.measurement.page import MeasurementPage
 from app.pages.registry import PAGES
 from app.pages.steps import Step
 from app.worker import TaskRunner
-from core.marker.training import train_marker
 from core.measurement.run import read_rejects, rejects_path_for
 from core.measurement.file import read_measurements
 from core.poses.file import write_poses
-from tests.app.virtual_inputs import lab_state, make_lab
+from tests.app.virtual_inputs import lab_marker, lab_state, make_lab
 
 N_POSES = 10
 
@@ -31,7 +30,7 @@ def lab():
 
 @pytest.fixture(scope="module")
 def trained(lab):
-    return train_marker(lab.render_training_image(), outer_size=lab.marker.outer_size)
+    return lab_marker(lab)
 
 
 @pytest.fixture(scope="module")

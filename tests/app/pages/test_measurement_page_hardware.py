@@ -16,14 +16,13 @@ from app.pages.measurement.page import MeasurementPage
 from app.state import WizardState
 from app.worker import TaskRunner
 from core.errors import RoboCalError
-from core.marker.training import train_marker
 from core.measurement.file import read_measurements
 from core.measurement.run import rejects_path_for
 from core.poses.file import write_poses
 from core.project import HARDWARE
 from core.robot.controller_sim import ControllerSim
 from tests.app.jobs.test_measurement_hardware import rendered_folders
-from tests.app.virtual_inputs import lab_state, make_lab, true_stereo_yaml
+from tests.app.virtual_inputs import lab_marker, lab_state, make_lab, true_stereo_yaml
 
 N_POSES = 10
 
@@ -35,7 +34,7 @@ def lab():
 
 @pytest.fixture(scope="module")
 def trained(lab):
-    return train_marker(lab.render_training_image(), outer_size=lab.marker.outer_size)
+    return lab_marker(lab)
 
 
 @pytest.fixture(scope="module")
