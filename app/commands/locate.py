@@ -31,7 +31,7 @@ def add_arguments(parser) -> None:
 def add_locator_arguments(parser) -> None:
     """--stereo, --marker and --marker-size: what `setup_locator` reads (locate, measure)."""
     parser.add_argument("--stereo", required=True, metavar="S",
-                        help="stereo calibration: stereo.yaml, another tool's file (OpenCV, Kalibr, MATLAB JSON) "
+                        help="stereo calibration: stereo.yaml, another tool's file (OpenCV, Kalibr, MATLAB JSON/MAT) "
                              "or a folder holding one (docs/file-formats.md)")
     parser.add_argument("--marker", required=True, metavar="M",
                         help="marker training image (png/jpg), marker description (.json) or trained marker (.npz)")

@@ -3,7 +3,8 @@
 SOURCE is one file, a pair of files or a folder (docs/file-formats.md): an OpenCV FileStorage
 YAML/XML file, OpenCV stereo_calib's intrinsics.yml + extrinsics.yml, ROS camera_info left.yaml
 + right.yaml (+ an OpenCV file with R and T when they hold no baseline), a Kalibr camchain.yaml,
-MATLAB stereoParameters as JSON, or a RoboCal stereo.yaml. E, F and the rectification are
+MATLAB stereoParameters as JSON or as a MAT-file (.mat, toStruct saved with -v7), or a RoboCal
+stereo.yaml. E, F and the rectification are
 computed where the files leave them out; the reprojection errors and the checkerboard stay
 unknown. The output is written atomically.
 """
@@ -38,7 +39,10 @@ image_size.__name__ = "image size"
 
 def add_arguments(parser) -> None:
     parser.add_argument("sources", nargs="+", metavar="SOURCE",
-                        help="the calibration file(s), or the folder holding them")
+                        help="the calibration file(s), or the folder holding them: OpenCV YAML/XML, stereo_calib "
+                             "intrinsics.yml + extrinsics.yml, ROS left.yaml + right.yaml, Kalibr camchain.yaml, "
+                             "MATLAB stereoParameters .json or .mat (s = toStruct(stereoParams); "
+                             "save('stereo.mat', 's', '-v7')), RoboCal stereo.yaml (docs/file-formats.md)")
     parser.add_argument("--out", required=True, metavar="stereo.yaml", help="RoboCal stereo calibration to write")
     parser.add_argument("--image-size", type=image_size, metavar="WxH",
                         help="image size in pixels, for files that do not hold it (OpenCV stereo_calib's); "

@@ -17,6 +17,7 @@ import numpy as np
 
 REVOLUTE = "revolute"
 PRISMATIC = "prismatic"
+PARALLEL_DEG = 5.0        # consecutive axes within this angle are "nearly parallel" (Hayati's β replaces d)
 
 
 @dataclass
@@ -159,7 +160,7 @@ class RobotModel:
     def target_position(self, q, target: str) -> np.ndarray:
         return self.target_positions(np.asarray(q, dtype=float)[None, :], target)[0]
 
-    def parallel_axis_joints(self, tolerance_deg: float = 5.0) -> list[int]:
+    def parallel_axis_joints(self, tolerance_deg: float = PARALLEL_DEG) -> list[int]:
         """Indices i whose joint axis is nearly parallel to the next one (|sin α_i| small),
         where Hayati's β_i replaces the ill-conditioned d_(i+1)."""
         tol = np.sin(np.deg2rad(tolerance_deg))

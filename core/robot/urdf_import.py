@@ -6,9 +6,13 @@ forward kinematics of both agree for every joint configuration:
 
 - at the zero configuration each moving joint's axis is a line in the base link's frame
   (URDF units: metres and radians, converted to mm and degrees);
-- DH frame i sits on the common normal between the axes of joints i and i+1 (for parallel
-  axes the normal through the previous origin is taken, so d = 0; for intersecting axes
-  a = 0 and x is along z_{i-1} × z_i); θ or d at q = 0 becomes the joint's offset;
+- DH frame i sits on the common normal between the axes of joints i and i+1 (for intersecting
+  axes a = 0 and x is along z_{i-1} × z_i); θ or d at q = 0 becomes the joint's offset;
+- axes within PARALLEL_DEG (5°) of parallel, where the common normal runs off (0.01° from a
+  rounded URDF angle puts it kilometres away), take Hayati's form instead, as the
+  identification does for such axes: d = 0, frame i where the plane through the previous
+  origin normal to the axis meets the next axis, and the next axis' tilt as Rx(α)·Ry(β)
+  (exactly parallel axes: β = 0, the plain DH row);
 - the last frame is placed on the last axis, and whatever remains to the tip link, including
   the fixed joints after it, becomes the tool transform; the base link to the first DH frame
   becomes the base transform.
@@ -26,7 +30,7 @@ import numpy as np
 
 from core import transforms as tf
 from core.errors import RoboCalError
-from core.robot.model import PRISMATIC, REVOLUTE, Joint, RobotModel
+from core.robot.model import PARALLEL_DEG, PRISMATIC, REVOLUTE, Joint, RobotModel, dh_matrices
 
 M_TO_MM = 1000.0
 _EPS = 1e-9
@@ -155,16 +159,35 @@ def _moving_count(by_child: dict, base: str, leaf: str) -> int:
     return n if link == base else 0
 
 
-def _closest(p1, z1, p2, z2) -> tuple[np.ndarray, np.ndarray] | None:
-    """Closest points of two non-parallel lines (None when parallel)."""
+def _nearly_parallel(z1, z2) -> bool:
+    """Axes within PARALLEL_DEG of parallel (or antiparallel)."""
+    return float(np.linalg.norm(np.cross(z1, z2))) < math.sin(math.radians(PARALLEL_DEG))
+
+
+def _closest(p1, z1, p2, z2) -> tuple[np.ndarray, np.ndarray]:
+    """Closest points of two lines that are not nearly parallel."""
     n = np.cross(z1, z2)
     nn = float(n @ n)
-    if nn < 1e-12:
-        return None
     d = p2 - p1
     t1 = float(np.cross(d, z2) @ n) / nn
     t2 = float(np.cross(d, z1) @ n) / nn
     return p1 + t1 * z1, p2 + t2 * z2
+
+
+def _hayati(O, x_prev, z_prev, p_next, z_next) -> tuple[float, float, float, float, float]:
+    """θ, d, a, α, β (mm, rad) of a DH row to a nearly parallel next axis, in Hayati's form:
+    d = 0, the next frame's origin where the plane through O normal to z_prev meets the next
+    axis, and the tilt of the next axis as Rx(α)·Ry(β) (exactly parallel: β = 0, as plain DH)."""
+    c = p_next + float((O - p_next) @ z_prev) / float(z_next @ z_prev) * z_next
+    normal = c - O
+    a = float(np.linalg.norm(normal))
+    x_new = normal / a if a > 1e-6 else x_prev           # on the same line: a = 0, x kept
+    a = a if a > 1e-6 else 0.0
+    theta = _angle_about(x_prev, x_new, z_prev)
+    sin_beta = float(np.clip(z_next @ x_new, -1.0, 1.0))
+    in_plane = z_next - sin_beta * x_new                 # z_next without its part along x_new
+    alpha = _angle_about(z_prev, in_plane / np.linalg.norm(in_plane), x_new)
+    return theta, 0.0, a, alpha, math.asin(sin_beta)
 
 
 def _angle_about(a, b, axis) -> float:
@@ -199,42 +222,49 @@ def import_urdf(path: str | Path, *, base: str | None = None, tip: str | None = 
     frame = tf.make_transform(np.column_stack([x0, np.cross(z0, x0), z0]), p0)
     base_T = frame.copy()
     dh: list[Joint] = []
+    tilted: list[str] = []            # joints whose axis is nearly, not exactly, parallel to the next one
     for i, (j, p, z) in enumerate(moving):
         O, x_prev, z_prev = frame[:3, 3], frame[:3, 0], frame[:3, 2]
-        if i + 1 < len(moving):
-            p_next, z_next = moving[i + 1][1], moving[i + 1][2]
-            closest = _closest(O, z_prev, p_next, z_next)
-            if closest is None:                          # parallel axes: the normal through O
-                c_a = O
-                c_b = p_next + ((O - p_next) @ z_next) * z_next
-            else:
-                c_a, c_b = closest
-            normal = c_b - c_a
-            if np.linalg.norm(normal) > 1e-6:
-                x_new = normal / np.linalg.norm(normal)
-            elif closest is not None:                    # intersecting axes
-                x_new = np.cross(z_prev, z_next)
-                x_new /= np.linalg.norm(x_new)
-            else:                                        # the same line
-                x_new = x_prev
-            z_new = z_next
-        else:                                            # the last axis: a frame on it, nearest the tip
-            c_a = O + ((T_tip[:3, 3] - O) @ z_prev) * z_prev
-            c_b, x_new, z_new = c_a, x_prev, z_prev
-        d = float((c_a - O) @ z_prev)
-        theta = _angle_about(x_prev, x_new, z_prev)
-        a = float((c_b - c_a) @ x_new)
-        alpha = _angle_about(z_prev, z_new, x_new)
+        beta = 0.0
+        if i + 1 < len(moving) and _nearly_parallel(z_prev, moving[i + 1][2]):
+            theta, d, a, alpha, beta = _hayati(O, x_prev, z_prev, *moving[i + 1][1:])
+            next_frame = frame @ dh_matrices(theta, d, a, alpha, beta)
+            if np.linalg.norm(np.cross(z_prev, moving[i + 1][2])) > 1e-9:     # beyond rounding
+                tilted.append(j.name)
+        else:
+            if i + 1 < len(moving):
+                p_next, z_next = moving[i + 1][1], moving[i + 1][2]
+                c_a, c_b = _closest(O, z_prev, p_next, z_next)
+                normal = c_b - c_a
+                if np.linalg.norm(normal) > 1e-6:
+                    x_new = normal / np.linalg.norm(normal)
+                else:                                    # intersecting axes
+                    x_new = np.cross(z_prev, z_next)
+                    x_new /= np.linalg.norm(x_new)
+                z_new = z_next
+            else:                                        # the last axis: a frame on it, nearest the tip
+                c_a = O + ((T_tip[:3, 3] - O) @ z_prev) * z_prev
+                c_b, x_new, z_new = c_a, x_prev, z_prev
+            d = float((c_a - O) @ z_prev)
+            theta = _angle_about(x_prev, x_new, z_prev)
+            a = float((c_b - c_a) @ x_new)
+            alpha = _angle_about(z_prev, z_new, x_new)
+            next_frame = tf.make_transform(np.column_stack([x_new, np.cross(z_new, x_new), z_new]), c_b)
         lo, hi = j.lower, j.upper
         if j.type == "prismatic":
             lo, hi = (lo, hi) if lo is not None and lo < hi else (-1000.0, 1000.0)
-            dh.append(Joint(type=PRISMATIC, theta=theta, d=d, a=a, alpha=alpha, min=lo, max=hi, name=j.name))
+            dh.append(Joint(type=PRISMATIC, theta=theta, d=d, a=a, alpha=alpha, beta=beta, min=lo, max=hi,
+                            name=j.name))
         else:
             if lo is None or not lo < hi:
                 lo, hi = -math.pi, math.pi
                 notes.append(f"joint '{j.name}' has no limits in the URDF: ±180° assumed")
-            dh.append(Joint(type=REVOLUTE, theta=theta, d=d, a=a, alpha=alpha, min=lo, max=hi, name=j.name))
-        frame = tf.make_transform(np.column_stack([x_new, np.cross(z_new, x_new), z_new]), c_b)
+            dh.append(Joint(type=REVOLUTE, theta=theta, d=d, a=a, alpha=alpha, beta=beta, min=lo, max=hi,
+                            name=j.name))
+        frame = next_frame
+    if tilted:
+        notes.append(f"the axes after joint(s) {', '.join(repr(n) for n in tilted)} are within "
+                     f"{PARALLEL_DEG:g}° of parallel: Hayati's form (d = 0, the tilt in α and β)")
     tool = tf.invert(frame) @ T_tip
     if not np.allclose(tool, np.eye(4), atol=1e-9):
         notes.append(f"the tip link '{tip}' is not the last DH frame: the difference is the tool transform")

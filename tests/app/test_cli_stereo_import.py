@@ -49,14 +49,15 @@ def test_plain_opencv_file_locates_like_robocal_stereo_yaml(dataset, tmp_path, c
             np.testing.assert_allclose(_locate(ds, theirs, pose, capsys), ours, rtol=0, atol=1e-9)
 
 
-@pytest.mark.parametrize("make", ["opencv", "stereo_calib", "ros", "kalibr", "matlab"])
+@pytest.mark.parametrize("make", ["opencv", "stereo_calib", "ros", "kalibr", "matlab", "matlab_mat"])
 def test_stereo_import_of_each_format(dataset, tmp_path, capsys, make):
     _, rig = dataset
     sources = {"opencv": lambda: [ff.opencv_file(rig, tmp_path / "s.yml")],
                "stereo_calib": lambda: list(ff.stereo_calib_pair(rig, tmp_path)),
                "ros": lambda: list(ff.ros_pair(rig, tmp_path)),
                "kalibr": lambda: [ff.kalibr_camchain(rig, tmp_path / "camchain.yaml")],
-               "matlab": lambda: [ff.matlab_json(rig, tmp_path / "stereoParams.json")]}[make]()
+               "matlab": lambda: [ff.matlab_json(rig, tmp_path / "stereoParams.json")],
+               "matlab_mat": lambda: [ff.matlab_mat(rig, tmp_path / "stereo.mat")]}[make]()
     out = tmp_path / "out" / "stereo.yaml"
     code = main(["stereo-import", *map(str, sources), "--out", str(out), "--json",
                  "--image-size", f"{rig.left.size[0]}x{rig.left.size[1]}"])
@@ -68,6 +69,20 @@ def test_stereo_import_of_each_format(dataset, tmp_path, capsys, make):
     X = np.column_stack([np.linspace(-250, 250, 30), np.linspace(-150, 200, 30), np.linspace(600, 1500, 30)])
     for got, want in zip(sf.rig.project(X), rig.project(X)):
         assert np.abs(got - want).max() <= 1e-6
+
+
+def test_matlab_mat_file_locates_like_the_opencv_file(dataset, tmp_path, capsys):
+    """`robocal locate --stereo stereo.mat` (MATLAB's toStruct saved with save): the marker at
+    the same place as with the OpenCV file of the same cameras, and as with its converted stereo.yaml."""
+    ds, rig = dataset
+    mat = ff.matlab_mat(rig, tmp_path / "stereo.mat", intrinsics="K", pose="PoseCamera2", units="meters")
+    bare = ff.opencv_file(rig, tmp_path / "bare.yml", rectification=False)
+    assert main(["stereo-import", str(mat), "--out", str(tmp_path / "stereo.yaml")]) == 0
+    assert "MATLAB stereoParameters (MAT)" in capsys.readouterr().out
+    for pose in (0, 1):
+        theirs = _locate(ds, mat, pose, capsys)
+        np.testing.assert_array_equal(_locate(ds, tmp_path / "stereo.yaml", pose, capsys), theirs)
+        np.testing.assert_allclose(_locate(ds, bare, pose, capsys), theirs, rtol=0, atol=1e-6)
 
 
 def test_stereo_import_refusals(dataset, tmp_path, capsys):
@@ -84,6 +99,19 @@ def test_stereo_import_refusals(dataset, tmp_path, capsys):
     assert not (tmp_path / "new.yaml").exists() and extrinsics.read_bytes() == before
     assert main(["stereo-import", str(intrinsics), "--out", str(tmp_path / "x.yaml"), "--image-size", "big"]) == 2
     assert "--image-size" in capsys.readouterr().err
+    v73 = tmp_path / "v73.mat"                        # the header of a MAT-file 7.3 (HDF5)
+    v73.write_bytes(b"MATLAB 7.3 MAT-file".ljust(116, b" ") + bytes(8) + b"\x00\x02IM" + bytes(384)
+                    + b"\x89HDF\r\n\x1a\n")
+    assert main(["stereo-import", str(v73), "--out", str(tmp_path / "new.yaml")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "v73.mat: a MAT-file version 7.3 (HDF5)" in err[0] and "'-v7'" in err[0]
+    assert not (tmp_path / "new.yaml").exists()
+
+
+def test_stereo_import_help_names_the_matlab_mat_file(capsys):
+    assert main(["stereo-import", "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "MATLAB stereoParameters .json or .mat" in text and "'-v7'" in text
 
 
 def test_select_poses_takes_an_opencv_file(tmp_path, capsys):

@@ -51,7 +51,7 @@ class StereoFileActions:
         if paths is None:
             paths, _ = QFileDialog.getOpenFileNames(
                 self, "Import a stereo calibration (for a pair, select both files)", str(project.folder),
-                "Stereo calibrations (*.yaml *.yml *.xml *.json);;All files (*)")
+                "Stereo calibrations (*.yaml *.yml *.xml *.json *.mat);;All files (*)")
             if not paths:
                 return None
         try:

@@ -8,7 +8,7 @@
   beside it);
 - two ROS camera_info files (left, right), optionally with an OpenCV file holding R, T;
 - a Kalibr camchain.yaml;
-- MATLAB stereoParameters as JSON.
+- MATLAB stereoParameters as JSON or as a MAT-file (.mat).
 
 A folder stands for the calibration inside it: intrinsics + extrinsics, left.yaml + right.yaml,
 one camchain*.yaml or one stereo.yaml. What the files leave out is computed
@@ -26,14 +26,18 @@ __all__ = ["ImportedStereo", "read_any_stereo", "FORMATS"]
 
 FORMATS = ("RoboCal stereo.yaml, OpenCV FileStorage YAML/XML (K1 D1 K2 D2 R T), OpenCV stereo_calib "
            "intrinsics.yml + extrinsics.yml, ROS camera_info left + right, Kalibr camchain.yaml, MATLAB "
-           "stereoParameters JSON")
+           "stereoParameters JSON or MAT-file")
 _HINT = f"RoboCal reads: {FORMATS} (see docs/file-formats.md)."
 
 
 def _kind(path: Path) -> str:
-    """robocal, opencv, intrinsics, extrinsics, ros, kalibr or matlab (by the file's fields)."""
+    """robocal, opencv, intrinsics, extrinsics, ros, kalibr, matlab or matlab_mat (by the file's
+    fields; a MAT-file by its suffix)."""
     from core.stereo.importers.opencv import storage_keys
 
+    if path.suffix.lower() == ".mat":
+        check_file(path, text=False)
+        return "matlab_mat"
     check_file(path)
     if path.suffix.lower() == ".json":
         data = load_json(path)
@@ -101,6 +105,7 @@ def read_any_stereo(paths, *, image_size: tuple[int, int] | None = None,
     from core.stereo.file import read_stereo_yaml
     from core.stereo.importers.kalibr import read_kalibr
     from core.stereo.importers.matlab import read_matlab
+    from core.stereo.importers.matlab_mat import read_matlab_mat
     from core.stereo.importers.opencv import read_opencv, read_opencv_pair
     from core.stereo.importers.ros import read_ros_pair
 
@@ -119,6 +124,8 @@ def read_any_stereo(paths, *, image_size: tuple[int, int] | None = None,
         return read_kalibr(paths[0])
     if kinds == ["matlab"]:
         return read_matlab(paths[0])
+    if kinds == ["matlab_mat"]:
+        return read_matlab_mat(paths[0])
     if kinds == ["intrinsics"]:
         return read_opencv_pair(paths[0], _sibling(paths[0], "extrinsics"), **options)
     if kinds == ["extrinsics"]:

@@ -24,8 +24,8 @@ class ImportedStereo:
     notes: list[str] = field(default_factory=list)   # what was computed or assumed
 
 
-def check_file(path: Path) -> Path:
-    """An existing, readable, not too large file."""
+def check_file(path: Path, *, text: bool = True) -> Path:
+    """An existing, readable, not too large file (a text file unless `text` is False)."""
     if not path.exists():
         raise RoboCalError("file not found", source=path, hint="Check the path of the stereo calibration.")
     if not path.is_file():
@@ -39,7 +39,7 @@ def check_file(path: Path) -> Path:
     if size > MAX_BYTES:
         raise RoboCalError(f"too large for a stereo calibration ({size / 1e6:.0f} MB)", source=path,
                            hint="Give the calibration file itself.")
-    if b"\x00" in head:
+    if text and b"\x00" in head:
         raise RoboCalError("not a text file", source=path, hint="Give a stereo calibration in YAML, XML or JSON.")
     return path
 

@@ -65,3 +65,20 @@ def test_import_refusal_is_one_message_and_keeps_the_previous_file(page, tmp_pat
     text = page.status.text()
     assert text.startswith("Not imported: ") and "cam0.distortion_model" in text and "\n" not in text
     assert page.state.project.path("stereo").read_bytes() == before
+
+
+def test_import_button_takes_a_matlab_mat_file(page, qtbot, tmp_path, rig, monkeypatch):
+    """The dialog offers *.mat among the stereo calibrations; MATLAB's MAT-file is imported."""
+    mat = ff.matlab_mat(rig, tmp_path / "stereoParams.mat")
+    offered = []
+
+    def dialog(parent, caption, folder, filters):
+        offered.append(filters)
+        return [str(mat)], ""
+    monkeypatch.setattr(QFileDialog, "getOpenFileNames", dialog)
+    with qtbot.waitSignal(page.state.stereoChanged, timeout=2000):
+        qtbot.mouseClick(page.import_button, Qt.MouseButton.LeftButton)
+    assert "*.mat" in offered[0].split(";;")[0]
+    assert page.is_complete() and "Imported MATLAB stereoParameters (MAT)" in page.status.text()
+    sf = read_stereo_yaml(page.state.project.path("stereo"))
+    np.testing.assert_allclose(sf.K2, rig.right.K, rtol=1e-15)

@@ -104,3 +104,37 @@ def test_chains_dh_cannot_express_are_refused(tmp_path):
     with pytest.raises(RoboCalError, match="is not below link"):
         import_urdf(path, base="wrist_1_link", tip="shoulder_link")
 
+
+
+# the UR5 with its elbow and wrist 1 axes 0.01° off parallel (as rounding in a URDF leaves them)
+TILT = "0.000174533"                                       # 0.01° in rad
+UR5_ROUNDED = (UR5.replace('<origin xyz="0 -0.1197 0.425" rpy="0 0 0"/>', f'<origin xyz="0 -0.1197 0.425" rpy="{TILT} 0 0"/>')
+               .replace('<origin xyz="0 0 0.39225" rpy="0 1.570796325 0"/>',
+                        f'<origin xyz="0 0 0.39225" rpy="0 1.570796325 {TILT}"/>'))
+
+
+def test_nearly_parallel_axes_take_hayatis_form(tmp_path):
+    """Axes 0.01° off parallel: no common normal kilometres away (plain DH would put d2 at
+    about 2.4 km) but Hayati's d = 0 with the tilt in β, and the same forward kinematics."""
+    yourdfpy = pytest.importorskip("yourdfpy")
+    assert UR5_ROUNDED.count(TILT) == 2
+    path = tmp_path / "ur5_rounded.urdf"
+    path.write_text(UR5_ROUNDED)
+    imported = import_urdf(path)
+    model = imported.model
+    lengths = np.array([[j.d, j.a] for j in model.joints])
+    assert np.abs(lengths).max() < 500                           # mm: the UR5's own lengths (a2 = 425)
+    tilts = [np.rad2deg(np.arccos(np.cos(j.alpha) * np.cos(j.beta))) for j in model.joints[1:3]]
+    np.testing.assert_allclose(tilts, 0.01, rtol=1e-3)           # deg between axes 2-3 and 3-4 (Rx(α)·Ry(β))
+    assert [j.d for j in model.joints[1:3]] == [0.0, 0.0]
+    assert model.parallel_axis_joints() == [1, 2]                 # identification swaps d for β here too
+    assert any("within 5° of parallel" in n and "'shoulder_lift_joint'" in n for n in imported.notes)
+    urdf = yourdfpy.URDF.load(str(path), load_meshes=False, build_scene_graph=True)
+    for q in random_q(model, 200, np.random.default_rng(3)):
+        urdf.update_cfg(q)
+        ref = urdf.get_transform("ee_link", "base_link")
+        T = model.fk(q)
+        assert np.abs(T[:3, 3] - 1000 * ref[:3, 3]).max() < 1e-6          # mm
+        assert np.abs(T[:3, :3] - ref[:3, :3]).max() < 1e-9
+    for q in random_q(model, 1000, np.random.default_rng(4)):
+        assert np.abs(model.fk(q)[:3, 3] - urdf_forward_kinematics(path, q)[:3, 3]).max() < 1e-6

@@ -1,7 +1,7 @@
 """Stereo calibration files as other tools write them, made from each format's public
 description (never from RoboCal's writers): OpenCV FileStorage (stereo.yml, and stereo_calib's
 intrinsics.yml + extrinsics.yml), ROS camera_info (camera_calibration_parsers' YAML), Kalibr
-camchain.yaml and MATLAB stereoParameters as jsonencode(toStruct(...))."""
+camchain.yaml and MATLAB stereoParameters as jsonencode(toStruct(...)) and in a MAT-file."""
 from __future__ import annotations
 
 import json
@@ -116,4 +116,54 @@ def matlab_json(rig: StereoRig, path: Path, *, units="mm", skew=0.0) -> Path:
             "RotationOfCamera2": rig.R.T.tolist(), "TranslationOfCamera2": (rig.T * scale).tolist(),
             "WorldUnits": units, "Version": {"Major": 1}}
     path.write_text(json.dumps(data))
+    return path
+
+
+def matlab_mat(rig: StereoRig, path: Path, *, layout="variable", intrinsics="IntrinsicMatrix",
+               pose="RotationOfCamera2", units="mm", radial=3) -> Path:
+    """A MAT-file (scipy.io.savemat, format 5 = MATLAB's -v7 container, compressed) as MATLAB saves
+    toStruct(stereoParams), following MATLAB's documentation:
+
+    layout      'variable': save('stereo.mat', 's') — one struct variable s;
+                'fields': save('stereo.mat', '-struct', 's') — its fields as variables
+    intrinsics  'IntrinsicMatrix': [fx 0 0; s fy 0; cx cy 1] (before R2022b); 'K': [fx s cx; 0 fy cy; 0 0 1];
+                'Intrinsics': a cameraIntrinsics struct (FocalLength, PrincipalPoint, ImageSize,
+                RadialDistortion, TangentialDistortion, Skew) — pixel centres counted from (1, 1)
+    pose        'RotationOfCamera2': row-vector form x2 = x1·RotationOfCamera2 + TranslationOfCamera2;
+                'PoseCamera2': rigidtform3d fields R, Translation mapping camera 2 coordinates to
+                camera 1's (X1 = R·X2 + Translationᵀ)
+    radial      2, 3 or 6 RadialDistortion coefficients (6: k1 k2 k3 k4 k5 k6, the rational model)"""
+    from scipy.io import savemat
+
+    scale = {"mm": 1.0, "meters": 0.001}[units]
+
+    def cam(c):
+        K = np.array(c.K, float)
+        K[0, 2] += 1.0
+        K[1, 2] += 1.0
+        d = np.zeros(8)
+        d[:c.dist.size] = c.dist
+        k = {2: d[[0, 1]], 3: d[[0, 1, 4]], 6: d[[0, 1, 4, 5, 6, 7]]}[radial]
+        size = np.array([c.size[1], c.size[0]], float)          # [rows cols]
+        if intrinsics == "Intrinsics":
+            return {"Intrinsics": {"FocalLength": np.array([K[0, 0], K[1, 1]]),
+                                   "PrincipalPoint": np.array([K[0, 2], K[1, 2]]), "ImageSize": size,
+                                   "RadialDistortion": k, "TangentialDistortion": d[2:4], "Skew": 0.0},
+                    "WorldUnits": units}
+        matrix = {"IntrinsicMatrix": K.T, "K": K}[intrinsics]
+        return {intrinsics: matrix, "RadialDistortion": k, "TangentialDistortion": d[2:4], "ImageSize": size,
+                "WorldUnits": units, "EstimateSkew": False, "NumRadialDistortionCoefficients": float(radial),
+                "EstimateTangentialDistortion": True, "RotationVectors": np.zeros((2, 3)),
+                "TranslationVectors": np.ones((2, 3)), "WorldPoints": np.zeros((4, 2)),
+                "ReprojectionErrors": np.full((4, 2, 2), 0.1), "Version": {"Name": "Computer Vision Toolbox"}}
+    s = {"CameraParameters1": cam(rig.left), "CameraParameters2": cam(rig.right),
+         "Version": {"Name": "Computer Vision Toolbox"},
+         "RectificationParams": {"Initialized": False, "OutputView": "same"}}
+    T = rig.T * scale
+    if pose == "RotationOfCamera2":
+        s["RotationOfCamera2"] = rig.R.T
+        s["TranslationOfCamera2"] = T
+    else:
+        s["PoseCamera2"] = {"Dimensionality": 3.0, "R": rig.R.T, "Translation": -rig.R.T @ T}
+    savemat(path, s if layout == "fields" else {"s": s}, do_compression=True)
     return path

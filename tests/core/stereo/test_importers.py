@@ -4,9 +4,12 @@ rectification computed where absent and statistics unknown; refusals are one cle
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
+import scipy.io.matlab
+from scipy.io import loadmat, savemat
 
 from core.errors import RoboCalError
 from core.stereo.file import read_stereo_yaml, write_stereo_yaml
@@ -22,6 +25,7 @@ def rig():
     return default_rig(0)
 
 
+PARABOLA = Path(scipy.io.matlab.__file__).parent / "tests" / "data" / "parabola.mat"
 POINTS = np.column_stack([np.linspace(-300, 300, 40), np.linspace(-200, 250, 40)[::-1],
                           np.linspace(700, 1800, 40)])
 
@@ -156,6 +160,117 @@ def test_matlab_refusals(tmp_path, rig):
     data["RotationOfCamera2"] = (np.asarray(data["RotationOfCamera2"]) * 2).tolist()
     path.write_text(json.dumps(data))
     with pytest.raises(RoboCalError, match=r"field 'RotationOfCamera2': not a rotation matrix"):
+        read_any_stereo(path)
+
+
+@pytest.mark.parametrize("options", [
+    {},                                                                     # toStruct saved as variable s
+    {"layout": "fields", "intrinsics": "K", "pose": "PoseCamera2", "units": "meters"},
+    {"intrinsics": "Intrinsics", "pose": "PoseCamera2", "radial": 2},
+    {"layout": "fields", "intrinsics": "K", "radial": 6},
+])
+def test_matlab_stereo_parameters_mat(tmp_path, options):
+    """MAT-files as MATLAB saves toStruct(stereoParams): the same pixels as the true cameras."""
+    from core.virtual_lab.rig import default_rig
+
+    radial = options.get("radial", 3)
+    distortion = {2: (-0.1, 0.05, 0.001, -0.0005, 0.0), 3: (-0.1, 0.05, 0.001, -0.0005, 0.01),
+                  6: (-0.1, 0.05, 0.001, -0.0005, 0.01, 0.02, -0.01, 0.005)}[radial]
+    rig = default_rig(1)
+    for cam in (rig.left, rig.right):
+        cam.dist = np.array(distortion)
+    path = ff.matlab_mat(rig, tmp_path / "stereo.mat", **options)
+    imported = read_any_stereo(path)
+    assert imported.kind == "MATLAB stereoParameters (MAT)" and imported.sources == [path]
+    assert imported.file.image_size == rig.left.size
+    assert_same_pixels(imported, rig)
+    np.testing.assert_allclose(imported.file.K1, rig.left.K, rtol=1e-15)      # −1 px, transposed back
+    np.testing.assert_allclose(imported.file.T, rig.T, rtol=0, atol=1e-12)    # in mm, whatever the unit
+    assert imported.file.D1.size == (8 if radial == 6 else 5)
+    assert_unknown_statistics(imported)
+
+
+def test_matlab_mat_and_json_read_alike(tmp_path, rig):
+    """One place for MATLAB's conventions: the MAT-file and the JSON export give the same file."""
+    mat = read_any_stereo(ff.matlab_mat(rig, tmp_path / "stereo.mat")).file
+    json_file = read_any_stereo(ff.matlab_json(rig, tmp_path / "stereo.json")).file
+    assert mat.to_dict() == json_file.to_dict()
+
+
+def _v73(path):
+    """The start of a MAT-file 7.3 as MATLAB writes it: a 128-byte text header (version 0x0200,
+    'IM'), padded to a 512-byte user block, then the HDF5 signature."""
+    text = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Jan  1 00:00:00 2024 HDF5 schema 1.00 ."
+    header = text.ljust(116, b" ") + bytes(8) + b"\x00\x02IM"
+    path.write_bytes(header.ljust(512, b"\x00") + b"\x89HDF\r\n\x1a\n" + bytes(64))
+    return path
+
+
+def test_matlab_mat_refusals(tmp_path, rig):
+    with pytest.raises(RoboCalError, match=r"v73.mat: a MAT-file version 7.3 \(HDF5\).*'-v7'"):
+        read_any_stereo(_v73(tmp_path / "v73.mat"))
+    (tmp_path / "text.mat").write_text("K1: [1, 2]\n")
+    with pytest.raises(RoboCalError, match=r"text.mat: not a MATLAB MAT-file"):
+        read_any_stereo(tmp_path / "text.mat")
+    savemat(tmp_path / "other.mat", {"a": np.eye(3), "b": "text"})
+    with pytest.raises(RoboCalError, match=r"other.mat: holds no stereoParameters struct .* variables: a, b\. "
+                                           r"Save the stereo parameters"):
+        read_any_stereo(tmp_path / "other.mat")
+    s = loadmat(ff.matlab_mat(rig, tmp_path / "s.mat"), simplify_cells=True)["s"]
+    savemat(tmp_path / "two.mat", {"s": s, "t": s})
+    with pytest.raises(RoboCalError, match=r"two.mat: holds several stereo calibrations \(s, t\)"):
+        read_any_stereo(tmp_path / "two.mat")
+
+
+def _edited(rig, path, edit, **options):
+    """A MAT-file of the rig with its struct s edited."""
+    s = loadmat(ff.matlab_mat(rig, path, **options), simplify_cells=True)["s"]
+    edit(s)
+    savemat(path, {"s": s})
+    return path
+
+
+@pytest.mark.parametrize("edit, field, says", [
+    (lambda s: s.pop("CameraParameters2"), "s.CameraParameters2", "missing"),
+    (lambda s: s.pop("TranslationOfCamera2"), "s.TranslationOfCamera2", "missing"),
+    (lambda s: s["CameraParameters1"].pop("IntrinsicMatrix"), "s.CameraParameters1.K",
+     r"missing \(the camera needs K, IntrinsicMatrix or Intrinsics\)"),
+    (lambda s: s["CameraParameters2"].pop("ImageSize"), "s.CameraParameters2.ImageSize", "missing"),
+    (lambda s: s.update(RotationOfCamera2=np.eye(3)[:2]), "s.RotationOfCamera2", "expected 3x3 numbers, got 6"),
+    (lambda s: s["CameraParameters1"].update(RadialDistortion=np.zeros(4)), "s.CameraParameters1.RadialDistortion",
+     "expected 2, 3 or 6 coefficients, got 4"),
+    (lambda s: s["CameraParameters1"].update(ImageSize=np.array([1024.0, 1280.0, 3.0])),
+     "s.CameraParameters1.ImageSize", r"expected \[rows cols\]"),
+    (lambda s: s["CameraParameters2"].update(MappingCoefficients=np.array([800.0, 0.0, 0.0, 0.0])),
+     "s.CameraParameters2.MappingCoefficients", "a fisheye camera model"),
+    (lambda s: s.update(RotationOfCamera2=2 * s["RotationOfCamera2"]), "s.RotationOfCamera2", "not a rotation matrix"),
+    (lambda s: s["CameraParameters1"].update(WorldUnits="furlongs"), "s.CameraParameters1.WorldUnits",
+     "unknown world unit 'furlongs'"),
+])
+def test_matlab_mat_bad_fields(tmp_path, rig, edit, field, says):
+    path = _edited(rig, tmp_path / "stereo.mat", edit)
+    with pytest.raises(RoboCalError, match=rf"stereo.mat: field '{field}': {says}") as err:
+        read_any_stereo(path)
+    assert err.value.field == field and "\n" not in err.value.message
+
+
+def test_matlab_mat_pose_fields(tmp_path, rig):
+    path = _edited(rig, tmp_path / "stereo.mat", lambda s: s["PoseCamera2"].pop("Translation"), pose="PoseCamera2")
+    with pytest.raises(RoboCalError, match=r"field 's.PoseCamera2.Translation': missing"):
+        read_any_stereo(path)
+    path = _edited(rig, tmp_path / "stereo.mat", lambda s: s["CameraParameters1"]["Intrinsics"].pop("PrincipalPoint"),
+                   intrinsics="Intrinsics")
+    with pytest.raises(RoboCalError, match=r"field 's.CameraParameters1.Intrinsics.PrincipalPoint': missing"):
+        read_any_stereo(path)
+
+
+@pytest.mark.skipif(not PARABOLA.is_file(), reason="scipy's test MAT-files are not installed")
+def test_matlab_object_in_a_mat_file_is_refused(tmp_path):
+    """A MATLAB object (here a function handle saved by MATLAB) can be read only by MATLAB."""
+    path = tmp_path / "stereoParams.mat"
+    path.write_bytes(PARABOLA.read_bytes())
+    with pytest.raises(RoboCalError, match=r"variable 'parabola' is a MATLAB object, which only MATLAB can read. "
+                                           r"Save the struct .* toStruct\(stereoParams\)"):
         read_any_stereo(path)
 
 
