@@ -211,13 +211,17 @@ def speed(report):
                                                f"{result.n_points} points, {len(result.estimated)} parameters")
 
 
-def prior_study(report, runs=4):
-    """The prior toward nominal (weight by 5-fold cross validation) against the plain fit, scored
-    on the true robot at 200 new poses: in the virtual lab (50 ideal measurements, σ = 0.05 mm),
-    and on the 6R arm with its marker 0.36 mm off the last axis, where the plain fit keeps
-    parameters it barely determines at nominal."""
+def prior_study(report, runs=10):
+    """The prior toward nominal (weights estimated by empirical Bayes) against the plain fit,
+    scored on the true robot at 200 new poses: in the virtual lab (50 ideal measurements,
+    σ = 0.05 mm), and on the 6R arm with its marker 0.36 mm off the last axis, where the plain
+    fit keeps parameters it barely determines at nominal. Figure: mean error of the prior over
+    the runs / that of the plain fit; the spread is that ratio run by run. Measured (10 runs):
+    0.974 (0.905–1.037) and 0.975 (0.878–1.009), 0.993 (0.982–1.009) over the 8 runs where
+    the plain fit keeps parameters at nominal; the former 5-fold cross validation kept the
+    plain fit in nearly every run (0.9998 and 0.9973)."""
     cases = {"virtual lab": [], "marker near the last axis": []}
-    dropped, dominated = set(), set()
+    dropped, dominated, fixing, times = set(), set(), [], []
     nominal6 = read_robot(robot_path("educational_6r"))
     nominal6.targets = {"marker": np.array([0.0, 0.0, 25.0])}
     for seed in range(runs):
@@ -230,16 +234,31 @@ def prior_study(report, runs=4):
         problems.append((nominal6, simulate_measurements(true, 30, sigma_mm=SIGMA, rng=100 + seed),
                          simulate_measurements(true, 200, sigma_mm=0.0, rng=999), "marker near the last axis"))
         for nominal, meas, truth, case in problems:
+            t0 = time.perf_counter()
             plain = identify(nominal, meas)
+            t1 = time.perf_counter()
             prior = identify(nominal, meas, prior=PriorOptions())
+            times.append((time.perf_counter() - t1) / (t1 - t0))
             cases[case].append((evaluate(plain.model, truth).mean_mm, evaluate(prior.model, truth).mean_mm))
             if case != "virtual lab":
-                dropped |= {r.name for r in plain.unidentifiable if r.status.startswith("not determined")}
+                kept = {r.name for r in plain.unidentifiable if r.status.startswith("not determined")}
+                if kept:
+                    fixing.append(cases[case][-1])
+                dropped |= kept
                 dominated |= set(prior.prior.dominated)
     for case, pairs in cases.items():
-        plain, prior = np.mean(pairs, axis=0)
+        pairs = np.array(pairs)
+        plain, prior = pairs.mean(axis=0)
+        r = pairs[:, 1] / pairs[:, 0]
+        spread = f"runs {r.min():.3f}–{r.max():.3f}, sd {r.std(ddof=1):.3f}"
         report.add(f"prior toward nominal, {case}: mean error on the true robot, prior / plain", prior / plain,
-                   "<=", 1.0, "x", f"{prior:.4f} vs {plain:.4f} mm, {runs} runs")
+                   "<=", 1.0, "x", f"{prior:.4f} vs {plain:.4f} mm, {runs} runs; {spread}")
+    fixing = np.array(fixing)
+    r = fixing[:, 1] / fixing[:, 0]
+    report.add("prior toward nominal, marker near the last axis, the runs where the plain fit keeps parameters at "
+               "nominal: prior / plain", float(fixing[:, 1].mean() / fixing[:, 0].mean()), "<", 1.0, "x",
+               f"{len(fixing)} of {runs} runs; runs {r.min():.3f}–{r.max():.3f}")
+    report.info("prior: identification time with / without (median over the runs)", statistics.median(times), "x")
     report.info("prior, marker near the last axis: kept at nominal by the plain fit / dominated by the prior",
                 f"{', '.join(sorted(dropped)) or 'none'} / {', '.join(sorted(dominated)) or 'none'}")
 

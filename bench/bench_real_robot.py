@@ -110,12 +110,15 @@ def run(report) -> None:
                round(independent * 1.01, 4), "mm", "target: within 1 % of the independent fit")
     report.info("IRB 120 held-out mean error, independent scipy least_squares fit", independent, "mm")
     report.info("IRB 120 held-out mean error, published minimal POE model (data README)", PUBLISHED_MINIMAL_MM, "mm")
+    t0 = time.perf_counter()
     with_prior = identify(robot, cal.with_robot(robot), prior=PriorOptions())
+    t_prior = time.perf_counter() - t0
     prior_mean = evaluate(with_prior.model, test.with_robot(robot)).mean_mm
     p = with_prior.prior
-    report.add("IRB 120 held-out mean error, RoboCal with the prior toward nominal (weight by 5-fold CV)", prior_mean,
-               "<=", ours.mean_mm, "mm",
-               f"target: no worse than without; weight {p.weight:g}, dominated: {', '.join(p.dominated) or 'none'}")
+    report.add("IRB 120 held-out mean error, RoboCal with the prior toward nominal (weights by empirical Bayes)",
+               prior_mean, "<=", min(ours.mean_mm, independent), "mm",
+               f"target: no worse than without or the independent fit; measured 0.3153 (0.978 x); weights "
+               f"{p.weight_text}, dominated: {', '.join(p.dominated) or 'none'}")
     for weight in (1e-4, 1e-3, 1e-2):
         fixed = identify(robot, cal.with_robot(robot), prior=PriorOptions(weight=weight)).model
         report.info(f"IRB 120 held-out mean error, prior of fixed weight {weight:g}",
@@ -124,3 +127,6 @@ def run(report) -> None:
     # target about 2x the measured 0.034: scipy differentiates the model numerically, RoboCal analytically
     report.add("identification time, RoboCal / scipy least_squares on the same problem", t_robocal / t_scipy, "<",
                0.07, "ratio", f"RoboCal {t_robocal * 1000:.0f} ms, scipy {t_scipy * 1000:.0f} ms")
+    # the prior's weights take two or three fits and their evidence: measured 0.114 (the plain fit 0.049 in that run)
+    report.add("identification time with the prior (weights estimated), RoboCal / scipy least_squares", t_prior / t_scipy,
+               "<", 0.25, "ratio", f"RoboCal {t_prior * 1000:.0f} ms")

@@ -31,10 +31,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--seed", type=options.seed, default=0, help="seed of the validation split (default 0)")
     parser.add_argument("--prior", type=options.prior_weight, default=False, metavar="auto|WEIGHT",
                         help="estimate the DH parameters the measurements barely determine with a prior toward "
-                             "their nominal values instead of keeping them at nominal; 'auto' chooses its weight "
-                             "by cross validation, 0 is the plain fit (default: no prior)")
-    parser.add_argument("--prior-folds", type=options.prior_folds, default=5, metavar="K",
-                        help="cross-validation folds for choosing the prior's weight (default 5)")
+                             "their nominal values instead of keeping them at nominal; 'auto' estimates its weights "
+                             "(one for lengths, one for angles) from the measurements by empirical Bayes, "
+                             "0 is the plain fit (default: no prior)")
 
 
 def run(args) -> CommandResult:
@@ -50,7 +49,7 @@ def run(args) -> CommandResult:
     robot = read_robot(args.robot)
     meas = read_measurements(args.measurements, robot)
     fixed = [n.strip() for n in args.fix.split(",") if n.strip()]
-    prior = None if args.prior is False else PriorOptions(weight=args.prior, folds=args.prior_folds)
+    prior = None if args.prior is False else PriorOptions(weight=args.prior)
     result = identify(robot, meas, fixed=fixed, huber=args.huber, holdout=args.holdout, kfold=args.kfold,
                       seed=args.seed, prior=prior)
     write_calibrated_model(result, args.out)
@@ -77,15 +76,12 @@ def _text(result, out) -> str:
     p = result.prior
     if p is not None:
         how = "given" if p.chosen_by == "given" else f"chosen by {p.chosen_by}"
-        if p.weight == 0:
+        if p.weights.plain:
             lines.append(f"  Prior toward nominal: weight 0 ({how}): the plain fit.")
         else:
-            lines.append(f"  Prior toward nominal: weight {p.weight:g} ({how}), i.e. ± {p.std_length_mm:.3g} "
+            lines.append(f"  Prior toward nominal: weight {p.weight_text} ({how}), i.e. ± {p.std_length_mm:.3g} "
                          f"per DH length (mm), ± {p.std_angle_deg:.3g} per angle (deg)"
                          + (" in units of the measurements' σ." if result.weighted else "."))
-        if p.cv_rms_mm:
-            lines.append("    cross-validated RMS by weight: " + ", ".join(
-                f"{w:g}: {_fmt(r)} mm" for w, r in p.cv_rms_mm.items()))
         if p.dominated:
             lines.append("    dominated by the prior (share the measurements determine): " + ", ".join(
                 f"{n} {p.shares[n]:.0%}" for n in p.dominated))

@@ -55,12 +55,11 @@ angle_deg = number_in(B.OPTION_ANGLE_DEG)
 huber_k = number_in(B.HUBER_K)
 fraction = number_in(FRACTION)
 outlier_k = number_in(OUTLIER_K)
-prior_folds = whole_in(P.CV_FOLDS)
 _prior_weight = number_in(P.WEIGHT)
 
 
 def prior_weight(text: str) -> float | None:
-    """`auto` (None: chosen by cross validation) or a weight within its bound."""
+    """`auto` (None: estimated from the measurements) or a weight within its bound."""
     return None if text.strip().lower() == "auto" else _prior_weight(text)
 
 

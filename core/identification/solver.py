@@ -47,8 +47,8 @@ from core.identification.jacobian import (Parameter, all_parameters, apply_step,
                                        predict_points, resolve_names)
 from core.errors import RoboCalError, UsageError
 from core.files import strict_json
-from core.identification.prior import (DOMINATED_SHARE, PRIOR_DOMINATED, PriorOptions, PriorReport, PriorTerm, choose_weight,
-                                      data_share, reach_mm)
+from core.identification.prior import (DOMINATED_SHARE, EMPIRICAL_BAYES, PRIOR_DOMINATED, Linearised, PriorOptions,
+                                       PriorReport, PriorTerm, Weights, choose_weights, data_share, reach_mm)
 from core.identification.identifiability import (FIXED_BY_USER, Identifiability, ObservabilityIndices, analyse,
                                   check_data, column_scales, observability_indices,
                                   practical_identifiability, qr_r, small_factor)
@@ -501,7 +501,7 @@ class _Fit:
     dof: int
     covariance: np.ndarray
     observability: ObservabilityIndices
-    prior_weight: float = 0.0
+    prior_weights: Weights = Weights(0.0, 0.0)
     shares: dict[str, float] | None = None     # with a prior: the data share of each free parameter
 
 
@@ -511,11 +511,11 @@ def _base_fixed(ident_params: Sequence[Parameter], fixed_names: set[str]) -> boo
 
 def fit_model(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (),
               huber: float | None = None, outlier_k: float = 4.0, max_iterations: int = 100,
-              damping: float = 1e-3, prior_weight: float = 0.0, monitor: Monitor | None = None) -> _Fit:
+              damping: float = 1e-3, prior_weights: Weights | None = None, monitor: Monitor | None = None) -> _Fit:
     """Register the base, decide the identifiable parameters, estimate them (LM + optional
     Huber), and compute their covariance. The building block of `identify` (and of k-fold).
-    With `prior_weight` λ > 0 (core.identification.prior), parameters the data barely determine
-    are estimated with the prior toward `robot`'s values instead of being kept at nominal."""
+    With `prior_weights` (core.identification.prior, not both 0), parameters the data barely
+    determine are estimated with the prior toward `robot`'s values instead of being kept at nominal."""
     monitor = monitor or Monitor()
     if huber is not None and not huber > 0:
         raise UsageError(f"the Huber threshold must be positive, got {huber}")
@@ -528,7 +528,8 @@ def fit_model(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (
     initial = robot.copy() if _base_fixed(params, fixed_names) else register_base(robot, meas)
     monitor.step(0.03, "checking which parameters the measurements determine")
     ident = analyse(initial, targets, fixed=fixed_names, params=params)
-    prior = PriorTerm(robot, float(prior_weight), reach_mm(robot)) if prior_weight > 0 else None
+    prior_weights = prior_weights or Weights(0.0, 0.0)
+    prior = None if prior_weights.plain else PriorTerm(robot, prior_weights, reach_mm(robot))
     # with a prior, what the data leave undetermined of the joint parameters the prior determines
     checked = ident if prior is None else replace(ident, free=[p for p in ident.free if p.group != "joint"])
     check_data(initial, meas.Q, meas.target, checked, source=meas.source or None)
@@ -614,8 +615,16 @@ def fit_model(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (
     monitor.step(1.0, "done")
     return _Fit(model=model, initial=initial, ident=ident, records=records, converged=converged,
                 weights=point_w, outliers=outliers, sigma_hat=sigma_hat, dof=dof, covariance=cov,
-                observability=obs, prior_weight=float(prior_weight),
+                observability=obs, prior_weights=prior_weights,
                 shares=None if shares is None else dict(zip(ident.free_names, shares.tolist())))
+
+
+def linearised(fit: _Fit, meas: Measurements) -> Linearised:
+    """The fit's whitened Jacobian and residual on `meas` (robust weights included)."""
+    sw = np.sqrt(_weights0(meas) * fit.weights[:, None]).reshape(-1)
+    J = sw[:, None] * calibration_jacobian(fit.model, meas.Q, meas.target, fit.ident.free)
+    b = sw * (meas.xyz - predict_points(fit.model, meas.Q, meas.target)).reshape(-1)
+    return Linearised(fit.model, list(fit.ident.free), J, b)
 
 
 def _reset_to(model: RobotModel, reference: RobotModel, params: Sequence[Parameter]) -> RobotModel:
@@ -731,9 +740,9 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
     the others (what is validated is what is written). `kfold`: k-fold cross validation; the
     returned model is fitted on all poses and every pose is predicted once by a model that did
     not see it. `prior`: a prior toward the nominal DH values instead of keeping weakly determined
-    parameters at nominal (core.identification.prior); its weight, unless given, is chosen by
-    cross validation over the poses the returned model is fitted on. Raises RoboCalError for
-    bad data, Cancelled on cancel."""
+    parameters at nominal (core.identification.prior); its weights, unless given, are estimated
+    by empirical Bayes from the poses the returned model is fitted on (and kept for every fold).
+    Raises RoboCalError for bad data, Cancelled on cancel."""
     if holdout is not None and kfold is not None:
         raise UsageError("use either a held-out fraction or k-fold cross validation, not both")
     monitor = Monitor(progress, cancelled)
@@ -751,15 +760,16 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
     elif kfold is not None:
         folds = kfold_poses(meas.pose_ids, kfold, seed)
         main_span = (0.0, 1.0 / (kfold + 1))
-    choice = None
+    choice, fits = None, {}
     if prior is not None:
         if prior.weight is None:
-            def fit_at(tr, weight, mon):
-                return fit_model(robot, tr, monitor=mon, **{**kw, "prior_weight": weight}).model
-            choice = choose_weight(train, fit_at, folds=prior.folds, seed=seed, monitor=monitor.sub(0.0, 0.6))
+            def fit_at(weights, mon):
+                fits[weights] = fit_model(robot, train, monitor=mon, **{**kw, "prior_weights": weights})
+                return linearised(fits[weights], train)
+            choice = choose_weights(fit_at, robot, monitor=monitor.sub(0.0, 0.6))
             monitor = monitor.sub(0.6, 1.0)
-        kw["prior_weight"] = choice.weight if choice is not None else float(prior.weight)
-    fit = fit_model(robot, train, monitor=monitor.sub(*main_span), **kw)
+        kw["prior_weights"] = choice.weights if choice is not None else Weights(prior.weight, prior.weight)
+    fit = fits[choice.weights] if choice is not None else fit_model(robot, train, monitor=monitor.sub(*main_span), **kw)
     if holdout is not None:
         before = error_stats(register_base(robot, train), test)
         validation = Validation("holdout", before=before, after=error_stats(fit.model, test),
@@ -810,10 +820,9 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
     prior_report = None
     if prior is not None:
         prior_report = PriorReport(
-            weight=fit.prior_weight, reach_mm=reach_mm(robot), sigma_hat=fit.sigma_hat,
-            chosen_by="given" if choice is None else f"{choice.folds}-fold cross validation",
-            shares={r.name: r.data_share for r in rows if r.data_share is not None},
-            cv_rms_mm={} if choice is None else dict(choice.rms_mm))
+            weights=fit.prior_weights, reach_mm=reach_mm(robot), sigma_hat=fit.sigma_hat,
+            chosen_by="given" if choice is None else EMPIRICAL_BAYES,
+            shares={r.name: r.data_share for r in rows if r.data_share is not None})
     model = fit.model.copy()
     result = IdentificationResult(
         model=model, nominal=robot, initial=fit.initial, identifiability=fit.ident, parameters=rows,

@@ -99,8 +99,6 @@ def test_deeply_nested_json_is_refused(tmp_path, capsys):
     (["identify", "--robot", "{robot}", "--measurements", "{m}", "--out", "{tmp}/c.json", "--prior", "-1"], "--prior"),
     (["identify", "--robot", "{robot}", "--measurements", "{m}", "--out", "{tmp}/c.json", "--prior", "often"],
      "--prior"),
-    (["identify", "--robot", "{robot}", "--measurements", "{m}", "--out", "{tmp}/c.json", "--prior-folds", "1"],
-     "--prior-folds"),
     (["select-poses", "--robot", "{robot}", "--count", "5", "--out", "{tmp}/p.csv", "--plate", "-5"], "--plate"),
     (["select-poses", "--robot", "{robot}", "--count", "5", "--out", "{tmp}/p.csv", "--margin", "nan"], "--margin"),
     (["select-poses", "--robot", "{robot}", "--count", "5", "--out", "{tmp}/p.csv", "--lab-seed", "-3"], "--lab-seed"),

@@ -152,16 +152,16 @@ def test_an_unwritable_out_is_refused_with_one_line(tmp_path, capsys, data):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]      # nothing written
 
 
-def test_identify_with_a_prior_chosen_by_cross_validation(data, tmp_path, capsys):
+def test_identify_with_a_prior_estimated_from_the_measurements(data, tmp_path, capsys):
     out = tmp_path / "cal.json"
     code, result, err = run_json(capsys, ["identify", "--robot", ROBOT, "--measurements", str(data / "m.csv"),
-                                          "--out", str(out), "--prior", "auto", "--prior-folds", "4"])
+                                          "--out", str(out), "--prior", "auto"])
     assert code == 0 and err == ""
     prior = result["prior"]
-    assert prior["chosen_by"] == "4-fold cross validation"
-    assert set(prior["cross_validation_rms_mm"]) >= {"0", "0.001", "100"}
-    assert prior["weight"] in (float(w) for w in prior["cross_validation_rms_mm"])
-    assert read_robot(out).calibration["statistics"]["prior"]["weight"] == prior["weight"]
+    assert prior["chosen_by"] == "empirical Bayes"
+    assert prior["weight_length"] > 0 and prior["weight_angle"] > 0
+    saved = read_robot(out).calibration["statistics"]["prior"]
+    assert (saved["weight_length"], saved["weight_angle"]) == (prior["weight_length"], prior["weight_angle"])
     assert main(["identify", "--robot", ROBOT, "--measurements", str(data / "m.csv"), "--out", str(out),
                  "--prior", "0.01"]) == 0
     text = capsys.readouterr().out

@@ -38,8 +38,8 @@ class OptionsPanel(QGroupBox):
         self.prior_check = QCheckBox("Prior toward nominal")
         self.prior_check.setObjectName("priorCheck")
         self.prior_check.setToolTip("Estimate the parameters the poses barely determine with a pull toward their "
-                                    "nominal values instead of keeping them at nominal; the pull's weight is "
-                                    "chosen by cross validation, and is zero when it does not predict better.")
+                                    "nominal values instead of keeping them at nominal; how strong the pull is "
+                                    "(for lengths and for angles) is estimated from the measurements.")
         self.fix_edit = QLineEdit()
         self.fix_edit.setObjectName("fixEdit")
         self.fix_edit.setPlaceholderText("parameters kept at nominal, e.g. J6.d, marker.z")

@@ -74,11 +74,11 @@ def _fit_part(r) -> list[str]:
 
 
 def _prior_part(p) -> list[str]:
-    if p.weight <= 0:
-        return [f"<h3>Prior toward nominal</h3><p>Weight 0 ({esc(p.chosen_by)}): a pull toward the nominal "
-                "values did not predict the poses left out better, so the fit is the plain one.</p>"]
+    if p.weights.plain:
+        return [f"<h3>Prior toward nominal</h3><p>Weight 0 ({esc(p.chosen_by)}): no pull toward the nominal "
+                "values, so the fit is the plain one.</p>"]
     dominated = ", ".join(p.dominated) or "none"
-    return [f"<h3>Prior toward nominal</h3><p>Weight {p.weight:g} ({esc(p.chosen_by)}): a DH length may move "
+    return [f"<h3>Prior toward nominal</h3><p>Weight {esc(p.weight_text)} ({esc(p.chosen_by)}): a DH length may move "
             f"about {number(p.std_length_mm, 3, 'mm')} and an angle about {p.std_angle_deg:.3g}° from nominal "
             f"before the pull outweighs the measurements. Decided mostly by the prior (data share below 0.5): "
             f"{esc(dominated)}.</p>"]

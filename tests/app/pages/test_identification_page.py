@@ -279,6 +279,6 @@ def test_prior_option_reaches_the_identification_and_is_reported(hw_page, qtbot)
     page.options.prior_check.setChecked(True)
     identify(qtbot, page)
     prior = page.result.prior
-    assert prior is not None and prior.chosen_by.endswith("cross validation")
+    assert prior is not None and prior.chosen_by == "empirical Bayes" and not prior.weights.plain
     text = page.results.validation_view.toPlainText()
-    assert "Prior toward nominal" in text and f"Weight {prior.weight:g}" in text
+    assert "Prior toward nominal" in text and f"Weight {prior.weight_text}" in text
