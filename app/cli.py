@@ -25,6 +25,7 @@ COMMANDS = {
     "stereo-calibrate": "stereo_calibrate",
     "stereo-import": "stereo_import",
     "locate": "locate",
+    "locate-fixture": "locate_fixture",
     "measure": "measure",
     "select-poses": "select_poses",
     "identify": "identify",

@@ -10,15 +10,16 @@ import numpy as np
 
 from core.virtual_lab.changes import LabChange, apply_change, parse_change
 from core.virtual_lab.dataset import simulate_dataset
+from core.virtual_lab.fixture import VirtualFixture, calibrated_base_truth, place_fixture, render_fixture_pairs
 from core.virtual_lab.ideal_measurements import (DEFAULT_POSES, DEFAULT_SIGMA_MM, ideal_lab_measurements, ideal_measure,
                                                  write_ideal_measurements)
 from core.virtual_lab.lab import DEFAULT_BOARD, VirtualLab, lab_options
 from core.virtual_lab.marker_comparison import ComparisonResult, candidate_patterns, compare_markers
 
-__all__ = ["DEFAULT_BOARD", "DEFAULT_POSES", "DEFAULT_SIGMA_MM", "ComparisonResult", "LabChange", "VirtualLab",
-           "apply_change", "build_lab", "candidate_patterns", "compare_markers", "ideal_lab_measurements",
-           "ideal_measure", "image_measure", "lab_options", "parse_change", "simulate_dataset",
-           "write_ideal_measurements"]
+__all__ = ["DEFAULT_BOARD", "DEFAULT_POSES", "DEFAULT_SIGMA_MM", "ComparisonResult", "LabChange", "VirtualFixture",
+           "VirtualLab", "apply_change", "build_lab", "calibrated_base_truth", "candidate_patterns", "compare_markers",
+           "ideal_lab_measurements", "ideal_measure", "image_measure", "lab_options", "parse_change", "place_fixture",
+           "render_fixture_pairs", "simulate_dataset", "write_ideal_measurements"]
 
 
 def build_lab(robot: RobotModel | None, seed: int, noise: float) -> VirtualLab:

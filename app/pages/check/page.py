@@ -10,8 +10,10 @@ from PySide6.QtCore import QTimer
 from PySide6.QtWidgets import QHBoxLayout, QVBoxLayout
 
 from app.jobs import check as job
+from app.jobs import fixture as fixture_job
 from app.pages.base import WizardPage
 from app.pages.check.controls_panel import CheckControls
+from app.pages.check.fixture_panel import FixturePanel
 from app.pages.check.results_panel import CheckResults
 from app.pages.measurement_inputs import project_marker, stereo_source
 from app.pages.steps import Step
@@ -48,6 +50,10 @@ class CheckPage(WizardPage):
         self.controls = CheckControls()
         self.controls.setFixedWidth(320)
         self.results = CheckResults()
+        self.fixture = FixturePanel()
+        self.fixture.setFixedWidth(320)
+        self.fixture.locate_button.clicked.connect(lambda *_: self.locate_fixture())
+        self.fixture_run = None
         self.controls.run_button.clicked.connect(lambda *_: self.run_check())
         self.controls.choose_button.clicked.connect(lambda *_: self.choose_poses())
         self.controls.schedule_check.toggled.connect(lambda *_: self._schedule_changed())
@@ -57,7 +63,10 @@ class CheckPage(WizardPage):
         self.schedule_timer.timeout.connect(self._scheduled)
 
         body = QHBoxLayout()
-        body.addWidget(self.controls)
+        left = QVBoxLayout()
+        left.addWidget(self.controls, 1)
+        left.addWidget(self.fixture)
+        body.addLayout(left)
         body.addWidget(self.results, 1)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
@@ -137,6 +146,7 @@ class CheckPage(WizardPage):
         self.controls.set_enabled(self.busy, self._ready() and self.state.virtual, self.state.virtual)
         can = self.diagnosis is not None and self.diagnosis.explained and bool(self.diagnosis.parameters)
         self.results.reidentify_button.setEnabled(can and not self.busy)
+        self.fixture.set_enabled(self.busy, self._ready())
 
     # -- actions -------------------------------------------------------------------------
     def _cell(self) -> job.CheckSetup | None:
@@ -233,6 +243,40 @@ class CheckPage(WizardPage):
         self._set_status(f"✓ Re-identified {changed} from {len(update.proposed)} proposed poses and the check; "
                          f"wrote {update.path.name} (the previous one is kept in history/). Check of the updated "
                          f"robot: {short_verdict(update.after)}", update.after.within)
+
+    # -- fixture -------------------------------------------------------------------------
+    def locate_fixture(self) -> bool:
+        """Locate the lab's fixture, or the chosen description's from its pairs folder, through the
+        calibration; write fixture_pose.json and fixture.urdf to the project."""
+        if not self._ready():
+            self._set_status(MISSING, False)
+            return False
+        images = self.images()
+        if images is None:
+            self._set_status("Locating a fixture needs the trained marker and the stereo calibration: run the "
+                             "Stereo and Marker steps first.", False)
+            return False
+        folder, calibrated = self.state.project.folder, self.calibrated_path()
+        if self.fixture.source == "lab":
+            if not self.state.virtual:
+                self._set_status("The lab's fixture needs a virtual-lab project; choose image pairs.", False)
+                return False
+            return self.start_with_lab(fixture_job.locate_on_lab, calibrated, *images, folder,
+                                       seed=self._seed(), on_done=self._fixture_located,
+                                       status="Locating the lab's fixture…")
+        if not self.fixture.description_path or not self.fixture.pairs_folder:
+            self._set_status("Choose the fixture description and the folder of image pairs first.", False)
+            return False
+        return self.start(fixture_job.locate_from_folder, calibrated, *images, self.fixture.description_path,
+                          self.fixture.pairs_folder, folder, on_done=self._fixture_located,
+                          status="Locating the fixture…")
+
+    def _fixture_located(self, run) -> None:
+        self.fixture_run = run
+        self.fixture.show_run(run)
+        f = run.result.frame
+        self._set_status(f"✓ Fixture located ({f.method}, RMS residual {f.rms_mm:.3f} mm): wrote "
+                         f"{run.pose_path.name} and {run.urdf_path.name}.", True)
 
     # -- schedule ------------------------------------------------------------------------
     def _schedule_changed(self) -> None:
