@@ -25,6 +25,7 @@ from core.virtual_lab.synthetic import simulate_measurements
 
 SIGMA = 0.05
 CALIBRATIONS = 6
+REID_DRAWS = 5      # check noise and full recalibration poses per calibration
 
 
 def _calibrated(lab, seed):
@@ -95,26 +96,37 @@ def run(report) -> None:
         lab.true_robot = true
         report.add(f"diagnosis right: {spec}", 100 * right / n, ">=", 95.0, "%", f"{n} trials, 8 check poses")
 
-    # re-identification after a tool swap vs a full recalibration (held-out poses)
-    ratios, fractions = [], []
-    for s, (model, unc, _, _, Q8, L8) in enumerate(cells[:3]):
+    # re-identification after a tool swap vs a full recalibration (held-out poses). One draw of a
+    # full recalibration's held-out error scatters by ±25 % (50 random poses), and so does the
+    # previous calibration each re-identification keeps: the ratio of single draws fails 1.2 even
+    # for the previous calibration with the exact new tool. So both errors are pooled (RMS) over
+    # every cell and several draws of the check's noise and of the full recalibration's poses.
+    reid_sq, full_sq, ratios, fractions, proposed = [], [], [], [], []
+    for s, (model, unc, _, _, Q8, L8) in enumerate(cells):
         lab.true_robot = true
         apply_change(lab, "tool:2", seed=s)
-        r = run_check(model, unc, Q8, ideal_measure(lab, sigma_mm=SIGMA, seed=s), limits=L8)
-        d = diagnose(model, unc, r)
-        proposal = propose_poses(model, d.parameters, candidates=600, **opts)
-        new = simulate_measurements(lab.true_robot, len(proposal.Q), Q=proposal.Q, sigma_mm=SIGMA,
-                                    targets=["marker"], rng=s)
-        Q = np.vstack([new.Q, r.Q])
-        meas = Measurements(pose=np.arange(len(Q)), target=["marker"] * len(Q), q_file=model.q_to_file(Q),
-                            xyz=np.vstack([new.xyz, [p.measured for p in r.points]]), Q=Q)
-        re = reidentify(model, unc, d.parameters, meas)
-        full = identify(lab.nominal_robot, ideal_lab_measurements(lab, 50, sigma_mm=SIGMA, seed=900 + s)).model
         held = ideal_lab_measurements(lab, 40, sigma_mm=0.0, seed=950 + s)
-        ratios.append(error_stats(re.model, held).rms_mm / error_stats(full, held).rms_mm)
-        fractions.append(len(Q) / 50)
+        for j in range(REID_DRAWS):
+            r = run_check(model, unc, Q8, ideal_measure(lab, sigma_mm=SIGMA, seed=s + 1000 * j), limits=L8)
+            d = diagnose(model, unc, r)
+            proposal = propose_poses(model, unc, d.parameters, r.Q, candidates=600, **opts)
+            new = simulate_measurements(lab.true_robot, len(proposal.Q), Q=proposal.Q, sigma_mm=SIGMA,
+                                        targets=["marker"], rng=s + 1000 * j)
+            Q = np.vstack([new.Q, r.Q])
+            meas = Measurements(pose=np.arange(len(Q)), target=["marker"] * len(Q), q_file=model.q_to_file(Q),
+                                xyz=np.vstack([new.xyz, [p.measured for p in r.points]]), Q=Q)
+            re = error_stats(reidentify(model, unc, d.parameters, meas).model, held).rms_mm
+            full = error_stats(identify(lab.nominal_robot, ideal_lab_measurements(
+                lab, 50, sigma_mm=SIGMA, seed=900 + s + 1000 * j)).model, held).rms_mm
+            reid_sq.append(re ** 2)
+            full_sq.append(full ** 2)
+            ratios.append(re / full)
+            fractions.append(len(Q) / 50)
+            proposed.append(len(proposal.Q))
     lab.true_robot = true
-    report.add("re-identified tool swap: held-out error / full recalibration's", max(ratios), "<=", 1.2, "",
-               f"worst of {len(ratios)}; {len(proposal.Q)} proposed poses + 8 check poses")
+    report.add("re-identified tool swap: held-out error / full recalibration's",
+               math.sqrt(np.mean(reid_sq) / np.mean(full_sq)), "<=", 1.2, "",
+               f"RMS over {len(ratios)} trials ({CALIBRATIONS} calibrations × {REID_DRAWS}); single trials "
+               f"{min(ratios):.2f}–{max(ratios):.2f}; {min(proposed)}–{max(proposed)} proposed poses + 8 check poses")
     report.add("re-identification poses / full recalibration's", 100 * max(fractions), "<=", 20.0, "%",
-               "proposed + check poses, against 50")
+               "proposed + check poses, against 50; the most of any trial")

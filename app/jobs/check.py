@@ -4,7 +4,7 @@ diagnose, and re-identify what changed from the proposed poses."""
 from __future__ import annotations
 
 import copy
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -81,15 +81,17 @@ class Update:
 
 
 def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: Diagnosis, measure, out, *,
-                             lab_options: dict | None = None, log=None, seed: int = 0, progress=None,
-                             cancelled=None) -> Update:
-    """Propose the few poses that determine what changed, measure them, re-identify from them and the
-    check's points with the calibration as prior, write `out` atomically (only after everything
-    succeeded) and check the updated model at the check poses."""
+                             lab_options: dict | None = None, log=None, seed: int = 0, archive: bool = False,
+                             progress=None, cancelled=None) -> Update:
+    """Propose the few poses that, with the check's points (measured after the change), determine
+    what changed, measure them, re-identify from them and the check's points with the calibration
+    as prior, and only when all that succeeded: keep the file at `out` in history/ (`archive`),
+    write `out` atomically and check the updated model at the check poses. A failure leaves no
+    file behind."""
     monitor = Monitor(progress, cancelled)
     opts = {k: v for k, v in (lab_options or {}).items() if k != "robot"}
-    proposal = propose_poses(cell.model, diagnosis.parameters, candidates=CANDIDATES, seed=seed,
-                             progress=monitor.sub(0.0, 0.3), cancelled=cancelled, **opts)
+    proposal = propose_poses(cell.model, cell.unc, diagnosis.parameters, result.Q, candidates=CANDIDATES,
+                             seed=seed, progress=monitor.sub(0.0, 0.3), cancelled=cancelled, **opts)
     Qs, xyz = [], []
     for k, q in enumerate(proposal.Q):
         monitor.step(0.3 + 0.3 * k / len(proposal.Q), f"measuring proposed pose {k + 1} of {len(proposal.Q)}")
@@ -102,14 +104,30 @@ def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: D
     Q = np.array(Qs)
     meas = Measurements(pose=np.arange(len(Q)), target=[cell.target] * len(Q), q_file=cell.model.q_to_file(Q),
                         xyz=np.array(xyz), Q=Q)
+    out = Path(out)
+    kept = history_path(out) if archive and out.is_file() else None
     re = reidentify(cell.model, cell.unc, diagnosis.parameters, meas, reason=diagnosis.text,
-                    previous=cell.source, progress=monitor.sub(0.6, 0.7), cancelled=cancelled)
-    path = write_reidentified(re, out)
+                    previous=str(kept) if kept is not None else cell.source, progress=monitor.sub(0.6, 0.7),
+                    cancelled=cancelled)
+    path = _replace(re, out, kept)
     unc = calibration_uncertainty(re.model, source=out, sigma_mm=cell.unc.sigma_mm)
     updated = CheckSetup(re.model, unc, cell.Q, check_limits(re.model, unc, cell.Q, [cell.target] * len(cell.Q),
                                                             cell.limits.alpha), str(path))
     after, _ = check(updated, measure, log=log, progress=monitor.sub(0.7, 1.0), cancelled=cancelled)
     return Update(re, Path(path), proposal.Q, after, updated)
+
+
+def _replace(re: Reidentification, out: Path, kept: Path | None) -> Path:
+    """Copy `out` to `kept` (when given), then write the re-identified robot to `out`; when the
+    write fails, the copy is removed again."""
+    if kept is not None:
+        atomic_write_bytes(kept, out.read_bytes())
+    try:
+        return write_reidentified(re, out)
+    except BaseException:
+        if kept is not None:
+            kept.unlink(missing_ok=True)
+        raise
 
 
 CHANGE_SEED = 0     # one direction per simulated change, so every check sees the same change
@@ -137,24 +155,23 @@ def check_on_lab(cell: CheckSetup, lab, change: str | None, *, images=None, log=
     return check(cell, measure, log=log, progress=progress, cancelled=cancelled)
 
 
-def archive_calibration(path) -> Path:
-    """Copy the calibrated robot file `path` to history/<name>-<UTC time>.json beside it (the
-    calibration a re-identification updates stays readable)."""
+def history_path(path) -> Path:
+    """history/<name>-<UTC time>.json beside the calibrated robot file `path`: where a
+    re-identification keeps the calibration it replaces (nothing is written here)."""
     path = Path(path)
     stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ")
-    return atomic_write_bytes(path.parent / "history" / f"{path.stem}-{stamp}.json", path.read_bytes())
+    return path.parent / "history" / f"{path.stem}-{stamp}.json"
 
 
 def reidentify_on_lab(cell: CheckSetup, result: CheckResult, diagnosis: Diagnosis, lab, change: str | None,
                       calibrated, *, images=None, lab_options: dict | None = None, log=None, seed: int = 0,
                       progress=None, cancelled=None) -> Update:
     """Re-identify what `diagnosis` found from the proposed poses measured on the virtual lab and
-    replace `calibrated` (atomically, only on success; the previous file is kept in history/)."""
-    previous = archive_calibration(calibrated)
+    the check's points, and replace `calibrated` (atomically, only on success; the previous file
+    is then kept in history/)."""
     measure = lab_measure(lab, change, sigma_mm=cell.unc.sigma_mm, seed=seed, images=images)
-    return reidentify_from_proposed(replace(cell, source=str(previous)), result, diagnosis, measure, calibrated,
-                                    lab_options=lab_options, log=log, seed=seed, progress=progress,
-                                    cancelled=cancelled)
+    return reidentify_from_proposed(cell, result, diagnosis, measure, calibrated, lab_options=lab_options, log=log,
+                                    seed=seed, archive=True, progress=progress, cancelled=cancelled)
 
 
 def weighted_sigma_mm(path) -> float | None:

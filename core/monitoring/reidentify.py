@@ -11,8 +11,13 @@ the new poses mostly move K and the unchanged parameters only as far as the data
 posterior covariance (ΦᵀΦ/σ² + prior)⁻¹ is written into the new calibrated file, so the next
 checks take their limits from it.
 
-The fewest poses: core.poses.selection.select_poses for K alone (every other parameter fixed)
-proposes max(its minimum + 1, ⌈2·p_K/3⌉) poses chosen by observability of K.
+The fewest poses (`propose_poses`): the check's own points were measured after the change, so
+they count as data. New poses are added one at a time from feasible (visible) candidates, each the
+one that most lowers the predicted mean squared error of the updated model over those candidates,
+tr(W·P) with W the mean of Φ(q)ᵀΦ(q) over the candidates and P = (ΦᵀΦ/σ² + prior)⁻¹ the
+posterior covariance (a Bayesian I-optimal design, the prior and the poses measured so far
+included), until that predicted error is within `accuracy` × the calibration's own, tr(W·C)
+(what a full calibration of the same kind achieves).
 """
 from __future__ import annotations
 
@@ -27,12 +32,15 @@ import numpy as np
 from scipy.stats import chi2
 
 from core.errors import RoboCalError
-from core.identification.jacobian import (Parameter, all_parameters, apply_step, calibration_jacobian,
+from core.identification.identifiability import characteristic_scales
+from core.identification.jacobian import (Parameter, apply_step, calibration_jacobian,
                                           parameter_difference, predict_points)
 from core.identification.solver import display_value
 from core.measurement.file import Measurements, check_against_robot
 from core.monitoring.uncertainty import CalibrationUncertainty
-from core.poses.selection import PoseSelectionResult, minimum_poses, select_poses
+from core.poses.candidates import generate_candidates, no_candidate_error
+from core.poses.ordering import home_configuration, order_poses
+from core.poses.selection import minimum_poses
 from core.robot.file import write_robot
 from core.robot.model import RobotModel
 from core.task import Monitor
@@ -40,26 +48,94 @@ from core.task import Monitor
 ITERATIONS = 10
 
 
-def poses_for(model: RobotModel, changed: Sequence[Parameter], target: str = "marker") -> int:
-    """How many new poses to propose for re-identifying `changed`."""
-    names = {p.name for p in changed}
-    fixed = [p.name for p in all_parameters(model, [target]) if p.name not in names]
-    return max(minimum_poses(model, [target], fixed=fixed) + 1, math.ceil(2 * len(names) / 3))
+DEFAULT_ACCURACY = 1.15    # predicted RMS error of the updated model / the calibration's own
 
 
-def propose_poses(model: RobotModel, changed: Sequence[Parameter], *, count: int | None = None,
-                  target: str = "marker", progress=None, cancelled=None, **options) -> PoseSelectionResult:
-    """The few poses that best determine the `changed` parameters (others fixed); `options` go
-    to core.poses.selection.select_poses (rig, plate_size, visibility, floor, candidates …)."""
+@dataclass
+class Proposal:
+    """The proposed configurations in visiting order, Q (N, n; rad / mm) and q_file (file units),
+    the predicted RMS error (mm, 3D, from the parameters' uncertainty) of the re-identified model
+    over the visible workspace with the measured poses alone and after each proposed pose
+    (N + 1 values, in the order they were chosen), and the calibration's own (reference_mm)."""
+
+    Q: np.ndarray
+    q_file: np.ndarray
+    predicted_mm: np.ndarray
+    reference_mm: float
+
+    @property
+    def predicted_ratio(self) -> float:
+        """Predicted RMS error of the re-identified model / the calibration's own."""
+        return float(self.predicted_mm[-1] / self.reference_mm)
+
+
+def _prior_information(unc: CalibrationUncertainty, params: Sequence[Parameter], changed: set[str]) -> np.ndarray:
+    """The prior's information matrix over `params`: the marginal of C over the unchanged ones, 0 on the changed."""
+    index = {p.name: k for k, p in enumerate(unc.parameters)}
+    u = [k for k, p in enumerate(params) if p.name not in changed]
+    R = _prior_rows(unc.covariance[np.ix_([index[params[k].name] for k in u], [index[params[k].name] for k in u])])
+    info = np.zeros((len(params), len(params)))
+    info[np.ix_(u, u)] = R.T @ R
+    return info
+
+
+def propose_poses(model: RobotModel, unc: CalibrationUncertainty, changed: Sequence[Parameter],
+                  measured=None, *, count: int | None = None, accuracy: float = DEFAULT_ACCURACY,
+                  max_count: int | None = None, target: str = "marker", candidates: int = 600, seed: int = 0,
+                  progress=None, cancelled=None, **options) -> Proposal:
+    """The fewest new poses that, with the configurations `measured` (M, n; rad / mm) after the
+    change (the check's points), bring the predicted error of re-identifying `changed` with the
+    calibration `unc` as prior within `accuracy` × the calibration's own (see the module); at most
+    `max_count` (default 2·p_K), or exactly `count`. `options` go to
+    core.poses.candidates.generate_candidates (rig, plate_size, visibility, floor, margin)."""
+    monitor = Monitor(progress, cancelled)
     names = {p.name for p in changed}
     if not names:
         raise RoboCalError("nothing changed, so there is nothing to re-identify")
-    fixed = [p.name for p in all_parameters(model, [target]) if p.name not in names]
-    count = poses_for(model, changed, target) if count is None else int(count)
-    options.setdefault("random_trials", 20)
-    options.setdefault("curve_max", count)
-    return select_poses(model, count, target=target, targets=[target], fixed=fixed, progress=progress,
-                        cancelled=cancelled, **options)
+    measured = np.zeros((0, model.dof)) if measured is None else np.atleast_2d(np.asarray(measured, dtype=float))
+    cands = generate_candidates(model, candidates, seed=seed, target=target, progress=monitor.sub(0.0, 0.6),
+                                cancelled=cancelled, **options)
+    if len(cands) == 0:
+        raise no_candidate_error(cands, model, with_rig=options.get("rig") is not None)
+    monitor.step(0.6, "information of the candidate poses")
+    params = list(unc.parameters) + [p for p in changed if p.name not in set(unc.names)]
+    scale = characteristic_scales(model, params)          # columns in 'mm at the tool'
+    sigma = unc.sigma_mm
+    A = (calibration_jacobian(model, cands.Q, [target] * len(cands), params) / scale / sigma
+         ).reshape(len(cands), 3, len(params))
+    W = sigma ** 2 * np.einsum("mij,mik->jk", A, A) / len(cands)      # mm² per unit scaled parameter²
+    C = np.zeros((len(params), len(params)))
+    C[:len(unc.parameters), :len(unc.parameters)] = unc.covariance
+    reference = math.sqrt(float(np.trace(W @ (C * np.outer(scale, scale)))))
+    info = _prior_information(unc, params, names) / np.outer(scale, scale)
+    if len(measured):
+        J0 = calibration_jacobian(model, measured, [target] * len(measured), params) / scale / sigma
+        info = info + J0.T @ J0
+    info = info + 1e-9 * max(float(np.max(np.diag(info))), 1.0) * np.eye(len(params))  # changed set not yet determined
+    P = np.linalg.inv(info)
+    enough = minimum_poses(model, [target], fixed=[p.name for p in params if p.name not in names])
+    limit = int(count) if count is not None else (2 * len(names) if max_count is None else int(max_count))
+    chosen: list[int] = []
+    predicted = [math.sqrt(max(float(np.trace(W @ P)), 0.0))]
+    while len(chosen) < limit:
+        if count is None and len(measured) + len(chosen) >= enough and predicted[-1] <= accuracy * reference:
+            break
+        monitor.step(0.6 + 0.35 * len(chosen) / max(limit, 1), f"choosing pose {len(chosen) + 1}")
+        B = A @ P                                                   # (M, 3, L)
+        S = np.eye(3) + B @ A.transpose(0, 2, 1)
+        gain = np.trace(np.linalg.solve(S, B @ W @ B.transpose(0, 2, 1)), axis1=1, axis2=2)
+        gain[chosen] = -np.inf
+        k = int(np.argmax(gain))
+        chosen.append(k)
+        Bk = B[k]
+        P = P - Bk.T @ np.linalg.solve(S[k], Bk)
+        P = 0.5 * (P + P.T)
+        predicted.append(math.sqrt(max(float(np.trace(W @ P)), 0.0)))
+    Q = cands.Q[chosen]
+    q_file = np.atleast_2d(model.q_to_file(Q)).reshape(len(Q), model.dof)
+    order = order_poses(q_file, model.q_to_file(home_configuration(model))) if len(Q) > 1 else np.arange(len(Q))
+    monitor.step(1.0, "poses proposed")
+    return Proposal(Q[order], q_file[order], np.array(predicted), reference)
 
 
 @dataclass

@@ -235,6 +235,9 @@ class CheckPage(WizardPage):
 
     def _reidentified(self, update: job.Update) -> None:
         self.update = update
+        # calibrated.json now holds a newer calibration than this session's identification:
+        # Export and the report read the file from here on
+        self.state.set_identification(None)
         self.cell, self._cell_key = update.cell, self._key()
         self.result, self.diagnosis = update.after, None
         self._show_result(update.after, None)

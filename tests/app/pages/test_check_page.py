@@ -1,13 +1,15 @@
 """The Check page on the virtual lab: a check without change stays within limits and is logged,
 a simulated tool change is found and named, re-identification brings the next check back and
-writes a new calibrated.json (the previous kept in history/), a missing calibration is said
-plainly, the schedule, and a screenshot after a detected change."""
+writes a new calibrated.json (the previous kept in history/) that Export then writes, a failed
+re-identification leaves no trace, a missing calibration is said plainly, the schedule, and a
+screenshot after a detected change."""
 from __future__ import annotations
 
 import pytest
 
 from app.lab import ideal_lab_measurements
 from app.pages.check.page import MISSING, CheckPage
+from app.pages.export.page import ExportPage
 from app.state import WizardState
 from app.worker import TaskRunner
 from core.identification.solver import identify, write_calibrated_model
@@ -32,11 +34,13 @@ def page(qtbot, tmp_path):
     state.close()
 
 
-def calibrate(page) -> None:
+def calibrate(page):
+    """This session's identification, saved as the project's calibrated.json."""
     lab = page.state.lab
     result = identify(lab.nominal_robot, ideal_lab_measurements(lab, 50, sigma_mm=0.05, seed=4))
     write_calibrated_model(result, page.calibrated_path())
     page.refresh()
+    return result
 
 
 def run_check(page, qtbot) -> None:
@@ -64,7 +68,10 @@ def test_no_change_within_limits_and_logged(page, qtbot):
 
 
 def test_tool_change_found_reidentified_and_back_within(page, qtbot, tmp_path):
-    calibrate(page)
+    page.state.set_identification(calibrate(page))
+    export = ExportPage(page.state, page.tasks)
+    qtbot.addWidget(export)
+    assert export.calibrated_source() == "result"
     before = page.calibrated_path().read_text()
     page.controls.choose_change("tool", 1.5)
     run_check(page, qtbot)
@@ -85,12 +92,31 @@ def test_tool_change_found_reidentified_and_back_within(page, qtbot, tmp_path):
     kept = list((page.calibrated_path().parent / "history").glob("calibrated-*.json"))
     assert len(kept) == 1 and kept[0].read_text() == before
     assert after.calibration["history"][-1]["updated"] == kept[0].name
+    assert page.state.identification is None and export.calibrated_source() == "file"   # the newer file wins
+    (written,) = export.export("calibrated")
+    assert written.read_bytes() == page.calibrated_path().read_bytes()
+    assert read_robot(written).calibration["history"][-1]["changed"] == ["marker.x", "marker.y", "marker.z"]
 
     run_check(page, qtbot)                                # the change is still there: the new model fits it
     assert page.result.within, page.result.verdict()
     log = read_check_log(page.log_path())
     assert [c.within for c in log.checks] == [False, True, True]
     assert page.results.overall_chart.beyond_count == 1 and len(page.results.overall_chart.x) == 3
+
+
+def test_failed_reidentification_leaves_no_trace(page, qtbot):
+    calibrate(page)
+    before = page.calibrated_path().read_bytes()
+    page.controls.choose_change("tool", 1.5)
+    run_check(page, qtbot)
+    assert page.diagnosis.kind == "tool"
+    page.controls.choose_change("link", 1.0, joint=3)    # the data of the re-identification: a bent link
+    assert page.reidentify()
+    qtbot.waitUntil(lambda: not page.busy, timeout=TIMEOUT)
+    assert page.update is None and "full calibration" in page.status.text()
+    assert page.calibrated_path().read_bytes() == before
+    history = page.calibrated_path().parent / "history"
+    assert not history.exists() or not any(history.iterdir())
 
 
 def test_log_survives_a_new_page(page, qtbot):

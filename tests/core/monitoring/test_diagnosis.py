@@ -5,7 +5,7 @@ from core.errors import RoboCalError, UsageError
 from core.measurement.file import Measurements
 from core.monitoring.check import run_check
 from core.monitoring.diagnosis import BASE, JOINT, NONE, SEVERAL, TOOL, diagnose
-from core.monitoring.reidentify import poses_for, propose_poses, reidentify, write_reidentified
+from core.monitoring.reidentify import propose_poses, reidentify, write_reidentified
 from core.monitoring.uncertainty import calibration_uncertainty
 from core.robot.file import read_robot
 from core.virtual_lab.changes import apply_change, parse_change
@@ -67,11 +67,14 @@ def test_no_change_is_diagnosed_as_none():
 def test_reidentification_from_a_few_poses_brings_the_error_back(tmp_path, change):
     c, result, diag = checked(change, 4)
     try:
-        proposal = propose_poses(c.model, diag.parameters, candidates=500, **c.options)
-        assert len(proposal.Q) == poses_for(c.model, diag.parameters) <= 5
+        proposal = propose_poses(c.model, c.unc, diag.parameters, result.Q, candidates=500, **c.options)
+        assert len(proposal.Q) <= 2 * len(diag.parameters)
         new = simulate_measurements(c.lab.true_robot, len(proposal.Q), Q=proposal.Q, sigma_mm=SIGMA,
                                     targets=["marker"], rng=9)
-        re = reidentify(c.model, c.unc, diag.parameters, new, reason=diag.text, previous="calibrated.json")
+        Q = np.vstack([new.Q, result.Q])
+        meas = Measurements(pose=np.arange(len(Q)), target=["marker"] * len(Q), q_file=c.model.q_to_file(Q),
+                            xyz=np.vstack([new.xyz, [p.measured for p in result.points]]), Q=Q)
+        re = reidentify(c.model, c.unc, diag.parameters, meas, reason=diag.text, previous="calibrated.json")
         out = write_reidentified(re, tmp_path / "updated.json")
         model = read_robot(out)
         unc = calibration_uncertainty(model)
