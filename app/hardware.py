@@ -111,9 +111,13 @@ class LiveCameras:
         return f"left: {left.name} ({left.bus}) · right: {right.name} ({right.bus})"
 
     def preview(self) -> tuple[np.ndarray, np.ndarray]:
-        """The next frame of each camera (no flush; files and folders loop)."""
+        """The next frame of each camera, both grabbed before either is decoded, as a capture
+        does (no flush; files and folders loop)."""
         with self._lock:
-            return self._next(self.source.left), self._next(self.source.right)
+            cams = (self.source.left, self.source.right)
+            for cam in cams:
+                self._grab(cam)
+            return cams[0].retrieve(), cams[1].retrieve()
 
     def capture(self) -> StereoFrames:
         """A stereo pair taken together (stale frames of live cameras dropped first); video
@@ -132,12 +136,11 @@ class LiveCameras:
             self.source.close()
 
     @staticmethod
-    def _next(cam) -> np.ndarray:
+    def _grab(cam) -> None:
         if not cam.grab():
             if not cam.rewind() or not cam.grab():
                 raise RoboCalError("the source gives no image", source=cam.spec,
                                    hint="Check the camera, the video file or the folder.")
-        return cam.retrieve()
 
 
 def is_real(driver) -> bool:

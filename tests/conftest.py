@@ -13,6 +13,7 @@ Qt is imported only for GUI tests: tests/core never loads it.
 """
 from __future__ import annotations
 
+import gc
 import os
 import sys
 import tempfile
@@ -93,8 +94,14 @@ def _no_qt_leftovers(request, monkeypatch):
     yield
     # runs after qtbot's teardown (autouse fixtures are set up first, torn down last),
     # so widgets registered with qtbot.addWidget are already closed.
+    from PySide6.QtCore import QEvent
     from PySide6.QtWidgets import QApplication
 
+    # The test's widgets deleted now, on the GUI thread: pytest-qt's deleteLater, then pages
+    # only reference cycles keep (a panel's `page`), which a later garbage collection would
+    # otherwise free on whatever thread runs it (a worker), or while the windows are listed below.
+    QApplication.sendPostedEvents(None, QEvent.Type.DeferredDelete)
+    gc.collect()
     QApplication.processEvents()
     problems = []
     runners = busy_runners()

@@ -236,6 +236,23 @@ def _shown_source(src) -> str:
 # --------------------------------------------------------------------------- detection
 
 
+PREVIEW_CHECK_WIDTH = 640       # px: the live preview's board check works on frames this wide
+
+
+def board_in_view(image: np.ndarray, board: Board, *, width: int = PREVIEW_CHECK_WIDTH) -> bool:
+    """True when the whole board seems in `image` (any OpenCV image): a quick yes/no for a live
+    preview, on the grey image shrunk to at most `width` px, with `CALIB_CB_FAST_CHECK` (a frame
+    without a board is rejected in a few ms). A captured pair is still detected at full
+    resolution (`detect_pair`)."""
+    gray = to_gray8(image)
+    h, w = gray.shape[:2]
+    if w > width:
+        gray = cv2.resize(gray, (int(width), max(1, round(h * width / w))), interpolation=cv2.INTER_AREA)
+    flags = cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_FAST_CHECK
+    found, _ = cv2.findChessboardCorners(gray, board.pattern_size, flags=flags)
+    return bool(found)
+
+
 def detect_corners(gray: np.ndarray, board: Board, options: BoardDetectionOptions = BoardDetectionOptions()
                    ) -> Detection:
     """Find the board's inner corners in one 8-bit image (see the module notes)."""

@@ -188,6 +188,12 @@ class SetupPage(WizardPage):
         self.camera_panel.stop_preview()
         self.protocol_panel.close_probe()
 
+    def hideEvent(self, event) -> None:
+        """Closed or another step shown: no preview worker or port probe is left running."""
+        super().hideEvent(event)
+        if not event.spontaneous():
+            self.on_leave()
+
     def on_busy_changed(self) -> None:
         self.robot_panel.refresh()
         self.robot_panel.simulator_row.refresh()

@@ -273,11 +273,14 @@ class RobotPanel(QGroupBox):
         busy = self.page.busy
         connected = driver is not None and driver.connected
         real = state.real_robot
+        waiting = serial and not real           # Serial chosen, no serial robot connected (yet)
         self.connect_button.setEnabled(serial and not busy)
         self.disconnect_button.setEnabled(real and not busy)
-        if driver is None:
-            self.info_label.setText("Not connected." if serial else "Choose a robot model to connect the "
-                                                                    "simulated robot.")
+        if waiting:
+            self.info_label.setText("<b>Serial robot: not connected.</b> Give the port (or start the simulator "
+                                    "below) and press Connect.")
+        elif driver is None:
+            self.info_label.setText("Choose a robot model to connect the simulated robot.")
         else:
             info = driver.info
             name = getattr(driver, "controller_name", "") or info.name
@@ -291,7 +294,7 @@ class RobotPanel(QGroupBox):
             self.joints_label.setText("Joints: " + "  ".join(f"{v:.2f}" for v in values))
         else:
             self.joints_label.setText("")
-        can_move = connected and not busy
+        can_move = connected and not busy and not waiting
         self.read_button.setEnabled(can_move)
         self.jog_minus.setEnabled(can_move and self.joints is not None)
         self.jog_plus.setEnabled(can_move and self.joints is not None)

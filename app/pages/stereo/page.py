@@ -2,9 +2,10 @@
 
 Pairs come from two folders (left, right; matched by sorted file name), from the virtual
 lab (N pairs at well-spread board poses, rendered and saved as PNGs into the project's
-checkerboard/left|right), or from the cameras (the two opened on the Setup page, one pair
-saved into checkerboard/left|right, live_capture.py; without them in the virtual lab, one pair
-from the lab's cameras at a random board pose). Detection runs
+checkerboard/left|right), or from the cameras (the two opened on the Setup page: the pair the
+live preview shows, allowed while it sees the board in both, live_preview.py, saved into
+checkerboard/left|right, live_capture.py; without them in the virtual lab, one pair from the
+lab's cameras at a random board pose). Detection runs
 on the worker thread in small batches (app/jobs/stereo.py), so thumbnails and the ROS-style
 coverage bars fill while pairs are added. Calibration (core.stereo.calibration.calibrate_stereo)
 runs on the worker thread too; the page then draws what it returns (results_panel.py).
@@ -30,13 +31,14 @@ from app.lab import DEFAULT_BOARD
 from app.pages.base import WizardPage
 from app.pages.forms import button, row
 from app.pages.steps import Step
+from app.pages.stereo.live_preview import LivePreviewPanel
 from app.pages.stereo.options_panel import OptionsPanel
 from app.pages.stereo.pairs_panel import VIRTUAL_PAIRS, PairsActions, PairsPanel
 from app.pages.stereo.job_queue import Job, JobQueueMixin
 from app.pages.stereo.file_actions import StereoFileActions
 from app.pages.stereo.results_panel import ResultsActions, ResultsPanel
-from app.pages.stereo.texts import (CAMERA_TOOLTIP_HARDWARE, CAMERA_TOOLTIP_LIVE, CAMERA_TOOLTIP_VIRTUAL,
-                                    VIRTUAL_TOOLTIP)
+from app.pages.stereo.texts import (CAMERA_TOOLTIP_HARDWARE, CAMERA_TOOLTIP_LIVE, CAMERA_TOOLTIP_NO_BOARD,
+                                    CAMERA_TOOLTIP_VIRTUAL, VIRTUAL_TOOLTIP)
 from core.errors import RoboCalError
 from core.stereo.board import Board
 from core.stereo.calibration import StereoCalibrationResult, calibrate_stereo
@@ -74,6 +76,8 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, StereoFileActions,
     def _build(self) -> None:
         self.pairs = PairsPanel()
         self.pairs.set_board(self._board)
+        self.live = LivePreviewPanel(self.state, lambda: self._board)
+        self.live.readyChanged.connect(lambda *_: self.on_busy_changed())
         self.model = OptionsPanel(self.progress_row())
         self.results = ResultsPanel()
         self._connect_panels()
@@ -92,6 +96,7 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, StereoFileActions,
         tl = QVBoxLayout(top)
         tl.setContentsMargins(0, 0, 0, 0)
         tl.setSpacing(6)
+        tl.addWidget(self.live)
         tl.addWidget(self.pairs)
         tl.addWidget(self.model)
         self.splitter = QSplitter(Qt.Orientation.Vertical)
@@ -252,10 +257,11 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, StereoFileActions,
         live = self.state.cameras is not None
         for w in (p.virtual_button, p.virtual_count):
             w.setEnabled(not busy and has_project and virtual)
-        p.capture_button.setEnabled(not busy and has_project and (virtual or live))
+        ready = live and self.live.ready_pair() is not None
+        p.capture_button.setEnabled(not busy and has_project and (ready if live else virtual))
         p.virtual_button.setToolTip(VIRTUAL_TOOLTIP if virtual else "Only in a virtual-lab project")
-        p.capture_button.setToolTip(CAMERA_TOOLTIP_LIVE if live else CAMERA_TOOLTIP_VIRTUAL if virtual
-                                    else CAMERA_TOOLTIP_HARDWARE)
+        p.capture_button.setToolTip((CAMERA_TOOLTIP_LIVE if ready else CAMERA_TOOLTIP_NO_BOARD) if live
+                                    else CAMERA_TOOLTIP_VIRTUAL if virtual else CAMERA_TOOLTIP_HARDWARE)
         p.remove_button.setEnabled(not busy and bool(p.strip.selectedItems()))
         p.clear_button.setEnabled(not busy and bool(self.items))
         self._calibrate_button_state(busy)

@@ -15,7 +15,7 @@ from app.html import esc
 from app.jobs.stereo import THUMB_WIDTH, AddedPair, board_poses, detect_files, next_free_number, render_pairs
 from app.pages.forms import button, double_spin, row, spin
 from app.pages.stereo.live_capture import capture_live_pair
-from app.pages.stereo.texts import BAR_TIPS, CAMERA_TOOLTIP_HARDWARE, short_reason
+from app.pages.stereo.texts import BAR_TIPS, CAMERA_TOOLTIP_HARDWARE, CAMERA_TOOLTIP_NO_BOARD, short_reason
 from core.errors import RoboCalError
 from core.stereo.board import Board
 from core.stereo.checkerboard import (MIN_BAR, MIN_GOOD_PAIRS, MIN_PAIRS_TO_CALIBRATE, coverage, pair_images,
@@ -209,10 +209,18 @@ class PairsActions:
         return True
 
     def capture_pair(self) -> bool:
-        """One pair from the cameras opened on the Setup page (live_capture.py); without them,
-        in the virtual lab, one pair from the lab's cameras with the board at a random pose."""
+        """With the cameras opened on the Setup page, the pair the live view shows, while the
+        board is seen in both of its images (live_preview.py, saved by live_capture.py); without
+        them, in the virtual lab, one pair from the lab's cameras with the board at a random pose."""
         if self.state.cameras is not None:
-            return capture_live_pair(self)
+            pair = self.live.ready_pair()
+            if pair is None:
+                self._set_status(CAMERA_TOOLTIP_NO_BOARD, ok=False)
+                return False
+            if not capture_live_pair(self, pair.left, pair.right):
+                return False
+            self.live.saved(pair)
+            return True
         if not self.state.virtual:
             self._set_status(CAMERA_TOOLTIP_HARDWARE, ok=False)
             return False

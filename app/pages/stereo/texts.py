@@ -13,8 +13,10 @@ CAMERA_TOOLTIP_HARDWARE = ("Open the two cameras on the Setup page first (or add
                            "capture is saved into the project (checkerboard/left, checkerboard/right).")
 CAMERA_TOOLTIP_VIRTUAL = ("Virtual lab: take one pair with the lab's two cameras, the board held at a random "
                           "pose. With cameras opened on the Setup page, the pair comes from them.")
-CAMERA_TOOLTIP_LIVE = ("Take one pair from the two cameras, saved into the project (checkerboard/left, "
+CAMERA_TOOLTIP_LIVE = ("Save the pair the live view shows into the project (checkerboard/left, "
                        "checkerboard/right, numbered); hold the board still, in view of both cameras.")
+CAMERA_TOOLTIP_NO_BOARD = ("Hold the board in view of both cameras: a capture is possible once the live view "
+                           "says board seen for the left and the right camera.")
 BAR_TIPS = {"X": "Spread of the board's horizontal position over the images (ROS camera_calibration's X)",
             "Y": "Spread of the board's vertical position over the images (ROS's Y)",
             "size": "How large the board appears, up to filling the images (ROS's size)",

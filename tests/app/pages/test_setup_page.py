@@ -163,6 +163,18 @@ def test_connection_and_cameras_offer_the_virtual_lab_and_hardware(page):
     assert "not yet" not in words and "issue" not in words and "arrives with" not in words
 
 
+def test_serial_chosen_but_not_connected_says_so(page):
+    robot = page.robot_panel
+    page.choose_preset("ur5")
+    assert "Simulated robot" in robot.info_label.text() and robot.read_button.isEnabled()
+    robot.serial_radio.setChecked(True)
+    text = robot.info_label.text()
+    assert "Serial robot: not connected" in text and "Simulated robot" not in text
+    assert not robot.read_button.isEnabled() and robot.connect_button.isEnabled()
+    robot.virtual_radio.setChecked(True)
+    assert "Simulated robot" in robot.info_label.text() and robot.read_button.isEnabled()
+
+
 def test_a_hardware_project_offers_real_hardware_only(page, tmp_path):
     page.state.new_project(tmp_path, mode=projects.HARDWARE)
     robot, cams = page.robot_panel, page.camera_panel

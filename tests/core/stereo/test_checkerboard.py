@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from core.stereo.board import Board
-from core.stereo.checkerboard import (Coverage, BoardDetectionOptions, board_symmetries, coverage,
+from core.stereo.checkerboard import (Coverage, BoardDetectionOptions, board_in_view, board_symmetries, coverage,
                                detect_corners, detect_folders, detect_pair, detect_pairs, grid_deviation,
                                match_order, pair_images, param_distance, screen_pairs, summarize_rejections,
                                view_params)
@@ -55,6 +55,15 @@ def test_synthetic_board_detected_with_subpixel_accuracy():
     d = np.linalg.norm(det.corners[:, None] - truth[None], axis=2).min(axis=1)
     assert d.max() < 0.15
     assert det.sharpness_px < 4 and det.square_px > 30
+
+
+def test_board_in_view_is_a_quick_yes_or_no_for_a_live_preview():
+    img, _ = _render(K, R0, T0)
+    assert board_in_view(img, BOARD)
+    assert board_in_view(cv2.cvtColor(img, cv2.COLOR_GRAY2BGR), BOARD)        # a camera's colour frame
+    assert not board_in_view(np.full_like(img, 128), BOARD)                   # no board
+    assert not board_in_view(img[:, :700], BOARD)                             # part of it cut off
+    assert not board_in_view(img, Board(7, 5, 24.0))                         # another board
 
 
 def test_a_wrong_corner_from_the_reduced_image_is_not_kept(monkeypatch):
