@@ -37,10 +37,17 @@ def tool_parameters(model: RobotModel, tool: str) -> list[Parameter]:
     return [p for p in all_parameters(model, model.tool_targets(tool)) if p.group == "target"]
 
 
-def calibrated_tools(model: RobotModel, unc: CalibrationUncertainty) -> list[str]:
-    """The tools whose every target offset has a covariance in the calibration (they can be checked)."""
+def calibrated_targets(model: RobotModel, unc: CalibrationUncertainty, tool: str) -> list[str]:
+    """`tool`'s targets whose offsets have a covariance in the calibration (those a check can
+    measure), "marker" first when it is one of them."""
     names = set(unc.names)
-    return [t for t in model.tool_names() if all(p.name in names for p in tool_parameters(model, t))]
+    out = [t for t in model.tool_targets(tool) if all(f"{t}.{k}" in names for k in "xyz")]
+    return sorted(out, key=lambda t: t != "marker")
+
+
+def calibrated_tools(model: RobotModel, unc: CalibrationUncertainty) -> list[str]:
+    """The tools with at least one calibrated target (they can be checked)."""
+    return [t for t in model.tool_names() if calibrated_targets(model, unc, t)]
 
 
 def tool_poses(model: RobotModel, tool: str) -> int:
