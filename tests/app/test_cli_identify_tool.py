@@ -5,10 +5,12 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from app.cli import main
-from app.lab import build_lab, ideal_lab_measurements
+from app.lab import build_lab, ideal_lab_measurements, ideal_measure
+from core.measurement.file import Measurements, write_measurements
 from core.identification.solver import identify, write_calibrated_model
 from core.monitoring.log import read_check_log
 from core.poses.file import read_poses
@@ -59,7 +61,18 @@ def test_poses_for_a_real_robot_then_identify_from_their_measurements(cell, tmp_
     code = main(["identify-tool", "--robot", str(calibrated), "--tool", "long_gripper", "--poses-out", str(poses),
                  "--lab-robot", str(robot)])
     assert code == 0 and len(read_poses(poses).q_file) == 5
+    lab = build_lab(read_robot(robot), 0, 0.5)
+    lab.target = "long_marker"                                  # the robot measured with the long gripper
+    model = read_robot(calibrated)
+    Q = model.q_from_file(read_poses(poses).q_file)
+    measure = ideal_measure(lab, sigma_mm=0.05, seed=8)
+    write_measurements(Measurements(pose=np.arange(5), target=["long_marker"] * 5, q_file=model.q_to_file(Q),
+                                    xyz=np.array([measure(q) for q in Q])), tmp_path / "tool.csv")
     capsys.readouterr()
+    code, data, err = run_json(capsys, ["identify-tool", "--robot", str(calibrated), "--tool", "long_gripper",
+                                        "--measurements", str(tmp_path / "tool.csv"), "--out",
+                                        str(tmp_path / "u.json")])
+    assert code == 0 and data["n_poses"] == 5 and data["rms_after_mm"] < 0.15, err
     code = main(["identify-tool", "--robot", str(calibrated), "--tool", "long_gripper", "--measurements",
                  str(calibrated)])
     assert code == 2 and "--out" in capsys.readouterr().err

@@ -20,7 +20,8 @@ from core.monitoring.uncertainty import calibration_uncertainty
 from core.virtual_lab.changes import apply_change, parse_change
 from core.virtual_lab.ideal_measurements import ideal_measure
 from core.virtual_lab.lab import lab_options
-from tests.core.tools.two_tools import SIGMA, calibrated_cell, equivalent_offset
+from core.virtual_lab.tool_truth import equivalent_offset
+from tests.core.tools.two_tools import SIGMA, calibrated_cell
 
 
 def mounted(lab, target):

@@ -33,13 +33,3 @@ def calibrated_cell() -> tuple[VirtualLab, RobotModel]:
     result = identify(lab.nominal_robot, ideal_lab_measurements(lab, 50, sigma_mm=SIGMA, seed=4))
     return lab, robot_from_dict(json.loads(json.dumps(robot_to_dict(result.model))))
 
-
-def equivalent_offset(lab: VirtualLab, model: RobotModel, target: str, n: int = 300) -> np.ndarray:
-    """The true offset of `target` as the calibrated arm sees it (mm, tool frame): the least-squares
-    offset that puts `model`'s tool frame on the lab's true target at many random visible poses.
-    It differs from the lab's raw true offset by what the calibrated target absorbed of the last
-    joint's errors (e.g. its d along the tool axis), as every target measured on that arm does."""
-    Q = lab.random_visible_poses(n, np.random.default_rng(99))
-    T = model.fk_many(Q)
-    truth = lab.true_robot.target_positions(Q, target)
-    return np.einsum("nji,nj->ni", T[:, :3, :3], truth - T[:, :3, 3]).mean(axis=0)
