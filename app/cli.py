@@ -36,6 +36,7 @@ COMMANDS = {
     "sim-robot": "sim_robot",
     "report": "report",
     "check": "check",
+    "identify-tool": "identify_tool",
 }
 
 

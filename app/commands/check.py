@@ -14,7 +14,7 @@ OUT_OF_LIMITS = 3
 ALPHA = Bound(1e-4, 0.2, "", "a false-alarm probability")
 SIGMA = Bound(1e-4, 10.0, "mm", "a measurement noise per axis")
 
-INPUTS = ("robot", "poses", "stereo", "marker")      # checked against OUTPUTS before the run (app/commands/paths.py)
+INPUTS = ("robot", "poses", "stereo", "marker", "lab_robot")      # checked against OUTPUTS before the run (app/commands/paths.py)
 OUTPUTS = ("log", "out")
 
 
@@ -25,8 +25,14 @@ def add_arguments(parser) -> None:
     parser.add_argument("--poses", metavar="P.csv", help="check poses (default: chosen by observability)")
     parser.add_argument("--count", type=options.pose_count, default=8,
                         help="check poses to choose when --poses is not given (default 8)")
+    parser.add_argument("--tool", metavar="NAME",
+                        help="the tool mounted, by its name in the robot file's \"tools\" (default: the first "
+                             "calibrated tool); check poses, predictions and limits use its target")
     parser.add_argument("--lab-seed", type=options.seed, default=0,
                         help="seed of the virtual lab the robot was calibrated in (default 0)")
+    parser.add_argument("--lab-robot", metavar="ROBOT.json",
+                        help="robot file the virtual lab was built from (default: the educational 6R preset); "
+                             "the lab can mount the tools it defines")
     parser.add_argument("--stereo", metavar="S", help="stereo calibration: measure through rendered images "
                         "(with --marker); without it the lab's ideal measurements are used")
     parser.add_argument("--marker", metavar="M", help="marker training image, description or trained marker")
@@ -34,7 +40,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--noise", type=options.number_in(SIGMA), default=0.05, metavar="MM",
                         help="noise of the lab's ideal measurements, mm per axis (default 0.05)")
     parser.add_argument("--change", metavar="SPEC",
-                        help="change the lab's true robot first: tool:MM, base:MM, jointK:DEG or linkK:MM")
+                        help="change the lab's true robot first: tool:MM, base:MM, jointK:DEG, linkK:MM, or "
+                             "mount:NAME (another tool mounted than --tool)")
     parser.add_argument("--alpha", type=options.number_in(ALPHA), default=0.01,
                         help="false-alarm probability of a check (default 0.01)")
     parser.add_argument("--out", metavar="UPDATED.json",
@@ -47,6 +54,7 @@ def run(args) -> CommandResult:
     from app.jobs import check as job
     from app.lab import apply_change, build_lab, ideal_measure, image_measure, lab_options, parse_change
     from core.errors import UsageError
+    from core.robot.file import read_robot
     from core.task import Monitor
 
     if bool(args.stereo) != bool(args.marker):
@@ -55,10 +63,14 @@ def run(args) -> CommandResult:
     progress = ProgressLine("check")
     monitor = Monitor(progress)
     try:
-        lab = build_lab(None, args.lab_seed, 0.5)
+        lab = build_lab(read_robot(args.lab_robot) if args.lab_robot else None, args.lab_seed, 0.5)
         opts = lab_options(lab)
         cell = job.setup(args.robot, lab_options=opts, poses_path=args.poses, count=args.count, alpha=args.alpha,
-                         seed=args.seed, progress=monitor.sub(0.0, 0.3))
+                         seed=args.seed, tool=args.tool, progress=monitor.sub(0.0, 0.3))
+        if cell.target not in lab.nominal_robot.targets:
+            raise UsageError(f"the virtual lab's robot has no target '{cell.target}' of the tool '{cell.tool}'",
+                             hint="Give --lab-robot the robot file that defines the tool.")
+        lab.target = cell.target                    # the technician mounted the tool checked
         if change is not None:
             apply_change(lab, change, seed=args.seed)
         if args.stereo:
@@ -74,7 +86,7 @@ def run(args) -> CommandResult:
     finally:
         progress.close()
     lines = [result.verdict()]
-    data = {"check": result.summary(), "change": str(change) if change else None}
+    data = {"check": result.summary(), "tool": cell.tool, "change": str(change) if change else None}
     if diagnosis is not None:
         lines.append(diagnosis.text)
         data["diagnosis"] = diagnosis.summary()

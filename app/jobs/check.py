@@ -4,7 +4,7 @@ diagnose, and re-identify what changed from the proposed poses."""
 from __future__ import annotations
 
 import copy
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -17,7 +17,9 @@ from core.monitoring.check import CheckLimits, CheckResult, check_limits, run_ch
 from core.monitoring.check_poses import DEFAULT_CHECK_POSES, select_check_poses
 from core.monitoring.diagnosis import Diagnosis, diagnose
 from core.monitoring.reidentify import Reidentification, propose_poses, reidentify, write_reidentified
+from core.monitoring.tool_identification import calibrated_targets, calibrated_tools
 from core.monitoring.uncertainty import CalibrationUncertainty, calibration_uncertainty
+from core.errors import RoboCalError
 from core.poses.file import read_poses
 from core.robot.file import read_robot
 from core.robot.model import RobotModel
@@ -36,32 +38,54 @@ class CheckSetup:
     limits: CheckLimits
     source: str
     target: str = "marker"
+    tool: str = ""              # the tool mounted (its target is `target`)
+
+
+def mounted_tool(model: RobotModel, unc: CalibrationUncertainty, tool: str | None, source) -> tuple[str, str]:
+    """(tool, target) a check measures: `tool` (None: the first calibrated one) and its calibrated
+    target. Raises RoboCalError for a tool not identified since the calibration."""
+    if tool is None:
+        tools = calibrated_tools(model, unc)
+        if not tools:
+            raise RoboCalError("no tool of this robot was calibrated", source=source, field="calibration.covariance",
+                               hint="Use the calibrated robot file written by the Identification step.")
+        tool = tools[0]
+    targets = calibrated_targets(model, unc, tool)
+    if not targets:
+        raise RoboCalError(f"the tool '{tool}' has not been identified since the calibration", source=source,
+                           field="calibration.tools",
+                           hint="Mount it and identify it first (robocal identify-tool, or Identify tool on the "
+                                "Check page).")
+    return tool, targets[0]
 
 
 def setup(robot_path, *, lab_options: dict | None = None, poses_path=None, count: int = DEFAULT_CHECK_POSES,
-          alpha: float = 0.01, sigma_mm: float | None = None, seed: int = 0, progress=None,
-          cancelled=None) -> CheckSetup:
+          alpha: float = 0.01, sigma_mm: float | None = None, seed: int = 0, tool: str | None = None,
+          progress=None, cancelled=None) -> CheckSetup:
     """Read the calibrated robot, take the check poses from `poses_path` or choose `count` of them
-    (with the lab's cameras and marker in `lab_options`), and compute their limits."""
+    (with the lab's cameras and marker in `lab_options`) for the mounted `tool` (None: the first
+    calibrated one), and compute their limits."""
     monitor = Monitor(progress, cancelled)
     model = read_robot(robot_path)
     unc = calibration_uncertainty(model, source=robot_path, sigma_mm=sigma_mm)
+    tool, target = mounted_tool(model, unc, tool, robot_path)
     if poses_path is not None:
         Q = read_poses(poses_path, model).Q
     else:
         opts = {k: v for k, v in (lab_options or {}).items() if k != "robot"}
+        opts["target"] = target
         Q = select_check_poses(model, count, candidates=CANDIDATES, seed=seed, progress=monitor.sub(0.0, 0.7),
                                cancelled=cancelled, **opts).Q
     monitor.step(0.7, "limits of the check poses")
-    limits = check_limits(model, unc, Q, ["marker"] * len(Q), alpha)
+    limits = check_limits(model, unc, Q, [target] * len(Q), alpha)
     monitor.step(1.0, "ready")
-    return CheckSetup(model, unc, Q, limits, str(robot_path))
+    return CheckSetup(model, unc, Q, limits, str(robot_path), target, tool)
 
 
 def check(cell: CheckSetup, measure, *, log=None, progress=None, cancelled=None
           ) -> tuple[CheckResult, Diagnosis | None]:
     """One check appended to `log`; the diagnosis when it left its limits."""
-    result = run_check(cell.model, cell.unc, cell.Q, measure, target=cell.target, log=log,
+    result = run_check(cell.model, cell.unc, cell.Q, measure, target=cell.target, tool=cell.tool, log=log,
                        alpha=cell.limits.alpha, limits=cell.limits, progress=progress, cancelled=cancelled)
     diagnosis = None
     if result.points and not result.cancelled and not result.within:
@@ -90,6 +114,7 @@ def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: D
     file behind."""
     monitor = Monitor(progress, cancelled)
     opts = {k: v for k, v in (lab_options or {}).items() if k != "robot"}
+    opts["target"] = cell.target
     proposal = propose_poses(cell.model, cell.unc, diagnosis.parameters, result.Q, candidates=CANDIDATES,
                              seed=seed, progress=monitor.sub(0.0, 0.3), cancelled=cancelled, **opts)
     Qs, xyz = [], []
@@ -109,15 +134,15 @@ def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: D
     re = reidentify(cell.model, cell.unc, diagnosis.parameters, meas, reason=diagnosis.text,
                     previous=str(kept) if kept is not None else cell.source, progress=monitor.sub(0.6, 0.7),
                     cancelled=cancelled)
-    path = _replace(re, out, kept)
+    path = write_keeping_previous(re, out, kept)
     unc = calibration_uncertainty(re.model, source=out, sigma_mm=cell.unc.sigma_mm)
-    updated = CheckSetup(re.model, unc, cell.Q, check_limits(re.model, unc, cell.Q, [cell.target] * len(cell.Q),
-                                                            cell.limits.alpha), str(path))
+    updated = replace(cell, model=re.model, unc=unc, source=str(path),
+                      limits=check_limits(re.model, unc, cell.Q, [cell.target] * len(cell.Q), cell.limits.alpha))
     after, _ = check(updated, measure, log=log, progress=monitor.sub(0.7, 1.0), cancelled=cancelled)
     return Update(re, Path(path), proposal.Q, after, updated)
 
 
-def _replace(re: Reidentification, out: Path, kept: Path | None) -> Path:
+def write_keeping_previous(re: Reidentification, out: Path, kept: Path | None) -> Path:
     """Copy `out` to `kept` (when given), then write the re-identified robot to `out`; when the
     write fails, the copy is removed again."""
     if kept is not None:
@@ -133,14 +158,21 @@ def _replace(re: Reidentification, out: Path, kept: Path | None) -> Path:
 CHANGE_SEED = 0     # one direction per simulated change, so every check sees the same change
 
 
-def lab_measure(lab, change: str | None, *, sigma_mm: float, seed: int = 0, images=None):
-    """`measure(q)` on the virtual lab as if `change` (tool:MM, base:MM, jointK:DEG, linkK:MM or
-    None) had happened. With `images` = (trained marker, stereo rectification): the lab renders
-    the pair and the marker is located in it, as the calibration measured; without: the lab's
-    true marker position plus noise `sigma_mm` (mm per axis). The change is made on a copy, so
-    the lab the other steps share keeps its robot."""
-    if change:
+def lab_measure(lab, change: str | None, *, sigma_mm: float, seed: int = 0, images=None, target: str | None = None):
+    """`measure(q)` on the virtual lab as if `change` (tool:MM, base:MM, jointK:DEG, linkK:MM,
+    mount:TOOL or None) had happened, with the marker `target` (the mounted tool's; None: the
+    lab's). With `images` = (trained marker, stereo rectification): the lab renders the pair and
+    the marker is located in it, as the calibration measured; without: the lab's true marker
+    position plus noise `sigma_mm` (mm per axis). The change is made on a copy, so the lab the
+    other steps share keeps its robot and tool."""
+    if target and target not in lab.true_robot.targets:
+        raise RoboCalError(f"the virtual lab's robot has no target '{target}'",
+                           hint="Build the lab from the robot file that defines the tool (its \"tools\"): the "
+                                "project's robot, or --lab-robot.")
+    if change or (target and target != lab.target):
         lab = copy.copy(lab)
+        lab.target = target or lab.target
+    if change:
         apply_change(lab, change, seed=CHANGE_SEED)
     if images is not None:
         from core.marker.location import MarkerLocator
@@ -151,7 +183,7 @@ def lab_measure(lab, change: str | None, *, sigma_mm: float, seed: int = 0, imag
 def check_on_lab(cell: CheckSetup, lab, change: str | None, *, images=None, log=None, seed: int = 0,
                  progress=None, cancelled=None) -> tuple[CheckResult, Diagnosis | None]:
     """One check on the virtual lab (see `lab_measure`; ideal noise: the calibration's own σ)."""
-    measure = lab_measure(lab, change, sigma_mm=cell.unc.sigma_mm, seed=seed, images=images)
+    measure = lab_measure(lab, change, sigma_mm=cell.unc.sigma_mm, seed=seed, images=images, target=cell.target)
     return check(cell, measure, log=log, progress=progress, cancelled=cancelled)
 
 
@@ -169,7 +201,8 @@ def reidentify_on_lab(cell: CheckSetup, result: CheckResult, diagnosis: Diagnosi
     """Re-identify what `diagnosis` found from the proposed poses measured on the virtual lab and
     the check's points, and replace `calibrated` (atomically, only on success; the previous file
     is then kept in history/)."""
-    measure = lab_measure(lab, change, sigma_mm=cell.unc.sigma_mm, seed=seed, images=images)
+    measure = lab_measure(lab, change, sigma_mm=cell.unc.sigma_mm, seed=seed, images=images,
+                         target=cell.target)
     return reidentify_from_proposed(cell, result, diagnosis, measure, calibrated, lab_options=lab_options, log=log,
                                     seed=seed, archive=True, progress=progress, cancelled=cancelled)
 
@@ -188,14 +221,14 @@ def weighted_sigma_mm(path) -> float | None:
 
 
 def check_project(calibrated, lab, *, cell: CheckSetup | None = None, count: int = DEFAULT_CHECK_POSES,
-                  change: str | None = None, images=None, log=None, seed: int = 0, progress=None,
-                  cancelled=None) -> tuple[CheckSetup, CheckResult, Diagnosis | None]:
-    """The Check page's run: choose the check poses of `calibrated` on the lab unless `cell` is
-    given, then one check (appended to `log`) and its diagnosis."""
+                  change: str | None = None, images=None, log=None, seed: int = 0, tool: str | None = None,
+                  progress=None, cancelled=None) -> tuple[CheckSetup, CheckResult, Diagnosis | None]:
+    """The Check page's run: choose the check poses of `calibrated` for the mounted `tool` on the
+    lab unless `cell` is given, then one check (appended to `log`) and its diagnosis."""
     monitor = Monitor(progress, cancelled)
     if cell is None:
         cell = setup(calibrated, lab_options=lab_options_of(lab), count=count, sigma_mm=weighted_sigma_mm(calibrated),
-                     progress=monitor.sub(0.0, 0.6), cancelled=cancelled)
+                     tool=tool, progress=monitor.sub(0.0, 0.6), cancelled=cancelled)
     result, diagnosis = check_on_lab(cell, lab, change, images=images, log=log, seed=seed,
                                      progress=monitor.sub(0.6, 1.0), cancelled=cancelled)
     return cell, result, diagnosis

@@ -291,7 +291,14 @@ class IdentificationResult:
                             "matrix": strict_json(np.round(np.asarray(self.correlation, dtype=float), 3).tolist())},
             "covariance": {"parameters": list(self.estimated), "units": "mm and rad",
                            "matrix": [[float(v) for v in row] for row in self.covariance]},
+            "tools": self.calibrated_tools(),
         }
+
+    def calibrated_tools(self) -> list[str]:
+        """The tools whose targets were measured (and so calibrated)."""
+        names = {r.name for r in self.parameters}
+        return [tool for tool, targets in self.model.tool_map().items()
+                if any(f"{t}.x" in names for t in targets)]
 
     def summary(self) -> dict:
         """The CLI's --json object."""

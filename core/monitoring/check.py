@@ -70,6 +70,7 @@ class CheckResult:
     missing: list[tuple[int, str]] = field(default_factory=list)   # (pose, reason)
     cancelled: bool = False
     log: Path | None = None
+    tool: str = ""                 # the tool mounted for the check ("" when not said)
 
     @property
     def within(self) -> bool:
@@ -106,7 +107,7 @@ class CheckResult:
         return text + "."
 
     def summary(self) -> dict:
-        return {"run": self.run, "time": self.time, "within": self.within, "rms_mm": self.rms_mm,
+        return {"run": self.run, "time": self.time, "tool": self.tool, "within": self.within, "rms_mm": self.rms_mm,
                 "rms_limit_mm": self.rms_limit_mm, "alpha": self.alpha, "sigma_mm": self.sigma_mm,
                 "cancelled": self.cancelled,
                 "points": [{"pose": p.pose, "target": p.target, "error_mm": p.error_mm, "limit_mm": p.limit_mm,
@@ -140,12 +141,12 @@ def check_limits(model: RobotModel, unc: CalibrationUncertainty, Q, targets, alp
 
 
 def run_check(model: RobotModel, unc: CalibrationUncertainty, Q, measure: MeasureFn, *,
-              target: str = "marker", pose_ids=None, log: str | Path | None = None,
+              target: str = "marker", tool: str = "", pose_ids=None, log: str | Path | None = None,
               alpha: float = DEFAULT_ALPHA, limits: CheckLimits | None = None, progress=None,
               cancelled=None) -> CheckResult:
     """Measure the `target` at each check configuration Q (N, n; rad / mm) with `measure`,
-    compare with `model`'s prediction, append every point to the check `log` at once, and
-    close the check with its overall row. `limits` (from check_limits for the same model, poses
+    compare with `model`'s prediction, append every point to the check `log` at once (with the
+    mounted `tool`'s name), and close the check with its overall row. `limits` (from check_limits for the same model, poses
     and alpha) saves computing them again. Cancel stops between poses: what was measured stays
     in the log and the result comes back with `cancelled` (no overall row is written)."""
     if not 0.0 < alpha < 0.5:
@@ -190,7 +191,7 @@ def run_check(model: RobotModel, unc: CalibrationUncertainty, Q, measure: Measur
             points.append(p)
             if writer is not None:
                 writer.point(run, _now().isoformat(), p.pose, target, p.q_file, p.measured, p.predicted,
-                             p.error_mm, p.limit_mm, p.within)
+                             p.error_mm, p.limit_mm, p.within, tool)
         rms, rms_limit = math.nan, math.nan
         if points:
             rms_limit = limits.rms
@@ -199,9 +200,9 @@ def run_check(model: RobotModel, unc: CalibrationUncertainty, Q, measure: Measur
                 rms_limit = check_limits(model, unc, Q[keep], [target] * len(keep), alpha).rms
             rms = float(np.sqrt(np.mean([p.error_mm ** 2 for p in points])))
         result = CheckResult(run, start.isoformat(), points, rms, rms_limit, alpha, unc.sigma_mm, missing,
-                             cancelled=stopped, log=None if log is None else Path(log))
+                             cancelled=stopped, log=None if log is None else Path(log), tool=tool)
         if writer is not None and points and not stopped:
-            writer.overall(run, _now().isoformat(), rms, rms_limit, result.within)
+            writer.overall(run, _now().isoformat(), rms, rms_limit, result.within, tool)
     finally:
         if writer is not None:
             writer.close()

@@ -110,11 +110,17 @@ class Diagnosis:
                                 "nested_probability": f.nested_probability} for f in self.fits]}
 
 
+def tool_words(model: RobotModel, target: str) -> str:
+    """"the tool", or "the tool 'NAME'" when the robot has several (the one carrying `target`)."""
+    return f"the tool '{model.tool_of(target)}'" if len(model.tool_map()) > 1 else "the tool"
+
+
 def candidate_sets(model: RobotModel, target: str) -> list[tuple[str, str, list[Parameter], int]]:
-    """(kind, label, parameters, joint) of every candidate change."""
+    """(kind, label, parameters, joint) of every candidate change; the tool offset is that of the
+    mounted tool, the one carrying the check's `target`."""
     watched = watched_parameters(model, [target])
     out = [(NONE, "no change", [], -1),
-           (TOOL, "the marker on the tool", [p for p in watched if p.group == "target"], -1),
+           (TOOL, f"the marker on {tool_words(model, target)}", [p for p in watched if p.group == "target"], -1),
            (BASE, "the robot base relative to the cameras", [p for p in watched if p.group == "base"], -1)]
     for p in watched:
         if p.group == "joint":
@@ -174,6 +180,12 @@ def _unchanged(kind: str, joint: int = -1) -> str:
     return "tool, base and the other joints unchanged"
 
 
+def _tool_cause(model: RobotModel) -> str:
+    if len(model.tool_map()) > 1:
+        return "another tool mounted than the one checked, a tool change or a bent tool"
+    return "a tool change or a bent tool"
+
+
 def describe(fit: CandidateFit, explained: bool, model: RobotModel) -> tuple[str, bool]:
     """The plain-language result, and whether a full calibration is advised."""
     if not explained:
@@ -185,8 +197,8 @@ def describe(fit: CandidateFit, explained: bool, model: RobotModel) -> tuple[str
     if fit.kind == TOOL:
         d = np.array([v for k, v in change.items()])
         axes = ", ".join(f"{a} {v:+.2f}" for a, v in zip("xyz", d))
-        return (f"The marker moved {np.linalg.norm(d):.1f} mm on the tool ({axes} mm in the tool frame): a tool "
-                f"change or a bent tool; {_unchanged(TOOL)}."), False
+        return (f"The marker moved {np.linalg.norm(d):.1f} mm on {tool_words(model, fit.parameters[0].target)} "
+                f"({axes} mm in the tool frame): {_tool_cause(model)}; {_unchanged(TOOL)}."), False
     if fit.kind == BASE:
         shift = math.sqrt(sum(change[f"base.{a}"] ** 2 for a in "xyz"))
         turn = math.sqrt(sum(change[f"base.r{a}"] ** 2 for a in "xyz"))

@@ -3,15 +3,17 @@ flushed and synced per row so that a check killed half-way loses nothing it meas
 
 ```
 # robocal.checks/1 ; check points against the calibrated model; an overall row closes each check
-run,time,kind,pose,target,q1,...,qn,x,y,z,px,py,pz,error_mm,limit_mm,within
-20250101T101500Z,2025-01-01T10:15:03+00:00,point,0,marker,10.000,...,412.310,-20.550,815.020,412.1,-20.4,815.3,0.392,0.611,1
-20250101T101500Z,2025-01-01T10:15:40+00:00,overall,,,,...,,,,,,,0.402,0.455,1
+run,time,kind,pose,target,q1,...,qn,x,y,z,px,py,pz,error_mm,limit_mm,within,tool
+20250101T101500Z,2025-01-01T10:15:03+00:00,point,0,marker,10.000,...,412.310,-20.550,815.020,412.1,-20.4,815.3,0.392,0.611,1,gripper
+20250101T101500Z,2025-01-01T10:15:40+00:00,overall,,,,...,,,,,,,0.402,0.455,1,gripper
 ```
 `run` names one check (all its rows), `time` is ISO 8601 UTC. A `point` row: joint values in
 deg / mm, measured x, y, z and predicted px, py, pz in mm (measurement frame), the error
 length and its limit (mm), `within` 1 or 0. An `overall` row: the RMS error over the check's
-points and its limit (mm). A row cut short by a crash is ignored when read and cut off before
-the next append.
+points and its limit (mm). `tool`: the tool mounted for the check (the robot file's tool name).
+A log written before the `tool` column existed reads as it is (its tools are empty) and new
+checks are appended to it without the column. A row cut short by a crash is ignored when read
+and cut off before the next append.
 """
 from __future__ import annotations
 
@@ -33,9 +35,10 @@ TAG = f"# {FORMAT} ; check points against the calibrated model; an overall row c
 POINT, OVERALL = "point", "overall"
 
 
-def header_columns(dof: int) -> list[str]:
+def header_columns(dof: int, tool: bool = True) -> list[str]:
+    """The header for n joints; `tool` False: the layout before the tool column."""
     return (["run", "time", "kind", "pose", "target"] + [f"q{i + 1}" for i in range(dof)]
-            + ["x", "y", "z", "px", "py", "pz", "error_mm", "limit_mm", "within"])
+            + ["x", "y", "z", "px", "py", "pz", "error_mm", "limit_mm", "within"] + (["tool"] if tool else []))
 
 
 @dataclass
@@ -49,6 +52,7 @@ class LoggedPoint:
     limit_mm: float
     within: bool
     time: str = ""
+    tool: str = ""
 
 
 @dataclass
@@ -61,6 +65,7 @@ class LoggedCheck:
     rms_mm: float | None = None
     rms_limit_mm: float | None = None
     within: bool | None = None
+    tool: str = ""
 
     @property
     def finished(self) -> bool:
@@ -72,6 +77,7 @@ class CheckLog:
     checks: list[LoggedCheck]
     dof: int
     path: Path | None = None
+    tool_column: bool = True        # False for a log written before the tool column
 
 
 def _fmt(v: float) -> str:
@@ -86,12 +92,14 @@ class CheckLogWriter:
         self.dof = int(dof)
         ensure_writable_dir(self.path.parent if str(self.path.parent) else Path("."))
         new = not self.path.exists() or self.path.stat().st_size == 0
+        self.tool_column = True
         if not new:
             drop_partial_last_line(self.path)
             existing = read_check_log(self.path)
             if existing.dof != self.dof:
                 raise RoboCalError(f"the log holds checks of a robot with {existing.dof} joints, not {self.dof}",
                                    source=self.path, field="header", hint="Give another check log file.")
+            self.tool_column = existing.tool_column
         try:
             self._handle = open(self.path, "a", encoding="utf-8", newline="")
         except OSError as exc:
@@ -109,17 +117,20 @@ class CheckLogWriter:
             raise RoboCalError(f"cannot write the check log ({exc.strerror})", source=self.path,
                                hint="Check the disk space.") from exc
 
+    def _row(self, values: list[str], tool: str) -> None:
+        self._write(",".join(values + ([tool] if self.tool_column else [])) + "\n")
+
     def point(self, run: str, time: str, pose: int, target: str, q_file, measured, predicted,
-              error_mm: float, limit_mm: float, within: bool) -> None:
+              error_mm: float, limit_mm: float, within: bool, tool: str = "") -> None:
         values = [run, time, POINT, str(int(pose)), target] + [f"{v:.3f}" for v in np.asarray(q_file, float)] \
             + [_fmt(v) for v in measured] + [_fmt(v) for v in predicted] \
             + [_fmt(error_mm), _fmt(limit_mm), "1" if within else "0"]
-        self._write(",".join(values) + "\n")
+        self._row(values, tool)
 
-    def overall(self, run: str, time: str, rms_mm: float, limit_mm: float, within: bool) -> None:
+    def overall(self, run: str, time: str, rms_mm: float, limit_mm: float, within: bool, tool: str = "") -> None:
         values = [run, time, OVERALL, "", ""] + [""] * (self.dof + 6) + [_fmt(rms_mm), _fmt(limit_mm),
                                                                       "1" if within else "0"]
-        self._write(",".join(values) + "\n")
+        self._row(values, tool)
 
     def close(self) -> None:
         if not self._handle.closed:
@@ -159,14 +170,16 @@ def read_check_log(path: str | Path) -> CheckLog:
     complete = text if text.endswith("\n") else "".join(lines[:-1])   # a cut-off last row is dropped
     header: list[str] | None = None
     dof = 0
+    tool_column = True
     checks: dict[str, LoggedCheck] = {}
     for line_no, row in enumerate(csv.reader(io.StringIO(complete)), start=1):
         if not row or row[0].lstrip().startswith("#"):
             continue
         if header is None:
             header = row
-            dof = len(row) - 14
-            if dof < 1 or row != header_columns(dof):
+            tool_column = row[-1:] == ["tool"]
+            dof = len(row) - 14 - tool_column
+            if dof < 1 or row != header_columns(dof, tool_column):
                 raise RoboCalError(f"line {line_no}: expected the header {','.join(header_columns(6))} "
                                    f"(q1 … qn for n joints)", source=path, field="header")
             continue
@@ -177,7 +190,8 @@ def read_check_log(path: str | Path) -> CheckLog:
         run, kind = cols["run"].strip(), cols["kind"].strip()
         if not run:
             raise RoboCalError(f"line {line_no}: empty run name", source=path, field="run")
-        check = checks.setdefault(run, LoggedCheck(run, cols["time"]))
+        tool = cols.get("tool", "").strip()
+        check = checks.setdefault(run, LoggedCheck(run, cols["time"], tool=tool))
         within = cols["within"].strip()
         if within not in ("0", "1"):
             raise RoboCalError(f"line {line_no}: expected 1 or 0, got {within!r}", source=path, field="within")
@@ -196,11 +210,11 @@ def read_check_log(path: str | Path) -> CheckLog:
             check.points.append(LoggedPoint(
                 pose, cols["target"], np.array([num[f"q{i + 1}"] for i in range(dof)]),
                 np.array([num["x"], num["y"], num["z"]]), np.array([num["px"], num["py"], num["pz"]]),
-                err, lim, within == "1", cols["time"]))
+                err, lim, within == "1", cols["time"], tool))
         else:
             raise RoboCalError(f"line {line_no}: expected 'point' or 'overall', got {kind!r}", source=path,
                                field="kind")
     if header is None:
         raise RoboCalError("the check log has no header line", source=path, field="header",
                            hint="Start a new check log.")
-    return CheckLog(list(checks.values()), dof, path)
+    return CheckLog(list(checks.values()), dof, path, tool_column)

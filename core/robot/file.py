@@ -86,7 +86,41 @@ def robot_from_dict(data: dict, source: str | Path = "<robot>") -> RobotModel:
     return RobotModel(name=name, joints=joints, base=_pose_from_dict(data.get("base"), source, "base"),
                       tool=_pose_from_dict(data.get("tool"), source, "tool"), targets=targets,
                       calibration=calibration,
-                      collision_radius=_collision_from_dict(data.get("collision"), len(joints), source))
+                      collision_radius=_collision_from_dict(data.get("collision"), len(joints), source),
+                      tools=_tools_from_dict(data.get("tools"), targets, source))
+
+
+def _tools_from_dict(data, targets: dict, source) -> dict[str, list[str]]:
+    """Optional `"tools": {"name": ["target", …]}` (a tool changer): every target on exactly one
+    tool. Absent: one tool with every target (an empty dict)."""
+    if data is None:
+        return {}
+    hint = 'Write "tools": {"gripper": ["marker"], "long_gripper": ["long_marker"]} with the names of "targets".'
+    if not isinstance(data, dict) or not data:
+        raise RoboCalError("expected an object of tool name: [target names]", source=source, field="tools",
+                           hint=hint)
+    tools: dict[str, list[str]] = {}
+    owner: dict[str, str] = {}
+    for name, listed in data.items():
+        f = f"tools.{name}"
+        if not str(name).strip():
+            raise RoboCalError("a tool needs a name", source=source, field="tools", hint=hint)
+        if not isinstance(listed, list) or not listed or not all(isinstance(t, str) for t in listed):
+            raise RoboCalError("expected a non-empty list of target names", source=source, field=f, hint=hint)
+        for t in listed:
+            if t not in targets:
+                raise RoboCalError(f"target '{t}' is not in \"targets\"", source=source, field=f,
+                                   hint="Add its offset to \"targets\" or fix the name.")
+            if t in owner:
+                raise RoboCalError(f"target '{t}' is on both '{owner[t]}' and '{name}'", source=source, field=f,
+                                   hint="Give every tool its own target names.")
+            owner[t] = str(name)
+        tools[str(name)] = list(listed)
+    loose = [t for t in targets if t not in owner]
+    if loose:
+        raise RoboCalError(f"target '{loose[0]}' is on no tool", source=source, field="tools",
+                           hint="List every target under the tool that carries it.")
+    return tools
 
 
 def _calibration_from_dict(calibration, source) -> dict | None:
@@ -145,6 +179,8 @@ def robot_to_dict(model: RobotModel) -> dict:
         "tool": _pose_to_dict(model.tool),
         "targets": {k: [float(v) for v in p] for k, p in model.targets.items()},
     }
+    if model.tools:
+        out["tools"] = {k: list(v) for k, v in model.tools.items()}
     if model.collision_radius is not None:
         out["collision"] = {"radius": [float(v) for v in model.collision_radius]}
     if model.calibration is not None:

@@ -18,6 +18,8 @@ import numpy as np
 REVOLUTE = "revolute"
 PRISMATIC = "prismatic"
 PARALLEL_DEG = 5.0        # consecutive axes within this angle are "nearly parallel" (Hayati's β replaces d)
+#: the one tool of a robot file without a "tools" section (it carries every target)
+DEFAULT_TOOL = "tool"
 
 
 @dataclass
@@ -45,6 +47,9 @@ class RobotModel:
     """A serial robot: DH joints, base pose in the world frame, tool pose in the flange
     frame, and named target points (mm) in the tool frame.
 
+    `tools` (optional): for a tool changer, each tool's name and the targets it carries (every
+    target on exactly one tool); empty for a robot with one tool (DEFAULT_TOOL, all targets).
+
     `collision_radius` (optional, mm): one capsule radius per link (n values; n + 1 with the
     tool link last) for the self-collision check of pose selection (core.poses.candidates);
     None when the robot file gives no "collision" section."""
@@ -56,10 +61,36 @@ class RobotModel:
     targets: dict[str, np.ndarray] = field(default_factory=dict)
     calibration: dict | None = None
     collision_radius: np.ndarray | None = None
+    tools: dict[str, list[str]] = field(default_factory=dict)
 
     @property
     def dof(self) -> int:
         return len(self.joints)
+
+    # -- tools -------------------------------------------------------------------------
+    def tool_map(self) -> dict[str, list[str]]:
+        """Each tool's name and its targets (one tool, DEFAULT_TOOL, with every target when the
+        robot file names no tools)."""
+        if self.tools:
+            return {k: list(v) for k, v in self.tools.items()}
+        return {DEFAULT_TOOL: list(self.targets)}
+
+    def tool_names(self) -> list[str]:
+        return list(self.tool_map())
+
+    def tool_targets(self, tool: str) -> list[str]:
+        """The targets `tool` carries. Raises RoboCalError for a tool the robot does not define."""
+        from core.errors import RoboCalError
+
+        tools = self.tool_map()
+        if tool not in tools:
+            raise RoboCalError(f"the robot '{self.name}' has no tool '{tool}'",
+                               hint=f"Choose one of its tools: {', '.join(tools)}.")
+        return tools[tool]
+
+    def tool_of(self, target: str) -> str:
+        """The tool that carries `target` ("" when none does)."""
+        return next((name for name, targets in self.tool_map().items() if target in targets), "")
 
     def copy(self) -> "RobotModel":
         return copy.deepcopy(self)

@@ -7,6 +7,9 @@ class (and the tests) can watch the Check step find them:
   jointK:SIZE   joint K's zero offset slips by SIZE degrees (SIZE mm for a prismatic joint)
   linkK:SIZE    link K bends: its length a grows by SIZE mm and its twist by SIZE/10 degrees
                 (a change none of the simple diagnoses explains)
+  mount:NAME    the tool changer mounts the robot's tool NAME (from the lab robot's "tools"): the
+                lab measures that tool's first target, at its true offset (the robot file's offset
+                plus the lab's own manufacturing error, drawn when the lab was made)
 
 Sizes may be negative for joints and links. Directions are drawn from the lab's seed and
 `seed`, so a change is reproducible. The lab's `true_robot` is replaced; the nominal robot
@@ -22,8 +25,9 @@ import numpy as np
 from core import transforms as tf
 from core.errors import UsageError
 
-KINDS = ("tool", "base", "joint", "link")
-_SPEC = re.compile(r"^\s*(" + "|".join(KINDS) + r")(\d*)\s*:\s*([-+]?\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)\s*$", re.I)
+KINDS = ("tool", "base", "joint", "link", "mount")
+_MOUNT = re.compile(r"^\s*mount\s*:\s*(\S(?:.*\S)?)\s*$", re.I)
+_SPEC = re.compile(r"^\s*(" + "|".join(KINDS[:4]) + r")(\d*)\s*:\s*([-+]?\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)\s*$", re.I)
 MAX_SIZE = 50.0
 
 
@@ -35,11 +39,16 @@ class LabChange:
     kind: str
     size: float
     joint: int = 0
+    tool: str = ""          # for kind "mount": the tool's name
 
     def __str__(self) -> str:
+        if self.kind == "mount":
+            return f"mount:{self.tool}"
         return f"{self.kind}{self.joint if self.joint else ''}:{self.size:g}"
 
     def describe(self) -> str:
+        if self.kind == "mount":
+            return f"the tool '{self.tool}' is mounted"
         if self.kind == "tool":
             return f"the marker moved {abs(self.size):g} mm on the tool"
         if self.kind == "base":
@@ -50,9 +59,12 @@ class LabChange:
 
 
 def parse_change(text: str, dof: int | None = None) -> LabChange:
-    """A LabChange from 'tool:1.5', 'base:2', 'joint3:0.4', 'link2:1'. Raises UsageError."""
+    """A LabChange from 'tool:1.5', 'base:2', 'joint3:0.4', 'link2:1', 'mount:NAME'. Raises UsageError."""
+    mount = _MOUNT.match(str(text))
+    if mount:
+        return LabChange("mount", 0.0, tool=mount.group(1))
     m = _SPEC.match(str(text))
-    hint = "Write tool:MM, base:MM, jointK:DEG or linkK:MM (e.g. tool:1.5, joint3:0.4)."
+    hint = "Write tool:MM, base:MM, jointK:DEG, linkK:MM or mount:TOOL (e.g. tool:1.5, joint3:0.4)."
     if not m:
         raise UsageError(f"cannot read the change {text!r}", hint=hint)
     kind, number, size = m.group(1).lower(), m.group(2), float(m.group(3))
@@ -78,11 +90,24 @@ def _unit(rng: np.random.Generator) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
+def mount_tool(lab, tool: str) -> None:
+    """Mount the lab robot's `tool`: the lab measures its first target from now on. Raises
+    UsageError for a tool the lab's robot does not define."""
+    tools = lab.nominal_robot.tool_map()
+    if tool not in tools:
+        raise UsageError(f"the virtual lab's robot has no tool '{tool}' (its tools: {', '.join(tools)})",
+                         hint="Build the lab from the robot file that defines the tool (its \"tools\" section).")
+    lab.target = tools[tool][0]
+
+
 def apply_change(lab, change: LabChange | str, *, seed: int = 0) -> LabChange:
     """Change `lab`'s true robot in place (see the module); returns the change applied."""
     true = lab.true_robot
     if isinstance(change, str):
         change = parse_change(change, true.dof)
+    if change.kind == "mount":
+        mount_tool(lab, change.tool)
+        return change
     if change.kind in ("joint", "link") and not 1 <= change.joint <= true.dof:
         raise UsageError(f"joint {change.joint} does not exist; the robot has joints 1 … {true.dof}")
     rng = np.random.default_rng(np.random.SeedSequence([int(lab.seed), int(seed), 14]))

@@ -1,5 +1,5 @@
-"""The Check page's controls: the check poses, "Run check now", the schedule, and on the virtual
-lab the change to simulate."""
+"""The Check page's controls: the tool mounted (a robot with several tools), the check poses, "Run
+check now", the schedule, and on the virtual lab the change to simulate."""
 from __future__ import annotations
 
 import numpy as np
@@ -10,11 +10,25 @@ from app.pages import forms
 #: (label, change kind) of the "Simulate a change" choice
 CHANGES = [("none", ""), ("tool offset (mm)", "tool"), ("base shift (mm)", "base"),
            ("joint zero slip (°)", "joint"), ("link bent (mm)", "link")]
+#: the change offered when the robot has several tools: another tool mounted than the one checked
+MOUNT = ("another tool mounted", "mount")
 
 
 class CheckControls(QWidget):
     def __init__(self, parent=None):
         super().__init__(parent)
+        self._changes = list(CHANGES)
+        self.tool_combo = QComboBox()
+        self.tool_combo.setObjectName("toolCombo")
+        self.tool_combo.setToolTip("The tool on the robot now: check poses, predictions and limits use its marker")
+        self.identify_tool_button = forms.button(
+            "Identify this tool", "identifyToolButton",
+            tooltip="Measure the mounted tool's marker at a few proposed poses and identify its offset on the "
+                    "calibrated arm (needed once for a tool the calibration did not measure)")
+        self.tool_box = QGroupBox("Tool mounted")
+        tl = QVBoxLayout(self.tool_box)
+        tl.addWidget(self.tool_combo)
+        tl.addWidget(self.identify_tool_button)
         self.count_spin = forms.spin(8, 3, 20, name="checkPoseCount", suffix=" poses",
                                      tooltip="How many check poses to choose (by observability of the marker, "
                                              "base and joint zero offsets)")
@@ -44,8 +58,11 @@ class CheckControls(QWidget):
 
         self.change_combo = QComboBox()
         self.change_combo.setObjectName("changeCombo")
-        for label, _ in CHANGES:
+        for label, _ in self._changes:
             self.change_combo.addItem(label)
+        self.mount_combo = QComboBox()
+        self.mount_combo.setObjectName("mountCombo")
+        self.mount_combo.setToolTip("The tool the lab's robot carries instead")
         self.joint_spin = forms.spin(1, 1, 6, name="changeJoint", tooltip="Which joint (or link)")
         self.joint_spin.setPrefix("joint ")
         self.size_spin = forms.double_spin(1.5, -50.0, 50.0, decimals=2, step=0.1, name="changeSize",
@@ -58,38 +75,74 @@ class CheckControls(QWidget):
         cl.addWidget(note)
         cl.addWidget(self.change_combo)
         cl.addLayout(forms.row(self.joint_spin, self.size_spin))
+        cl.addWidget(self.mount_combo)
         self.change_combo.currentIndexChanged.connect(lambda *_: self._change_kind_changed())
         self._change_kind_changed()
+        self.tool_box.setVisible(False)
 
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
+        layout.addWidget(self.tool_box)
         layout.addWidget(poses_box)
         layout.addWidget(run_box)
         layout.addWidget(self.change_box)
         layout.addStretch(1)
 
     def _change_kind_changed(self) -> None:
-        kind = CHANGES[self.change_combo.currentIndex()][1]
+        kind = self._changes[self.change_combo.currentIndex()][1]
         self.joint_spin.setEnabled(kind in ("joint", "link"))
-        self.size_spin.setEnabled(bool(kind))
+        self.size_spin.setEnabled(bool(kind) and kind != "mount")
+        self.mount_combo.setVisible(kind == "mount")
+
+    def set_tools(self, names) -> None:
+        """The robot's tools: the selector (and the "another tool mounted" change) only for several."""
+        names = list(names)
+        if names == [self.tool_combo.itemText(i) for i in range(self.tool_combo.count())]:
+            return
+        for combo in (self.tool_combo, self.mount_combo):
+            combo.blockSignals(True)
+            combo.clear()
+            combo.addItems(names)
+            combo.blockSignals(False)
+        self.tool_box.setVisible(len(names) > 1)
+        changes = list(CHANGES) + ([MOUNT] if len(names) > 1 else [])
+        if changes != self._changes:
+            self._changes = changes
+            self.change_combo.blockSignals(True)
+            self.change_combo.clear()
+            self.change_combo.addItems([label for label, _ in changes])
+            self.change_combo.blockSignals(False)
+        self._change_kind_changed()
+
+    def tool(self) -> str | None:
+        """The tool chosen as mounted; None for a robot with one tool."""
+        return self.tool_combo.currentText() if self.tool_combo.count() > 1 else None
+
+    def choose_tool(self, name: str) -> None:
+        self.tool_combo.setCurrentText(name)
 
     def set_dof(self, dof: int) -> None:
         self.joint_spin.setMaximum(max(1, dof))
 
     def change_spec(self) -> str | None:
         """The chosen change as the lab reads it (tool:1.5, joint3:0.4, …), or None."""
-        kind = CHANGES[self.change_combo.currentIndex()][1]
+        kind = self._changes[self.change_combo.currentIndex()][1]
         if not kind:
             return None
+        if kind == "mount":
+            return f"mount:{self.mount_combo.currentText()}"
         size = self.size_spin.value()
         if kind in ("tool", "base"):
             size = abs(size)
         number = self.joint_spin.value() if kind in ("joint", "link") else ""
         return f"{kind}{number}:{size:g}"
 
-    def choose_change(self, kind: str, size: float, joint: int = 1) -> None:
-        """Select a change (for the autopilot and tests): kind '' (none), tool, base, joint or link."""
-        self.change_combo.setCurrentIndex([k for _, k in CHANGES].index(kind))
+    def choose_change(self, kind: str, size: float, joint: int = 1, tool: str = "") -> None:
+        """Select a change (for the autopilot and tests): kind '' (none), tool, base, joint, link, or
+        mount (the robot's `tool` mounted instead)."""
+        self.change_combo.setCurrentIndex([k for _, k in self._changes].index(kind))
+        if tool:
+            self.mount_combo.setCurrentText(tool)
         self.size_spin.setValue(size)
         self.joint_spin.setValue(joint)
 
@@ -100,6 +153,7 @@ class CheckControls(QWidget):
             self.poses_list.addItem(f"pose {k}: " + ", ".join(f"{v:.1f}" for v in q))
 
     def set_enabled(self, busy: bool, ready: bool, virtual: bool) -> None:
-        for w in (self.choose_button, self.run_button, self.count_spin):
+        for w in (self.choose_button, self.run_button, self.count_spin, self.tool_combo):
             w.setEnabled(ready and not busy)
+        self.identify_tool_button.setEnabled(ready and virtual and not busy)
         self.change_box.setEnabled(virtual and not busy)

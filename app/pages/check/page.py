@@ -1,7 +1,9 @@
 """Step 8, Check: measure the marker at a few check poses, compare it with the calibrated model's
 prediction against limits from the calibration's own uncertainty, append every point to the
 project's check log (checks.csv), draw the control charts, say in plain words what changed, and
-re-identify it from a few proposed poses (app/jobs/check.py does the work, on the virtual lab)."""
+re-identify it from a few proposed poses (app/jobs/check.py does the work, on the virtual lab).
+With several tools, the tool mounted is chosen here, and a newly mounted tool is identified from
+its own few poses (app/jobs/tool.py)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -11,6 +13,7 @@ from PySide6.QtWidgets import QHBoxLayout, QVBoxLayout
 
 from app.jobs import check as job
 from app.jobs import fixture as fixture_job
+from app.jobs import tool as tool_job
 from app.pages.base import WizardPage
 from app.pages.check.controls_panel import CheckControls
 from app.pages.check.fixture_panel import FixturePanel
@@ -44,6 +47,7 @@ class CheckPage(WizardPage):
         self.result = None
         self.diagnosis = None
         self.update = None
+        self.tool_update: tool_job.ToolUpdate | None = None
         self.log: CheckLog | None = None
         self._images = None                    # how the last check measured (see `images`)
 
@@ -59,6 +63,7 @@ class CheckPage(WizardPage):
         self.controls.schedule_check.toggled.connect(lambda *_: self._schedule_changed())
         self.controls.minutes_spin.valueChanged.connect(lambda *_: self._schedule_changed())
         self.results.reidentify_button.clicked.connect(lambda *_: self.reidentify())
+        self.controls.identify_tool_button.clicked.connect(lambda *_: self.identify_tool())
         self.schedule_timer = QTimer(self)
         self.schedule_timer.timeout.connect(self._scheduled)
 
@@ -105,7 +110,7 @@ class CheckPage(WizardPage):
 
     def _key(self) -> tuple:
         path = self.calibrated_path()
-        return (str(path), path.stat().st_mtime_ns, self.controls.count_spin.value())
+        return (str(path), path.stat().st_mtime_ns, self.controls.count_spin.value(), self.controls.tool())
 
     def _calibration_changed(self) -> None:
         self.forget_task()
@@ -126,6 +131,7 @@ class CheckPage(WizardPage):
         """Read the check log and the calibration's presence, and draw them."""
         if self.state.robot is not None:
             self.controls.set_dof(self.state.robot.dof)
+            self.controls.set_tools(self.state.robot.tool_names())
         self.log = None
         path = self.log_path()
         if path is not None and path.is_file():
@@ -158,15 +164,15 @@ class CheckPage(WizardPage):
         if not self._can_run():
             return False
         key, path = self._key(), self.calibrated_path()
-        return self.start_with_lab(self._setup_job, path, self.controls.count_spin.value(),
+        return self.start_with_lab(self._setup_job, path, self.controls.count_spin.value(), self.controls.tool(),
                                    on_done=lambda cell: self._take_cell(cell, key),
                                    status="Choosing check poses…")
 
     @staticmethod
-    def _setup_job(path, count, *, lab, progress=None, cancelled=None):
+    def _setup_job(path, count, tool, *, lab, progress=None, cancelled=None):
         from app.lab import lab_options
         return job.setup(path, lab_options=lab_options(lab), count=count, sigma_mm=job.weighted_sigma_mm(path),
-                         progress=progress, cancelled=cancelled)
+                         tool=tool, progress=progress, cancelled=cancelled)
 
     def _take_cell(self, cell: job.CheckSetup, key: tuple) -> None:
         self.cell, self._cell_key = cell, key
@@ -193,7 +199,7 @@ class CheckPage(WizardPage):
         self._images = images
         return self.start_with_lab(job.check_project, self.calibrated_path(), on_done=lambda r: self._checked(r, key),
                                    cell=self._cell(), count=key[2], change=self.controls.change_spec(),
-                                   images=images, log=self.log_path(), seed=self._seed(),
+                                   images=images, log=self.log_path(), seed=self._seed(), tool=key[3],
                                    status=f"Checking: {self._measured_by(images)}…")
 
     def _seed(self) -> int:
@@ -280,6 +286,25 @@ class CheckPage(WizardPage):
         f = run.result.frame
         self._set_status(f"✓ Fixture located ({f.method}, RMS residual {f.rms_mm:.3f} mm): wrote "
                          f"{run.pose_path.name} and {run.urdf_path.name}.", True)
+
+    def identify_tool(self) -> bool:
+        """Identify the tool chosen as mounted from its proposed poses on the virtual lab, and
+        replace calibrated.json (the previous one kept in history/)."""
+        tool = self.controls.tool()
+        if tool is None or not self._can_run():
+            return False
+        return self.start_with_lab(tool_job.identify_on_lab, self.calibrated_path(), tool,
+                                   change=self.controls.change_spec(), images=self.images(), seed=self._seed(),
+                                   on_done=self._tool_identified,
+                                   status=f"Identifying the tool '{tool}' from its proposed poses…")
+
+    def _tool_identified(self, update: tool_job.ToolUpdate) -> None:
+        self.state.set_identification(None)     # Export and the report read the updated file
+        self.cell = self._cell_key = self.result = self.diagnosis = None
+        self.tool_update = update
+        self.refresh()
+        self._set_status(f"✓ {update.identification.text()} Wrote {update.path.name} (the previous one is kept "
+                         f"in history/).", True)
 
     # -- schedule ------------------------------------------------------------------------
     def _schedule_changed(self) -> None:

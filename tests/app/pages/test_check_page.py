@@ -144,3 +144,52 @@ def test_the_change_as_the_lab_reads_it(page):
     assert page.controls.change_spec() == "base:2"
     page.controls.choose_change("", 1.0)
     assert page.controls.change_spec() is None
+
+
+def test_one_tool_hides_the_tool_selector(page):
+    assert page.controls.tool_box.isHidden() and page.controls.tool() is None
+    labels = [page.controls.change_combo.itemText(i) for i in range(page.controls.change_combo.count())]
+    assert "another tool mounted" not in labels
+
+
+@pytest.fixture
+def two_tool_page(qtbot, tmp_path):
+    from tests.core.tools.two_tools import two_tool_robot
+    state, tasks = WizardState(), TaskRunner()
+    state.new_project(tmp_path / "project")
+    state.set_robot(two_tool_robot(), "two tools")
+    p = CheckPage(state, tasks)
+    qtbot.addWidget(p)
+    p.resize(1100, 760)
+    p.show()
+    p.on_enter()
+    yield p
+    tasks.shutdown()
+    state.close()
+
+
+def test_two_tools_identify_the_second_then_check_with_each(two_tool_page, qtbot):
+    page = two_tool_page
+    calibrate(page)
+    assert not page.controls.tool_box.isHidden()
+    assert [page.controls.tool_combo.itemText(i) for i in range(2)] == ["gripper", "long_gripper"]
+    page.controls.choose_tool("long_gripper")
+    assert page.run_check()
+    qtbot.waitUntil(lambda: not page.busy, timeout=TIMEOUT)
+    assert page.result is None and "has not been identified" in page.status.text()
+
+    assert page.identify_tool()
+    qtbot.waitUntil(lambda: not page.busy, timeout=TIMEOUT)
+    assert page.tool_update is not None, page.status.text()
+    assert "Tool 'long_gripper' identified from 5 poses" in page.status.text()
+    assert read_robot(page.calibrated_path()).calibration["tools"] == ["gripper", "long_gripper"]
+    assert len(list((page.calibrated_path().parent / "history").glob("calibrated-*.json"))) == 1
+
+    run_check(page, qtbot)
+    assert page.result.within and page.result.tool == "long_gripper", page.result.verdict()
+    page.controls.choose_change("mount", 0.0, tool="gripper")
+    assert page.controls.change_spec() == "mount:gripper"
+    run_check(page, qtbot)
+    assert not page.result.within and page.diagnosis.kind == "tool"
+    assert "the tool 'long_gripper'" in page.results.diagnosis_label.text()
+    assert [c.tool for c in read_check_log(page.log_path()).checks] == ["long_gripper", "long_gripper"]

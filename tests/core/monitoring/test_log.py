@@ -24,11 +24,26 @@ def test_round_trip(tmp_path):
 def test_file_written_from_the_format_description(tmp_path):
     path = tmp_path / "checks.csv"
     path.write_text(TAG + "\n" + ",".join(header_columns(1)) + "\n"
-                    "a,2025-01-01T10:00:00+00:00,point,3,marker,12.5,1,2,3,1,2,3.5,0.5,0.9,1\n"
-                    "a,2025-01-01T10:00:09+00:00,overall,,,,,,,,,,0.5,0.8,1\n")
+                    "a,2025-01-01T10:00:00+00:00,point,3,marker,12.5,1,2,3,1,2,3.5,0.5,0.9,1,gripper\n"
+                    "a,2025-01-01T10:00:09+00:00,overall,,,,,,,,,,0.5,0.8,1,gripper\n")
     (check,) = read_check_log(path).checks
     assert check.points[0].pose == 3 and check.points[0].predicted.tolist() == [1, 2, 3.5]
     assert check.rms_limit_mm == 0.8 and check.within
+    assert check.tool == "gripper" and check.points[0].tool == "gripper"
+
+
+def test_log_without_the_tool_column_is_read_and_appended_in_its_layout(tmp_path):
+    path = tmp_path / "checks.csv"
+    path.write_text(TAG + "\n" + ",".join(header_columns(1, tool=False)) + "\n"
+                    "a,2025-01-01T10:00:00+00:00,point,3,marker,12.5,1,2,3,1,2,3.5,0.5,0.9,1\n"
+                    "a,2025-01-01T10:00:09+00:00,overall,,,,,,,,,,0.5,0.8,1\n")
+    log = read_check_log(path)
+    assert not log.tool_column and log.checks[0].tool == "" and log.checks[0].points[0].pose == 3
+    with CheckLogWriter(path, 1) as w:
+        w.point("b", "t", 0, "marker", [1.0], [1, 2, 3], [1, 2, 3], 0.0, 0.3, True, "gripper")
+    log = read_check_log(path)
+    assert [c.run for c in log.checks] == ["a", "b"] and log.checks[1].points[0].tool == ""
+    assert path.read_text().splitlines()[1] == ",".join(header_columns(1, tool=False))
 
 
 def test_cut_off_last_row_is_dropped_and_repaired_on_append(tmp_path):
@@ -44,8 +59,8 @@ def test_cut_off_last_row_is_dropped_and_repaired_on_append(tmp_path):
 
 
 @pytest.mark.parametrize("old, new, field", [
-    (",0.3000,1\n", ",0.3000,yes\n", "within"),
-    (",0.3000,1\n", ",abc,1\n", "limit_mm"),
+    (",0.3000,1,\n", ",0.3000,yes,\n", "within"),
+    (",0.3000,1,\n", ",abc,1,\n", "limit_mm"),
     (",point,0,", ",dot,0,", "kind"),
     (",point,0,", ",point,zero,", "pose"),
 ])

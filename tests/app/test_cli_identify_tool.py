@@ -1,0 +1,86 @@
+"""`robocal identify-tool` and `robocal check --tool` on a virtual lab with a tool changer (ideal
+measurements): the second tool refused until identified, identified from its proposed poses,
+then within limits; the wrong tool mounted found; poses proposed for a real robot."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from app.cli import main
+from app.lab import build_lab, ideal_lab_measurements, ideal_measure
+from core.measurement.file import Measurements, write_measurements
+from core.identification.solver import identify, write_calibrated_model
+from core.monitoring.log import read_check_log
+from core.poses.file import read_poses
+from core.robot.file import read_robot, write_robot
+from tests.core.tools.two_tools import two_tool_robot
+
+
+@pytest.fixture(scope="module")
+def cell(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("tools")
+    robot = write_robot(two_tool_robot(), folder / "robot.json")
+    lab = build_lab(read_robot(robot), 0, 0.5)
+    write_calibrated_model(identify(lab.nominal_robot, ideal_lab_measurements(lab, 50, sigma_mm=0.05, seed=4)),
+                           folder / "calibrated.json")
+    return folder / "calibrated.json", robot
+
+
+def run_json(capsys, argv):
+    code = main(argv + ["--json"])
+    out, err = capsys.readouterr()
+    return code, (json.loads(out) if out.strip() else None), err
+
+
+def test_identify_the_second_tool_then_check_with_it(cell, tmp_path, capsys):
+    calibrated, robot = cell
+    lab = ["--lab-robot", str(robot)]
+    log, out = tmp_path / "c.csv", tmp_path / "updated.json"
+    code = main(["check", "--robot", str(calibrated), "--log", str(log), "--tool", "long_gripper"] + lab)
+    assert code == 1 and "has not been identified" in capsys.readouterr().err
+    code, data, err = run_json(capsys, ["identify-tool", "--robot", str(calibrated), "--tool", "long_gripper",
+                                        "--out", str(out)] + lab)
+    assert code == 0, err
+    assert data["n_poses"] == 5 and data["sigma_mm"] < 0.2 and data["held_out_rms_mm"] < 0.2
+    assert read_robot(out).calibration["tools"] == ["gripper", "long_gripper"]
+    code, data, err = run_json(capsys, ["check", "--robot", str(out), "--log", str(log), "--tool", "long_gripper"]
+                               + lab)
+    assert code == 0 and data["check"]["within"] and data["tool"] == "long_gripper", err
+    code, data, err = run_json(capsys, ["check", "--robot", str(out), "--log", str(log), "--tool", "gripper",
+                                        "--change", "mount:long_gripper"] + lab)
+    assert code == 3 and data["diagnosis"]["kind"] == "tool", err
+    assert "the tool 'gripper'" in data["diagnosis"]["text"]
+    assert [c.tool for c in read_check_log(log).checks] == ["long_gripper", "gripper"]
+
+
+def test_poses_for_a_real_robot_then_identify_from_their_measurements(cell, tmp_path, capsys):
+    calibrated, robot = cell
+    poses = tmp_path / "tool_poses.csv"
+    code = main(["identify-tool", "--robot", str(calibrated), "--tool", "long_gripper", "--poses-out", str(poses),
+                 "--lab-robot", str(robot)])
+    assert code == 0 and len(read_poses(poses).q_file) == 5
+    lab = build_lab(read_robot(robot), 0, 0.5)
+    lab.target = "long_marker"                                  # the robot measured with the long gripper
+    model = read_robot(calibrated)
+    Q = model.q_from_file(read_poses(poses).q_file)
+    measure = ideal_measure(lab, sigma_mm=0.05, seed=8)
+    write_measurements(Measurements(pose=np.arange(5), target=["long_marker"] * 5, q_file=model.q_to_file(Q),
+                                    xyz=np.array([measure(q) for q in Q])), tmp_path / "tool.csv")
+    capsys.readouterr()
+    code, data, err = run_json(capsys, ["identify-tool", "--robot", str(calibrated), "--tool", "long_gripper",
+                                        "--measurements", str(tmp_path / "tool.csv"), "--out",
+                                        str(tmp_path / "u.json")])
+    assert code == 0 and data["n_poses"] == 5 and data["rms_after_mm"] < 0.15, err
+    code = main(["identify-tool", "--robot", str(calibrated), "--tool", "long_gripper", "--measurements",
+                 str(calibrated)])
+    assert code == 2 and "--out" in capsys.readouterr().err
+
+
+def test_a_tool_the_lab_lacks_is_said(cell, tmp_path, capsys):
+    calibrated, _ = cell
+    code = main(["identify-tool", "--robot", str(calibrated), "--tool", "long_gripper", "--out",
+                 str(tmp_path / "u.json")])
+    assert code in (1, 2) and "no target 'long_marker'" in capsys.readouterr().err
+    assert not (tmp_path / "u.json").exists()
