@@ -17,6 +17,9 @@ import numpy as np
 
 from core.errors import RoboCalError
 
+#: the image files RoboCal reads (OpenCV decodes them all)
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm", ".pbm", ".webp")
+
 
 def load_gray(path: str | Path) -> tuple[np.ndarray | None, str | None]:
     """An 8-bit grayscale image, or (None, reason). Never raises for a bad file.
@@ -108,3 +111,15 @@ def require_gray8(image, what: str = "image") -> np.ndarray:
     if img.ndim not in (2, 3) or img.size == 0:
         raise RoboCalError(f"the {what} is not an image (array of shape {img.shape})")
     return to_gray8(img)
+
+
+def read_camera_image(path, side: str, size: tuple[int, int]) -> np.ndarray:
+    """The 8-bit gray image of one camera (`side`: "left" or "right"); RoboCalError naming the
+    file when it cannot be read or is not of the calibrated size (width, height in px)."""
+    img, why = load_gray(path)
+    if img is None:
+        raise RoboCalError(f"cannot read the {side} image: {why}", source=path)
+    if (img.shape[1], img.shape[0]) != tuple(size):
+        raise RoboCalError(f"the {side} image is {img.shape[1]}x{img.shape[0]} px, the stereo calibration is for "
+                           f"{size[0]}x{size[1]}", source=path, hint="Use images of the calibrated cameras.")
+    return img

@@ -55,23 +55,9 @@ def setup_locator(args):
     return MarkerLocator(trained, rect, options), known
 
 
-def read_camera_image(path, side: str, size: tuple[int, int]):
-    """The 8-bit gray image of one camera; RoboCalError naming the file when it cannot be read
-    or is not of the calibrated size (width, height in px)."""
-    from core.errors import RoboCalError
-    from core.images import load_gray
-
-    img, why = load_gray(path)
-    if img is None:
-        raise RoboCalError(f"cannot read the {side} image: {why}", source=path)
-    if (img.shape[1], img.shape[0]) != tuple(size):
-        raise RoboCalError(f"the {side} image is {img.shape[1]}x{img.shape[0]} px, the stereo calibration is for "
-                           f"{size[0]}x{size[1]}", source=path, hint="Use images of the calibrated cameras.")
-    return img
-
-
 def run(args) -> CommandResult:
     from core.errors import RoboCalError
+    from core.images import read_camera_image
 
     locator, known = setup_locator(args)
     images = [read_camera_image(path, side, locator.rect.image_size)

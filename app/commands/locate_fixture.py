@@ -7,10 +7,8 @@ folder holding left/<point name>.<ext> and right/<point name>.<ext> for every po
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 from app.commands import CommandResult, ProgressLine, check_output
-from app.commands.locate import add_locator_arguments, read_camera_image, setup_locator
+from app.commands.locate import add_locator_arguments, setup_locator
 
 HELP = "Locate a fixture (three or more marker points) in the robot's base frame and write its pose"
 
@@ -31,42 +29,20 @@ def add_arguments(parser) -> None:
     parser.add_argument("--urdf", metavar="FIXTURE.urdf", help="also write the pose as a URDF fixed joint")
 
 
-def pair_files(given: list[str], names: list[str]) -> list[tuple[Path, Path]]:
-    """(left, right) image paths per point name, from LEFT RIGHT pairs or one folder."""
-    from core.errors import RoboCalError, UsageError
-    from app.commands.paths import IMAGE_SUFFIXES
-
-    if len(given) == 1 and Path(given[0]).is_dir():
-        folder = Path(given[0])
-        out = []
-        for name in names:
-            pair = []
-            for side in ("left", "right"):
-                found = sorted(p for p in (folder / side).glob(f"{name}.*") if p.suffix.lower() in IMAGE_SUFFIXES)
-                if not found:
-                    raise RoboCalError(f"no {side} image of the fixture point '{name}'", source=folder / side,
-                                       hint=f"Name the images {side}/{name}.png (one per point of the description).")
-                pair.append(found[0])
-            out.append((pair[0], pair[1]))
-        return out
-    if len(given) != 2 * len(names):
-        raise UsageError(f"{len(given)} image files for the {len(names)} fixture points ({', '.join(names)}): "
-                         f"give LEFT RIGHT for each point, or one folder")
-    return [(Path(given[2 * i]), Path(given[2 * i + 1])) for i in range(len(names))]
-
-
 def run(args) -> CommandResult:
     from core.fixtures.base import read_base_transform
     from core.fixtures.description import read_fixture_description
     from core.fixtures.file import fixture_pose_dict, write_fixture_pose
+    from core.fixtures.pairs import fixture_pair_files
     from core.fixtures.run import locate_fixture
+    from core.images import read_camera_image
     from core.task import Monitor
 
     check_output(args.out, "fixture pose")
     check_output(args.urdf, "URDF")
     description = read_fixture_description(args.fixture)
     base = read_base_transform(args.calibrated)
-    files = pair_files(args.pairs, description.names)
+    files = fixture_pair_files(args.pairs, description.names)
     locator, _ = setup_locator(args)
     size = locator.rect.image_size
     pairs = [lambda l=left, r=right: (read_camera_image(l, "left", size), read_camera_image(r, "right", size))

@@ -38,7 +38,8 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> CommandResult:
-    from app.commands.locate import read_camera_image, setup_locator
+    from app.commands.locate import setup_locator
+    from core.images import read_camera_image
     from core.stereo.checkerboard import pair_images
     from core.errors import RoboCalError, UsageError
     from core.measurement.run import rejects_path_for, run_measurements

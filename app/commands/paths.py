@@ -18,8 +18,7 @@ from pathlib import Path
 from typing import Iterable
 
 from core.errors import UsageError
-
-IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm", ".webp"}
+from core.images import IMAGE_SUFFIXES
 
 
 def _values(args, dest: str) -> list[Path]:

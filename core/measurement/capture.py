@@ -29,8 +29,8 @@ import cv2
 import numpy as np
 
 from core.errors import RoboCalError
+from core.images import IMAGE_SUFFIXES
 
-IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm"}
 DEFAULT_FLUSH = 4          # frames a V4L2 camera typically buffers
 USB_BANDWIDTH_HINT = ("Use the MJPG pixel format, a lower resolution or frame rate, or plug the two cameras "
                       "into different USB controllers")
@@ -190,7 +190,7 @@ class FolderCamera(Camera):
         self.files = sorted(p for p in Path(folder).iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
         if not self.files:
             raise RoboCalError("the folder holds no images", source=folder,
-                               hint=f"Put {', '.join(sorted(IMAGE_SUFFIXES))} files in it.")
+                               hint=f"Put {', '.join(IMAGE_SUFFIXES[:5])}, ... files in it.")
         self._next = 0
         self._current: Path | None = None
         first = cv2.imread(str(self.files[0]), cv2.IMREAD_UNCHANGED)

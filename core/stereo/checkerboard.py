@@ -50,10 +50,9 @@ import numpy as np
 
 from core.stereo.board import Board
 from core.errors import RoboCalError
-from core.images import load_gray, to_gray8
+from core.images import IMAGE_SUFFIXES, load_gray, to_gray8
 from core.task import Monitor
 
-IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm", ".pbm", ".webp")
 
 PARAM_NAMES = ("X", "Y", "size", "skew")
 PARAM_RANGES = (0.7, 0.7, 0.4, 0.5)       # ROS camera_calibration
