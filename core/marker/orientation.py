@@ -19,8 +19,6 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from core import transforms as tf
-from core.marker.geometry import corners_from_lines
 from core.marker.triangulation import rectified_geometry
 
 
@@ -97,26 +95,38 @@ def _params(lines: np.ndarray) -> np.ndarray:
     return np.column_stack([np.arctan2(lines[:, 1], lines[:, 0]), lines[:, 2]]).reshape(-1)
 
 
-def _lines(params: np.ndarray) -> np.ndarray:
-    p = params.reshape(4, 2)
-    return np.column_stack([np.cos(p[:, 0]), np.sin(p[:, 0]), p[:, 1]])
+def _corners(params: np.ndarray) -> np.ndarray:
+    """(M, 4, 2) corners of M outlines given as (M, 8) side parameters (angle, offset) each;
+    corner k is where side k − 1 meets side k."""
+    p = params.reshape(-1, 4, 2)
+    c, s, rho = np.cos(p[..., 0]), np.sin(p[..., 0]), p[..., 1]
+    c0, s0, r0 = np.roll(c, 1, axis=1), np.roll(s, 1, axis=1), np.roll(rho, 1, axis=1)
+    det = c0 * s - s0 * c
+    return np.stack([(r0 * s - s0 * rho) / det, (c0 * rho - r0 * c) / det], axis=-1)
 
 
-def corner_points(left_lines: np.ndarray, right_lines: np.ndarray, P1, P2, R1) -> np.ndarray:
-    """(4, 3) mm, left camera frame: the outer square's corners triangulated from the fitted
-    side lines (rectified px) of both images."""
-    cl, cr = corners_from_lines(left_lines), corners_from_lines(right_lines)
+def corner_points(params: np.ndarray, P1, P2, R1) -> np.ndarray:
+    """(M, 4, 3) mm, left camera frame: the outer square's corners triangulated from (M, 16)
+    side parameters, the left outline's 8 then the right's (rectified px)."""
+    cl, cr = _corners(params[:, :8]), _corners(params[:, 8:])
     f, cx, cy, cx_r, b = rectified_geometry(P1, P2)
-    d = (cl[:, 0] - cr[:, 0]) - (cx - cx_r)
+    d = (cl[..., 0] - cr[..., 0]) - (cx - cx_r)
     Z = f * b / d
-    X = (cl[:, 0] - cx) * Z / f
-    Y = (0.5 * (cl[:, 1] + cr[:, 1]) - cy) * Z / f
-    return np.column_stack([X, Y, Z]) @ np.asarray(R1, dtype=float)   # rows: R1ᵀ·p
+    X = (cl[..., 0] - cx) * Z / f
+    Y = (0.5 * (cl[..., 1] + cr[..., 1]) - cy) * Z / f
+    return np.stack([X, Y, Z], axis=-1) @ np.asarray(R1, dtype=float)   # rows: R1ᵀ·p
 
 
-def frame_rotation(square_mm: np.ndarray, corners_mm: np.ndarray) -> np.ndarray:
-    """The rotation that best maps the printed square's corners onto the measured ones."""
-    return tf.best_rotation(square_mm - square_mm.mean(axis=0), corners_mm - corners_mm.mean(axis=0))
+def frame_rotations(square_mm: np.ndarray, corners_mm: np.ndarray) -> np.ndarray:
+    """(M, 3, 3) rotations that best map the printed square's corners onto each set of
+    measured ones (M, 4, 3) (Kabsch, no reflection)."""
+    A = square_mm - square_mm.mean(axis=0)
+    B = corners_mm - corners_mm.mean(axis=1, keepdims=True)
+    U, _, Vt = np.linalg.svd(np.einsum("ki,mkj->mij", A, B))
+    V, Ut = np.transpose(Vt, (0, 2, 1)), np.transpose(U, (0, 2, 1))
+    D = np.ones((len(B), 3))
+    D[:, 2] = np.sign(np.linalg.det(V @ Ut))
+    return (V * D[:, None, :]) @ Ut
 
 
 def marker_orientation(left_outline, right_outline, rectification, outer_size: float,
@@ -126,31 +136,18 @@ def marker_orientation(left_outline, right_outline, rectification, outer_size: f
 
     `outer_size` (mm) is the printed outer square's side (its value does not change R);
     `origin` the located reference point (mm)."""
-    P1, P2, R1 = rectification.P1, rectification.P2, rectification.R1
     s = outer_size / 2.0
     square = np.array([[-s, s, 0.0], [s, s, 0.0], [s, -s, 0.0], [-s, -s, 0.0]])
     x0 = np.concatenate([_params(left_outline.lines), _params(right_outline.lines)])
     C = np.zeros((16, 16))
     for k, side in enumerate(list(left_outline.sides) + list(right_outline.sides)):
         C[2 * k:2 * k + 2, 2 * k:2 * k + 2] = side.line_cov + np.diag([0.0, sigma_floor_px ** 2])
-
-    def rotation(x):
-        pts = corner_points(_lines(x[:8]), _lines(x[8:]), P1, P2, R1)
-        if not np.all(np.isfinite(pts)) or np.any(pts[:, 2] <= 0):
-            return None
-        return frame_rotation(square, pts)
-
-    R = rotation(x0)
-    if R is None:
+    h = np.where(np.arange(16) % 2 == 0, 1e-6, 1e-4)       # rad for angles, px for offsets
+    X = np.vstack([x0, x0 + np.diag(h), x0 - np.diag(h)])  # the point, then central differences
+    pts = corner_points(X, rectification.P1, rectification.P2, rectification.R1)
+    if not np.all(np.isfinite(pts)) or np.any(pts[..., 2] <= 0):
         return None
-    J = np.empty((3, 16))
-    for i in range(16):
-        h = 1e-6 if i % 2 == 0 else 1e-4
-        xp, xm = x0.copy(), x0.copy()
-        xp[i] += h
-        xm[i] -= h
-        Rp, Rm = rotation(xp), rotation(xm)
-        if Rp is None or Rm is None:
-            return None
-        J[:, i] = Rotation.from_matrix(Rp @ Rm.T).as_rotvec() / (2 * h)
-    return MarkerOrientation(R=R, covariance=J @ C @ J.T, origin=np.asarray(origin, dtype=float).copy())
+    R = frame_rotations(square, pts)
+    turn = Rotation.from_matrix(R[1:17] @ np.transpose(R[17:], (0, 2, 1))).as_rotvec()
+    J = (turn / (2 * h[:, None])).T
+    return MarkerOrientation(R=R[0], covariance=J @ C @ J.T, origin=np.asarray(origin, dtype=float).copy())
