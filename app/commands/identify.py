@@ -34,6 +34,11 @@ def add_arguments(parser) -> None:
                              "their nominal values instead of keeping them at nominal; 'auto' estimates its weights "
                              "(one for lengths, one for angles) from the measurements by empirical Bayes, "
                              "0 is the plain fit (default: no prior)")
+    parser.add_argument("--orientation", action="store_true",
+                        help="also fit the measured marker orientations (columns rx..srz of the measurements file) "
+                             "and estimate the marker's orientation on the tool (marker.rx, marker.ry, marker.rz); "
+                             "with --fix marker.rz the last joint's zero is determined even when the marker sits "
+                             "on the last joint's axis")
 
 
 def run(args) -> CommandResult:
@@ -51,7 +56,7 @@ def run(args) -> CommandResult:
     fixed = [n.strip() for n in args.fix.split(",") if n.strip()]
     prior = None if args.prior is False else PriorOptions(weight=args.prior)
     result = identify(robot, meas, fixed=fixed, huber=args.huber, holdout=args.holdout, kfold=args.kfold,
-                      seed=args.seed, prior=prior)
+                      seed=args.seed, prior=prior, orientation=args.orientation)
     write_calibrated_model(result, args.out)
     data = result.summary()
     data["out"] = str(args.out)
@@ -73,6 +78,14 @@ def _text(result, out) -> str:
             f"{len(v.test_poses)} held-out poses"
         lines.append(f"  Validation ({what}): RMS {v.before.rms_mm:.4f} mm before, {v.after.rms_mm:.4f} mm after "
                      f"(max {v.after.max_mm:.4f} mm).")
+    o = result.orientation
+    if o is not None:
+        lines.append(f"  Orientation ({o.n_points} points): RMS {o.rms_before_deg:.4f} deg before, "
+                     f"{o.rms_after_deg:.4f} deg after"
+                     + (f"; held out {o.holdout_rms_after_deg:.4f} deg." if o.holdout_rms_after_deg is not None
+                        else "."))
+        if o.determined:
+            lines.append("    determined only thanks to the orientation: " + ", ".join(o.determined))
     p = result.prior
     if p is not None:
         how = "given" if p.chosen_by == "given" else f"chosen by {p.chosen_by}"

@@ -53,6 +53,8 @@ import numpy as np
 from core.identification.jacobian import (Parameter, all_parameters, calibration_jacobian,
                                        expand_poses, hayati_joints, joint_label, resolve_names)
 from core.errors import RoboCalError
+from core.identification.orientation import (STRUCTURAL_ROW_SCALE, has_orientation_parameters,
+                                             orientation_jacobian)
 from core.robot.model import RobotModel
 
 RANK_TOL = 1e-9          # relative singular value below which a direction is structurally null
@@ -167,6 +169,22 @@ def _rank(phi_s: np.ndarray, tol: float) -> int:
     return int(np.sum(s > tol * s[0])) if s[0] > 0 else 0
 
 
+def stacked_jacobian(model: RobotModel, Q, point_targets: Sequence[str], params: Sequence[Parameter],
+                     weights: np.ndarray | None = None,
+                     orientation_weights: np.ndarray | None = None) -> np.ndarray:
+    """√W·Φ: the point rows (weights (N, 3), none: 1) and, when orientation parameters are among
+    `params`, the orientation rows (core.identification.orientation) below them, weighted by
+    √`orientation_weights` (N, 3), or by STRUCTURAL_ROW_SCALE when none are given."""
+    phi = calibration_jacobian(model, Q, point_targets, params)
+    if weights is not None:
+        phi = np.sqrt(np.asarray(weights, dtype=float).reshape(-1))[:, None] * phi
+    if not has_orientation_parameters(params):
+        return phi
+    sw = (np.full(phi.shape[0], STRUCTURAL_ROW_SCALE) if orientation_weights is None
+          else np.sqrt(np.asarray(orientation_weights, dtype=float).reshape(-1)))
+    return np.vstack([phi, sw[:, None] * orientation_jacobian(model, Q, point_targets, params)])
+
+
 # -- structural identifiability ------------------------------------------------------------
 @dataclass
 class Exclusion:
@@ -206,7 +224,7 @@ def _elimination_order(params: Sequence[Parameter]) -> list[int]:
     """Indices in the order parameters are preferably given up: joints from the last to the
     first (d, theta, a, alpha, beta within a joint), then targets, then the base."""
     kind_rank = {"d": 0, "theta": 1, "a": 2, "alpha": 3, "beta": 4}
-    group_rank = {"joint": 0, "target": 1, "base": 2}
+    group_rank = {"joint": 0, "target": 1, "orientation": 1, "base": 2}
 
     def key(k):
         p = params[k]
@@ -255,6 +273,10 @@ def explain_structural(prm: Parameter, partners: Sequence[str], params: Sequence
             return (f"{prm.name} cannot be told apart from {who}: both shift the whole arm along the "
                     f"first joint axis." + tail)
         return f"{prm.name} cannot be told apart from {who}: both move the whole arm rigidly." + tail
+    if "orientation" in groups and prm.group == "joint":
+        return (f"{prm.name} cannot be told apart from the marker's orientation on the tool ({who}): it "
+                f"turns the measured frame rigidly with the last link, as that orientation does. Fix the "
+                f"marker's turn about the last axis when it is known (e.g. --fix marker.rz)." + tail)
     if groups == {"target"} or (groups <= {"target", "joint"} and "target" in groups
                                 and prm.group == "joint"):
         return (f"{prm.name} cannot be told apart from the measured target offset ({who}): it moves "
@@ -304,7 +326,7 @@ def analyse(model: RobotModel, targets: Sequence[str], *, fixed: Iterable[str] =
     if not targets:
         raise RoboCalError("no measured targets", hint="Measure at least one target point.")
     Q, names = expand_poses(random_configurations(model, max(n_poses, len(params)), seed), list(targets))
-    phi = calibration_jacobian(model, Q, names, params)
+    phi = stacked_jacobian(model, Q, names, params)
     phi_s = small_factor(phi / column_scales(phi))
     kept = list(candidates)
     r = _rank(phi_s[:, kept], rank_tol)
@@ -332,14 +354,15 @@ def analyse(model: RobotModel, targets: Sequence[str], *, fixed: Iterable[str] =
 def practical_identifiability(ident: Identifiability, model: RobotModel, Q: np.ndarray,
                               point_targets: Sequence[str], weights: np.ndarray, sigma_hat: float, *,
                               angle_limit_deg: float = PRACTICAL_ANGLE_LIMIT_DEG,
-                              length_limit_mm: float = PRACTICAL_LENGTH_LIMIT_MM) -> Identifiability:
+                              length_limit_mm: float = PRACTICAL_LENGTH_LIMIT_MM,
+                              orientation_weights: np.ndarray | None = None) -> Identifiability:
     """Remove from `ident.free` the joint and target parameters whose expected standard deviation
     σ̂·sqrt(diag((ΦᵀWΦ)⁻¹)) on these measurements exceeds the limits, one at a time in the
-    elimination order (recomputing after each removal). `weights` are per coordinate (N, 3)."""
+    elimination order (recomputing after each removal). `weights` are per coordinate (N, 3);
+    `orientation_weights` (N, 3, rad⁻²) add the measured orientations' rows."""
     free = list(ident.free)
     excluded = list(ident.excluded)
-    sw = np.sqrt(np.asarray(weights, dtype=float).reshape(-1))
-    phi_all = sw[:, None] * calibration_jacobian(model, Q, point_targets, free)
+    phi_all = stacked_jacobian(model, Q, point_targets, free, weights, orientation_weights)
     D_all = column_scales(phi_all)
     R_all = small_factor(phi_all)
     limit = {True: math.radians(angle_limit_deg), False: float(length_limit_mm)}
@@ -419,9 +442,11 @@ def _move_hint(model: RobotModel, Q: np.ndarray, involved: Iterable[int] = ()) -
 
 
 def check_data(model: RobotModel, Q: np.ndarray, point_targets: Sequence[str], ident: Identifiability,
-               *, source=None, rank_tol: float = DATA_RANK_TOL) -> ObservabilityIndices:
+               *, source=None, rank_tol: float = DATA_RANK_TOL,
+               orientation_weights: np.ndarray | None = None) -> ObservabilityIndices:
     """Check that the measured points determine the free parameters; return the indices of
-    their Φ. Raises RoboCalError saying what to measure when they do not."""
+    their Φ. Raises RoboCalError saying what to measure when they do not. `orientation_weights`
+    (N, 3; zero where a point has none) add the measured orientations' rows."""
     n_points = len(point_targets)
     n_poses = len({tuple(q) for q in np.round(np.asarray(Q), 9)})
     p = len(ident.free)
@@ -432,7 +457,7 @@ def check_data(model: RobotModel, Q: np.ndarray, point_targets: Sequence[str], i
             f"too few measurements: {n_points} points give {3 * n_points} equations for {p} parameters",
             source=source,
             hint=f"Measure at least {rec} poses (now {n_poses}) and {_move_hint(model, Q)}.")
-    phi = calibration_jacobian(model, Q, point_targets, ident.free)
+    phi = stacked_jacobian(model, Q, point_targets, ident.free, orientation_weights=orientation_weights)
     D = column_scales(phi)
     _, s, Vt = np.linalg.svd(small_factor(np.where(np.isfinite(D), phi / D, 0.0)), full_matrices=False)
     rank = int(np.sum(s > rank_tol * s[0])) if s[0] > 0 else 0

@@ -25,6 +25,10 @@ Parameter vector g
   on the left: base ← [Exp(ω)·R | t + δt].
 * one 3D offset per measured target, `<target>.x/.y/.z` (mm, in the tool frame). The tool
   transform itself stays fixed: the target points carry the tool offset.
+* with measured orientations (core.identification.orientation), the orientation of each such
+  target's frame on the tool, `<target>.rx/.ry/.rz`: small rotations (rad) about the tool
+  frame's axes, applied on the left of `RobotModel.target_rotations[target]`. They do not move
+  points (zero columns here); their orientation rows are in core.identification.orientation.
 
 Estimation works in corrections δg at the current model (the Jacobian is exact at δg = 0);
 `apply_step` adds them (base rotation through the exponential map).
@@ -54,6 +58,7 @@ from core.robot.model import RobotModel
 JOINT_KINDS = ("theta", "d", "a", "alpha", "beta")
 BASE_KINDS = ("x", "y", "z", "rx", "ry", "rz")
 TARGET_KINDS = ("x", "y", "z")
+ORIENTATION_KINDS = ("rx", "ry", "rz")
 ANGULAR_KINDS = {"theta", "alpha", "beta", "rx", "ry", "rz"}
 
 
@@ -62,8 +67,8 @@ class Parameter:
     """One element of g. `joint` is the 0-based joint index (−1 otherwise)."""
 
     name: str
-    group: str          # "joint" | "base" | "target"
-    kind: str           # theta d a alpha beta | x y z rx ry rz | x y z
+    group: str          # "joint" | "base" | "target" | "orientation"
+    kind: str           # theta d a alpha beta | x y z rx ry rz | x y z | rx ry rz
     joint: int = -1
     target: str = ""
 
@@ -92,9 +97,11 @@ def hayati_joints(model: RobotModel) -> list[int]:
     return list(model.parallel_axis_joints())
 
 
-def all_parameters(model: RobotModel, targets: Sequence[str]) -> list[Parameter]:
+def all_parameters(model: RobotModel, targets: Sequence[str],
+                   orientation_targets: Sequence[str] = ()) -> list[Parameter]:
     """The full parameter vector g for `model` with the measured `targets`, in a fixed order:
-    joints (θ, d, a, α, β per joint), base (x, y, z, rx, ry, rz), targets (x, y, z each)."""
+    joints (θ, d, a, α, β per joint), base (x, y, z, rx, ry, rz), targets (x, y, z each), then
+    the orientation on the tool (rx, ry, rz) of each of `orientation_targets`."""
     for t in targets:
         if t == "base" or (t[:1] == "J" and t[1:].isdigit()):
             raise RoboCalError(f"the target name '{t}' clashes with a parameter group name",
@@ -109,6 +116,8 @@ def all_parameters(model: RobotModel, targets: Sequence[str]) -> list[Parameter]
     params += [Parameter(f"base.{k}", "base", k) for k in BASE_KINDS]
     for t in targets:
         params += [Parameter(f"{t}.{k}", "target", k, target=t) for k in TARGET_KINDS]
+    for t in orientation_targets:
+        params += [Parameter(f"{t}.{k}", "orientation", k, target=t) for k in ORIENTATION_KINDS]
     return params
 
 
@@ -194,6 +203,8 @@ def calibration_jacobian(model: RobotModel, Q, point_targets: Sequence[str],
         elif prm.group == "base":
             axis = eye["xyz".index(prm.kind[-1])]
             col = np.broadcast_to(axis, (N, 3)) if len(prm.kind) == 1 else np.cross(axis, P - o_base)
+        elif prm.group == "orientation":
+            continue                        # turns the target's frame, not its point
         else:
             col = tool[:, :3, "xyz".index(prm.kind)] * np.array(
                 [t == prm.target for t in point_targets], dtype=float)[:, None]
@@ -214,6 +225,7 @@ def apply_step(model: RobotModel, params: Sequence[Parameter], delta) -> RobotMo
     delta = np.asarray(delta, dtype=float)
     omega = np.zeros(3)
     shift = np.zeros(3)
+    turns: dict[str, np.ndarray] = {}
     for prm, dv in zip(params, delta):
         if dv == 0.0:
             continue
@@ -225,10 +237,14 @@ def apply_step(model: RobotModel, params: Sequence[Parameter], delta) -> RobotMo
                 shift["xyz".index(prm.kind)] += dv
             else:
                 omega["xyz".index(prm.kind[1])] += dv
+        elif prm.group == "orientation":
+            turns.setdefault(prm.target, np.zeros(3))["xyz".index(prm.kind[1])] += dv
         else:
             t = out.targets[prm.target].astype(float).copy()
             t["xyz".index(prm.kind)] += dv
             out.targets[prm.target] = t
+    for name, w in turns.items():
+        out.target_rotations[name] = tf.rot_vec(w) @ out.target_rotations.get(name, np.eye(3))
     if np.any(omega) or np.any(shift):
         base = out.base.copy()
         base[:3, :3] = tf.rot_vec(omega) @ base[:3, :3]
@@ -242,6 +258,7 @@ def parameter_difference(a: RobotModel, b: RobotModel, params: Sequence[Paramete
     rotation vector of R_a·R_bᵀ). Internal units."""
     out = np.zeros(len(params))
     omega = log_so3(a.base[:3, :3] @ b.base[:3, :3].T)
+    eye = np.eye(3)
     for k, prm in enumerate(params):
         if prm.group == "joint":
             out[k] = getattr(a.joints[prm.joint], prm.kind) - getattr(b.joints[prm.joint], prm.kind)
@@ -250,6 +267,9 @@ def parameter_difference(a: RobotModel, b: RobotModel, params: Sequence[Paramete
                 out[k] = a.base["xyz".index(prm.kind), 3] - b.base["xyz".index(prm.kind), 3]
             else:
                 out[k] = omega["xyz".index(prm.kind[1])]
+        elif prm.group == "orientation":
+            turn = log_so3(a.target_rotations.get(prm.target, eye) @ b.target_rotations.get(prm.target, eye).T)
+            out[k] = turn["xyz".index(prm.kind[1])]
         else:
             i = "xyz".index(prm.kind)
             out[k] = a.targets[prm.target][i] - b.targets[prm.target][i]

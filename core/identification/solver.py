@@ -43,7 +43,7 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from core import transforms as tf
-from core.identification.jacobian import (Parameter, all_parameters, apply_step, calibration_jacobian,
+from core.identification.jacobian import (Parameter, all_parameters, apply_step, calibration_jacobian, log_so3,
                                        predict_points, resolve_names)
 from core.errors import RoboCalError, UsageError
 from core.files import strict_json
@@ -52,6 +52,10 @@ from core.identification.prior import (DOMINATED_SHARE, EMPIRICAL_BAYES, PRIOR_D
 from core.identification.identifiability import (FIXED_BY_USER, Identifiability, ObservabilityIndices, analyse,
                                   check_data, column_scales, observability_indices,
                                   practical_identifiability, qr_r, small_factor)
+from core.identification.orientation import (STRUCTURAL_ROW_SCALE, OrientationReport, determined_text,
+                                             orientation_errors_deg, orientation_jacobian, orientation_residuals,
+                                             orientation_weights, require_orientations, with_measured_rotations)
+from core.identification.orientation import rms as orientation_rms
 from core.robot.model import RobotModel
 from core.measurement.file import Measurements, check_against_robot, read_measurements
 from core.robot.file import read_robot, write_robot
@@ -229,6 +233,7 @@ class IdentificationResult:
     warnings: list[str] = field(default_factory=list)
     weighted: bool = False             # the measurements gave sx, sy, sz: sigma_hat is unitless
     prior: PriorReport | None = None   # the prior toward nominal, when one was asked for
+    orientation: OrientationReport | None = None   # when the measured orientations were used
 
     @property
     def sigma_hat_text(self) -> str:
@@ -278,6 +283,8 @@ class IdentificationResult:
             stats["validation"] = self.validation.summary()
         if self.prior is not None:
             stats["prior"] = self.prior.summary()
+        if self.orientation is not None:
+            stats["orientation"] = self.orientation.summary()
         return {
             "format": "robocal.calibration/1",
             "date": self.date,
@@ -324,6 +331,8 @@ class IdentificationResult:
         }
         if self.prior is not None:
             out["prior"] = self.prior.summary()
+        if self.orientation is not None:
+            out["orientation"] = self.orientation.summary()
         if self.validation is not None:
             v = self.validation
             out["holdout"] = v.summary()
@@ -399,7 +408,8 @@ def levenberg_marquardt(model: RobotModel, meas: Measurements, free: Sequence[Pa
                         weights: np.ndarray, *, monitor: Monitor | None = None,
                         records: list[IterationRecord] | None = None, stage: str = "fit",
                         damping: float = 1e-3, max_iterations: int = 100, ftol: float = 1e-10,
-                        xtol: float = 1e-10, prior: PriorTerm | None = None) -> _LMOutcome:
+                        xtol: float = 1e-10, prior: PriorTerm | None = None,
+                        orientation_weights: np.ndarray | None = None) -> _LMOutcome:
     """Minimise Σ w·|x_measured − x_model|² over the corrections of `free`, starting at `model`.
 
     Each step solves (AᵀA + λI)·x = Aᵀb with A = √W·Φ·D⁻¹ (columns scaled by their norms D,
@@ -407,18 +417,25 @@ def levenberg_marquardt(model: RobotModel, meas: Measurements, free: Sequence[Pa
     λ = 0 is the Gauss–Newton step of eq. (9–10). λ adapts as in Nielsen's rule. Stops when
     the relative cost decrease is below `ftol` or the scaled step below `xtol`·|b|.
     `weights` are per coordinate (N, 3). With a `prior`, its penalty rows are appended to Φ and
-    Δx (core.identification.prior) and the cost includes the penalty."""
+    Δx (core.identification.prior) and the cost includes the penalty. With `orientation_weights`
+    (N, 3, rad⁻²), the measured orientations' rows follow the points' (core.identification.orientation)."""
     monitor = monitor or Monitor()
     records = records if records is not None else []
     sw = np.sqrt(np.asarray(weights, dtype=float).reshape(-1))
     meas_xyz = meas.xyz.reshape(-1)
 
+    sw_o = None if orientation_weights is None else np.sqrt(np.asarray(orientation_weights, float).reshape(-1))
+
     def residual(m):
         b = sw * (meas_xyz - predict_points(m, meas.Q, meas.target).reshape(-1))
+        if sw_o is not None:
+            b = np.concatenate([b, sw_o * orientation_residuals(m, meas).reshape(-1)])
         return b if prior is None else np.concatenate([b, prior.rows(m, free)[1]])
 
     def jacobian(m):
         J = sw[:, None] * calibration_jacobian(m, meas.Q, meas.target, free)
+        if sw_o is not None:
+            J = np.vstack([J, sw_o[:, None] * orientation_jacobian(m, meas.Q, meas.target, free)])
         return J if prior is None else np.vstack([J, prior.rows(m, free)[0]])
 
     b = residual(model)
@@ -518,32 +535,40 @@ def _base_fixed(ident_params: Sequence[Parameter], fixed_names: set[str]) -> boo
 
 def fit_model(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (),
               huber: float | None = None, outlier_k: float = 4.0, max_iterations: int = 100,
-              damping: float = 1e-3, prior_weights: Weights | None = None, monitor: Monitor | None = None) -> _Fit:
+              damping: float = 1e-3, prior_weights: Weights | None = None, monitor: Monitor | None = None,
+              orientation: bool = False) -> _Fit:
     """Register the base, decide the identifiable parameters, estimate them (LM + optional
     Huber), and compute their covariance. The building block of `identify` (and of k-fold).
     With `prior_weights` (core.identification.prior, not both 0), parameters the data barely
-    determine are estimated with the prior toward `robot`'s values instead of being kept at nominal."""
+    determine are estimated with the prior toward `robot`'s values instead of being kept at nominal.
+    With `orientation`, the measured marker orientations add residuals and the marker's
+    orientation on the tool is estimated (core.identification.orientation)."""
     monitor = monitor or Monitor()
     if huber is not None and not huber > 0:
         raise UsageError(f"the Huber threshold must be positive, got {huber}")
     meas = _with_q(meas, robot)
     check_against_robot(meas, robot)
     targets = [t for t in robot.targets if t in set(meas.target)]
-    params = all_parameters(robot, targets)
+    turned = require_orientations(meas) if orientation else []
+    params = all_parameters(robot, targets, turned)
     fixed_names = set(resolve_names(fixed, params, robot))
     monitor.step(0.0, "registering the robot base in the measurement frame")
     initial = robot.copy() if _base_fixed(params, fixed_names) else register_base(robot, meas)
+    if turned and not any(p.group == "orientation" and p.name in fixed_names for p in params):
+        initial = with_measured_rotations(initial, meas, turned)
+    w_o = orientation_weights(meas) if orientation else None
     monitor.step(0.03, "checking which parameters the measurements determine")
     ident = analyse(initial, targets, fixed=fixed_names, params=params)
     prior_weights = prior_weights or Weights(0.0, 0.0)
     prior = None if prior_weights.plain else PriorTerm(robot, prior_weights, reach_mm(robot))
     # with a prior, what the data leave undetermined of the joint parameters the prior determines
     checked = ident if prior is None else replace(ident, free=[p for p in ident.free if p.group != "joint"])
-    check_data(initial, meas.Q, meas.target, checked, source=meas.source or None)
+    check_data(initial, meas.Q, meas.target, checked, source=meas.source or None,
+               orientation_weights=None if w_o is None else np.where(w_o > 0, STRUCTURAL_ROW_SCALE ** 2, 0.0))
 
     w0 = _weights0(meas)
     records: list[IterationRecord] = []
-    lm = dict(records=records, damping=damping, max_iterations=max_iterations, prior=prior)
+    lm = dict(records=records, damping=damping, max_iterations=max_iterations, prior=prior, orientation_weights=w_o)
     # Phase 1: the parameters identifiable at the nominal geometry (a safe, reduced set).
     out = levenberg_marquardt(initial, meas, ident.free, w0, monitor=monitor.sub(0.08, 0.45), **lm)
     model, converged = out.model, out.converged
@@ -559,7 +584,8 @@ def fit_model(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (
             sigma1 = min(sigma1, _robust_scale(np.sqrt(w0) * b1))
         ident2 = analyse(model, targets, fixed=fixed_names, params=params)
         if prior is None:
-            ident2 = practical_identifiability(ident2, model, meas.Q, meas.target, w0, max(sigma1, 1e-9))
+            ident2 = practical_identifiability(ident2, model, meas.Q, meas.target, w0, max(sigma1, 1e-9),
+                                               orientation_weights=w_o)
         if ident2.free_names == ident.free_names:
             ident = ident2    # same set; explanations from the analysis at the estimate
             break
@@ -595,7 +621,11 @@ def fit_model(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (
     w = w0 * point_w[:, None]
     b = (np.sqrt(w) * (meas.xyz - predict_points(model, meas.Q, meas.target))).reshape(-1)
     J = np.sqrt(w).reshape(-1)[:, None] * calibration_jacobian(model, meas.Q, meas.target, ident.free)
-    m = J.shape[0]
+    if w_o is not None:
+        sw_o = np.sqrt(w_o).reshape(-1)
+        b = np.concatenate([b, sw_o * orientation_residuals(model, meas).reshape(-1)])
+        J = np.vstack([J, sw_o[:, None] * orientation_jacobian(model, meas.Q, meas.target, ident.free)])
+    m = J.shape[0] if w_o is None else 3 * meas.n_points + int(np.count_nonzero(w_o))
     J_p = np.zeros((0, J.shape[1])) if prior is None else prior.rows(model, ident.free)[0]
     shares = data_share(J, J_p) if prior is not None else None
     # parameters the prior determines use up less than a degree of freedom each: m − trace(resolution)
@@ -644,6 +674,8 @@ def _reset_to(model: RobotModel, reference: RobotModel, params: Sequence[Paramet
             t = out.targets[p.target].copy()
             t["xyz".index(p.kind)] = reference.targets[p.target]["xyz".index(p.kind)]
             out.targets[p.target] = t
+        elif p.group == "orientation" and p.target in reference.target_rotations:
+            out.target_rotations[p.target] = reference.target_rotations[p.target].copy()
     return out
 
 
@@ -676,6 +708,9 @@ def display_value(model: RobotModel, prm: Parameter) -> float:
         return getattr(model.joints[prm.joint], prm.kind) * prm.to_display
     if prm.group == "target":
         return float(model.targets[prm.target]["xyz".index(prm.kind)])
+    if prm.group == "orientation":     # the rotation vector of the marker's orientation on the tool
+        R = model.target_rotations.get(prm.target, np.eye(3))
+        return float(np.rad2deg(log_so3(R)["xyz".index(prm.kind[1])])) + 0.0
     xyz, rpy = tf.matrix_to_pose(model.base)
     if len(prm.kind) == 1:
         return float(xyz["xyz".index(prm.kind)]) + 0.0
@@ -738,7 +773,8 @@ def _parameter_rows(fit: _Fit, nominal: RobotModel) -> tuple[list[ParameterRow],
 def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (),
              huber: float | None = None, holdout: float | None = None, kfold: int | None = None,
              seed: int = 0, outlier_k: float = 4.0, max_iterations: int = 100, damping: float = 1e-3,
-             prior: PriorOptions | None = None, progress=None, cancelled=None) -> IdentificationResult:
+             prior: PriorOptions | None = None, orientation: bool = False, progress=None,
+             cancelled=None) -> IdentificationResult:
     """Identify the robot's geometry from measured points.
 
     `fixed`: parameter names kept at their nominal value (`J2.a`, `base.rz`, `marker.x`).
@@ -746,10 +782,12 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
     `holdout`: fraction of the poses held out for validation; the returned model is fitted on
     the others (what is validated is what is written). `kfold`: k-fold cross validation; the
     returned model is fitted on all poses and every pose is predicted once by a model that did
-    not see it. `prior`: a prior toward the nominal DH values instead of keeping weakly determined
-    parameters at nominal (core.identification.prior); its weights, unless given, are estimated
-    by empirical Bayes from the poses the returned model is fitted on (and kept for every fold).
-    Raises RoboCalError for bad data, Cancelled on cancel."""
+    not see it. `orientation`: the measured marker orientations (file columns rx … srz) add
+    residuals and the marker's orientation on the tool is estimated as `<target>.rx/.ry/.rz`
+    (core.identification.orientation). `prior`: a prior toward the nominal DH values instead of
+    keeping weakly determined parameters at nominal (core.identification.prior); its weights,
+    unless given, are estimated by empirical Bayes from the poses the returned model is fitted on
+    (and kept for every fold). Raises RoboCalError for bad data, Cancelled on cancel."""
     if holdout is not None and kfold is not None:
         raise UsageError("use either a held-out fraction or k-fold cross validation, not both")
     monitor = Monitor(progress, cancelled)
@@ -757,7 +795,8 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
     meas = _with_q(meas, robot)
     check_against_robot(meas, robot)
     fixed = list(fixed)
-    kw = dict(fixed=fixed, huber=huber, outlier_k=outlier_k, max_iterations=max_iterations, damping=damping)
+    kw = dict(fixed=fixed, huber=huber, outlier_k=outlier_k, max_iterations=max_iterations, damping=damping,
+              orientation=orientation)
     validation = None
     train = meas
     main_span = (0.0, 1.0)
@@ -802,6 +841,8 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
                                 fold_rms_mm=rms)
 
     rows, std_int = _parameter_rows(fit, robot)
+    orientation_report = (_orientation_report(robot, train, fit, fixed, prior is not None, rows,
+                                              test if holdout is not None else None) if orientation else None)
     cov = fit.covariance
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(std_int, std_int)
@@ -839,9 +880,43 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
         outliers=fit.outliers, validation=validation, measurements_source=meas.source,
         n_poses=train.n_poses, n_points=train.n_points, huber=huber,
         date=datetime.now(timezone.utc).replace(microsecond=0).isoformat(), warnings=warnings,
-        weighted=train.sigma is not None, prior=prior_report)
+        weighted=train.sigma is not None, prior=prior_report, orientation=orientation_report)
     model.calibration = result.calibration_section()
     return result
+
+
+def _orientation_report(robot: RobotModel, train: Measurements, fit: _Fit, fixed: Sequence[str], with_prior: bool,
+                        rows: list[ParameterRow], test: Measurements | None) -> OrientationReport:
+    """Orientation errors, and which parameters only the orientations determine: those estimated
+    here that the points alone (the same analysis without orientation rows) leave out. The
+    explanations of their rows say so."""
+    targets = fit.ident.targets
+    turned = [p.target for p in fit.ident.params if p.group == "orientation"]
+    turned = list(dict.fromkeys(turned))
+    params = all_parameters(robot, targets)
+    fixed_pos = []
+    for name in fixed:                 # the user's fixed names that exist without orientation
+        try:
+            fixed_pos += resolve_names([name], params, robot)
+        except UsageError:
+            pass
+    alone = analyse(fit.model, targets, fixed=fixed_pos, params=params)
+    if not with_prior:
+        alone = practical_identifiability(alone, fit.model, train.Q, train.target, _weights0(train),
+                                          max(fit.sigma_hat, 1e-9))
+    determined = [n for n in fit.ident.free_names if n in {p.name for p in alone.params} and n not in set(alone.free_names)]
+    for r in rows:
+        if r.name in determined:
+            r.explanation = determined_text(r.name)
+    start = with_measured_rotations(fit.initial, train, turned)
+    report = OrientationReport(targets=turned, n_points=int(train.has_orientation.sum()),
+                               rms_before_deg=orientation_rms(orientation_errors_deg(start, train)),
+                               rms_after_deg=orientation_rms(orientation_errors_deg(fit.model, train)),
+                               determined=determined)
+    if test is not None and test.has_orientation.any():
+        report.holdout_rms_before_deg = orientation_rms(orientation_errors_deg(start, test))
+        report.holdout_rms_after_deg = orientation_rms(orientation_errors_deg(fit.model, test))
+    return report
 
 
 def with_unknown_targets(robot: RobotModel, meas: Measurements) -> tuple[RobotModel, list[str]]:

@@ -58,6 +58,7 @@ from core.errors import RoboCalError
 from core.images import require_gray8
 from core.marker.detection import DetectionOptions, MarkerDetection, detect_marker
 from core.marker.geometry import bounding_box, expand_quad, map_points
+from core.marker.orientation import MarkerOrientation, marker_orientation
 from core.marker.training import TrainedMarker
 from core.stereo.rectification import StereoRectification
 from core.task import Monitor
@@ -109,6 +110,7 @@ class MarkerLocation:
     epipolar_error: float = float("nan")   # v_left − v_right, px
     sigma_px: float = float("nan")         # per-image reference point sigma used, px
     size_mm: float = float("nan")          # triangulated side of the outer square
+    orientation: MarkerOrientation | None = None   # the marker frame from its 4 corners (core.marker.orientation)
     timings: dict = field(default_factory=dict)
 
     @property
@@ -144,6 +146,7 @@ class MarkerLocation:
             d.update(criteria_minimum=num(c.minimum), reliability=num(c.reliability),
                      second_minimum=num(c.second_minimum), window=list(c.window),
                      sigma_disparity=num(c.sigma_disparity))
+        d["orientation"] = None if self.orientation is None else self.orientation.to_dict()
         return d
 
 
@@ -297,6 +300,8 @@ class MarkerLocator:
                 loc.point_general = triangulate_general(self.rect.rig, det_l.reference, det_r.reference, sigma).point
             except RoboCalError:
                 loc.point_general = None
+        loc.orientation = marker_orientation(det_l.outline, det_r.outline, self.rect, self.trained.outer_size,
+                                             loc.point, sigma_floor_px=opt.detection.edge.sigma_floor_px)
         loc.timings["total"] = time.perf_counter() - t0
         loc.ok = True
         monitor.step(1.0, "located")

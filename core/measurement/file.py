@@ -9,7 +9,11 @@ pose,target,q1,q2,q3,q4,q5,q6,x,y,z
 One row per measured point: the pose id (an integer), the target name (a point of the robot
 model's `targets`), the joint values in file units (degrees for revolute, mm for prismatic
 joints), and the point's position x, y, z in mm in the measurement (left camera) frame.
-Optional columns `sx,sy,sz` give each coordinate's standard deviation in mm. Several targets
+Optional columns `sx,sy,sz` give each coordinate's standard deviation in mm. Optional columns
+`rx,ry,rz,srx,sry,srz` (all six together, after the sigmas) give the measured orientation of the
+marker frame: its rotation vector in the measurement frame and the standard deviations of the small
+rotations about the measurement frame's x, y, z axes, all in degrees; the six cells of a row may be
+empty (no orientation for that point). A file with them is tagged version 1.1. Several targets
 may be measured in one pose (one row each, with the same joint values); a target may appear
 in only some poses.
 
@@ -43,16 +47,26 @@ FORMAT_MAJOR = 1
 FORMAT = f"{FORMAT_FAMILY}/{FORMAT_MAJOR}"
 TAG_LINE = f"# {FORMAT} ; lines starting with # are comments"
 SIGMA_COLUMNS = ("sx", "sy", "sz")
+ORIENTATION_COLUMNS = ("rx", "ry", "rz", "srx", "sry", "srz")     # deg: rotation vector, its sigmas
+ROTATION_DEG = Bound(-180.0, 180.0, "degrees", "a rotation vector turns at most 180°")
+ROTATION_SIGMA_DEG = Bound(1e-9, 180.0, "degrees", "an orientation known to worse than 180° is no measurement")
+ORIENTATION_MINOR = 1      # a file with orientation columns is tagged robocal.measurements/1.1
 XYZ_COLUMNS = ("x", "y", "z")
 _TAG_RE = re.compile(re.escape(FORMAT_FAMILY) + r"/(\S*)")
 # Digits written for joint values and coordinates: 1e-6 mm / 1e-6 deg, far below any noise.
 DECIMALS = 6
 
 
-def header_columns(dof: int, sigmas: bool = False) -> list[str]:
+def header_columns(dof: int, sigmas: bool = False, orientation: bool = False) -> list[str]:
     """The column names of a measurements file for a robot with `dof` joints."""
     cols = ["pose", "target"] + [f"q{i + 1}" for i in range(dof)] + list(XYZ_COLUMNS)
-    return cols + list(SIGMA_COLUMNS) if sigmas else cols
+    cols = cols + list(SIGMA_COLUMNS) if sigmas else cols
+    return cols + list(ORIENTATION_COLUMNS) if orientation else cols
+
+
+def tag_line(orientation: bool = False) -> str:
+    """The format tag line: version 1.1 when the file carries orientation columns."""
+    return TAG_LINE.replace(FORMAT, f"{FORMAT}.{ORIENTATION_MINOR}") if orientation else TAG_LINE
 
 
 @dataclass
@@ -65,6 +79,10 @@ class Measurements:
     Q:       (N, n) joint values in internal units (rad / mm); None when read without a robot
     xyz:     (N, 3) measured positions, mm, measurement frame
     sigma:   (N, 3) standard deviations in mm, or None when the file has no sx,sy,sz columns
+    rotation: (N, 3) measured rotation vectors of the marker frame (rad, measurement frame), NaN
+             rows where a point has none; None when the file has no orientation columns
+    rotation_sigma: (N, 3) standard deviations (rad) of the small rotations about the measurement
+             frame's x, y, z; NaN / None as `rotation`
     line:    (N,) line number of each point in the file (1-based; 0 when not from a file)
     source:  the file the points came from
     """
@@ -78,6 +96,8 @@ class Measurements:
     line: np.ndarray | None = None
     source: str = ""
     minor_version: int = 0
+    rotation: np.ndarray | None = None
+    rotation_sigma: np.ndarray | None = None
 
     def __post_init__(self):
         self.pose = np.asarray(self.pose, dtype=int).reshape(-1)
@@ -88,6 +108,11 @@ class Measurements:
             self.Q = np.atleast_2d(np.asarray(self.Q, dtype=float))
         if self.sigma is not None:
             self.sigma = np.asarray(self.sigma, dtype=float).reshape(-1, 3)
+        if (self.rotation is None) != (self.rotation_sigma is None):
+            raise ValueError("rotation and rotation_sigma go together")
+        if self.rotation is not None:
+            self.rotation = np.asarray(self.rotation, dtype=float).reshape(-1, 3)
+            self.rotation_sigma = np.asarray(self.rotation_sigma, dtype=float).reshape(-1, 3)
         if self.line is None:
             self.line = np.zeros(len(self.pose), dtype=int)
         n = len(self.pose)
@@ -118,6 +143,13 @@ class Measurements:
         """The distinct target names, in order of first appearance."""
         return list(dict.fromkeys(self.target))
 
+    @property
+    def has_orientation(self) -> np.ndarray:
+        """(N,) True where a point carries a measured orientation."""
+        if self.rotation is None:
+            return np.zeros(self.n_points, bool)
+        return np.all(np.isfinite(self.rotation), axis=1) & np.all(np.isfinite(self.rotation_sigma), axis=1)
+
     def subset(self, mask) -> "Measurements":
         """The points where `mask` (boolean or index array) selects."""
         idx = np.arange(self.n_points)[mask]
@@ -125,7 +157,9 @@ class Measurements:
             pose=self.pose[idx], target=[self.target[i] for i in idx], q_file=self.q_file[idx],
             xyz=self.xyz[idx], Q=None if self.Q is None else self.Q[idx],
             sigma=None if self.sigma is None else self.sigma[idx], line=self.line[idx],
-            source=self.source, minor_version=self.minor_version)
+            source=self.source, minor_version=self.minor_version,
+            rotation=None if self.rotation is None else self.rotation[idx],
+            rotation_sigma=None if self.rotation_sigma is None else self.rotation_sigma[idx])
 
     def select_poses(self, pose_ids: Iterable[int]) -> "Measurements":
         """All points of the given poses."""
@@ -217,12 +251,16 @@ def _check_header(path, line_no: int, cols: list[str], minor: int, dof: int | No
     if any(has_sigma) and not all(has_sigma):
         missing = [c for c, h in zip(SIGMA_COLUMNS, has_sigma) if not h]
         raise _error(path, line_no, f"missing column '{missing[0]}' (sx, sy, sz go together)")
-    known = {"pose", "target", *XYZ_COLUMNS, *SIGMA_COLUMNS, *expected}
+    has_rot = [c in seen for c in ORIENTATION_COLUMNS]
+    if any(has_rot) and not all(has_rot):
+        missing = [c for c, h in zip(ORIENTATION_COLUMNS, has_rot) if not h]
+        raise _error(path, line_no, f"missing column '{missing[0]}' (rx, ry, rz, srx, sry, srz go together)")
+    known = {"pose", "target", *XYZ_COLUMNS, *SIGMA_COLUMNS, *ORIENTATION_COLUMNS, *expected}
     unknown = [c for c in cols if c not in known]
     if unknown and minor == 0:
         raise _error(path, line_no, f"unknown column '{unknown[0]}'",
-                     hint="Allowed columns: pose, target, q1..qn, x, y, z, sx, sy, sz.")
-    return {"index": seen, "n_q": n_q, "sigmas": all(has_sigma)}
+                     hint="Allowed columns: pose, target, q1..qn, x, y, z, sx, sy, sz, rx, ry, rz, srx, sry, srz.")
+    return {"index": seen, "n_q": n_q, "sigmas": all(has_sigma), "orientation": all(has_rot)}
 
 
 def read_measurements(path: str | Path, robot: RobotModel | None = None) -> Measurements:
@@ -285,6 +323,7 @@ def read_measurements(path: str | Path, robot: RobotModel | None = None) -> Meas
     q_file = np.empty((N, n_q))
     xyz = np.empty((N, 3))
     sigma = np.empty((N, 3)) if layout["sigmas"] else None
+    rotation = np.full((N, 6), np.nan) if layout["orientation"] else None
     lines = np.empty(N, dtype=int)
     seen_points: dict[tuple[int, str], int] = {}
     pose_q: dict[int, tuple[int, np.ndarray]] = {}
@@ -316,6 +355,8 @@ def read_measurements(path: str | Path, robot: RobotModel | None = None) -> Meas
                     raise _error(path, line_no, f"a standard deviation must be positive, got {s}", column=c)
                 s = _bounded(path, line_no, c, cells[idx[c]], SIGMA_MM)
                 sigma[k, j] = s
+        if rotation is not None:
+            rotation[k] = _orientation_cells(path, line_no, [cells[idx[c]] for c in ORIENTATION_COLUMNS])
         key = (int(pose[k]), target)
         if key in seen_points:
             raise _error(path, line_no, f"pose {pose[k]} target '{target}' was already measured "
@@ -326,10 +367,31 @@ def read_measurements(path: str | Path, robot: RobotModel | None = None) -> Meas
             raise _error(path, line_no, f"pose {pose[k]} has other joint values than on line {first[0]}",
                          hint="Every row of one pose must carry the same joint values; give the pose a new id.")
     meas = Measurements(pose=pose, target=targets, q_file=q_file, xyz=xyz, sigma=sigma, line=lines,
-                        source=str(path), minor_version=minor)
+                        source=str(path), minor_version=minor,
+                        rotation=None if rotation is None else np.deg2rad(rotation[:, :3]),
+                        rotation_sigma=None if rotation is None else np.deg2rad(rotation[:, 3:]))
     if robot is not None:
         meas = meas.with_robot(robot)
     return meas
+
+
+def _orientation_cells(path, line_no: int, cells: list[str]) -> np.ndarray:
+    """rx, ry, rz, srx, sry, srz (deg) of one row; all NaN when the six cells are empty."""
+    if not any(c.strip() for c in cells):
+        return np.full(6, np.nan)
+    out = np.empty(6)
+    for j, (c, text) in enumerate(zip(ORIENTATION_COLUMNS, cells)):
+        if not text.strip():
+            raise _error(path, line_no, "an orientation cell is empty while others are not", column=c,
+                         hint="Give all six of rx, ry, rz, srx, sry, srz, or leave all six empty.")
+        if j < 3:
+            out[j] = _bounded(path, line_no, c, text, ROTATION_DEG)
+        else:
+            s = _number(path, line_no, c, text)
+            if s <= 0:
+                raise _error(path, line_no, f"a standard deviation must be positive, got {s}", column=c)
+            out[j] = _bounded(path, line_no, c, text, ROTATION_SIGMA_DEG)
+    return out
 
 
 def check_against_robot(meas: Measurements, robot: RobotModel, *, targets: bool = True) -> None:
@@ -354,24 +416,38 @@ def _fmt(value: float) -> str:
 
 
 def format_row(pose: int, target: str, q_file: Sequence[float], xyz: Sequence[float],
-               sigma: Sequence[float] | None = None) -> str:
-    """One CSV row (without newline); values must be finite."""
+               sigma: Sequence[float] | None = None, orientation: Sequence[float] | None = None) -> str:
+    """One CSV row (without newline); values must be finite. `orientation`: the six values
+    rx, ry, rz, srx, sry, srz in degrees (six empty cells when they are not all finite)."""
     if "," in target or "\n" in target or not target.strip():
         raise RoboCalError(f"invalid target name {target!r}", hint="Use a name without commas.")
     values = list(q_file) + list(xyz) + (list(sigma) if sigma is not None else [])
     if not all(math.isfinite(float(v)) for v in values):
         raise RoboCalError(f"pose {pose} target '{target}': a value is not a finite number",
                            hint="Measure this point again.")
-    return ",".join([str(int(pose)), target.strip()] + [_fmt(v) for v in values])
+    cells = [str(int(pose)), target.strip()] + [_fmt(v) for v in values]
+    if orientation is not None:
+        o = np.asarray(orientation, dtype=float).reshape(6)
+        cells += [_fmt(v) for v in o] if np.all(np.isfinite(o)) and np.all(o[3:] > 0) else [""] * 6
+    return ",".join(cells)
+
+
+def orientation_cells(rotation, rotation_sigma) -> np.ndarray:
+    """The six orientation values of one point in file units (deg) from internal ones (rad);
+    sigmas at least 1e-6 deg (written with 6 decimals)."""
+    sigma = np.maximum(np.rad2deg(np.asarray(rotation_sigma, float).reshape(3)), 1e-6)
+    return np.concatenate([np.rad2deg(np.asarray(rotation, float).reshape(3)), sigma])
 
 
 def format_measurements(meas: Measurements) -> str:
     """The whole file as text."""
     has_sigma = meas.sigma is not None
-    lines = [TAG_LINE, ",".join(header_columns(meas.dof, has_sigma))]
+    has_rot = meas.rotation is not None
+    lines = [tag_line(has_rot), ",".join(header_columns(meas.dof, has_sigma, has_rot))]
     for i in range(meas.n_points):
         lines.append(format_row(meas.pose[i], meas.target[i], meas.q_file[i], meas.xyz[i],
-                                meas.sigma[i] if has_sigma else None))
+                                meas.sigma[i] if has_sigma else None,
+                                orientation_cells(meas.rotation[i], meas.rotation_sigma[i]) if has_rot else None))
     return "\n".join(lines) + "\n"
 
 
@@ -395,12 +471,13 @@ class MeasurementWriter(AppendedFile):
     path: str | Path
     dof: int
     sigmas: bool = False
+    orientation: bool = False          # rx, ry, rz, srx, sry, srz columns (deg)
     _handle: object = field(default=None, init=False, repr=False)
     _write_failed: bool = field(default=False, init=False, repr=False)
 
     def __post_init__(self):
         self.path = Path(self.path)
-        header = ",".join(header_columns(self.dof, self.sigmas))
+        header = ",".join(header_columns(self.dof, self.sigmas, self.orientation))
         existing = self._existing_header()
         if existing is not None and existing[0] is not None and not existing[1]:
             # an interrupted write left a partial row: it is no measurement, cut it off
@@ -409,7 +486,7 @@ class MeasurementWriter(AppendedFile):
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._handle = open(self.path, "a", encoding="utf-8", newline="")
             if existing is None:
-                self._write(TAG_LINE + "\n" + header + "\n")
+                self._write(tag_line(self.orientation) + "\n" + header + "\n")
             elif existing[0] is None:   # a tag line but no header yet
                 self._write(("" if existing[1] else "\n") + header + "\n")
             else:
@@ -444,8 +521,10 @@ class MeasurementWriter(AppendedFile):
         return header, data.endswith(b"\n")
 
     def append(self, pose: int, target: str, q_file: Sequence[float], xyz: Sequence[float],
-               sigma: Sequence[float] | None = None) -> None:
-        """Write one measured point (joint values in file units: deg / mm) and flush it to disk."""
+               sigma: Sequence[float] | None = None, orientation: Sequence[float] | None = None) -> None:
+        """Write one measured point (joint values in file units: deg / mm) and flush it to disk.
+        `orientation`: rx, ry, rz, srx, sry, srz (deg) for a file with orientation columns (None:
+        empty cells, this point has none)."""
         if self._handle is None:
             raise RoboCalError("the measurements file is closed", source=self.path)
         if len(q_file) != self.dof:
@@ -453,4 +532,8 @@ class MeasurementWriter(AppendedFile):
         if (sigma is not None) != self.sigmas:
             raise RoboCalError("sigmas given for a file without sx,sy,sz columns" if sigma is not None
                                else "this file needs sx, sy, sz for every point", source=self.path)
-        self._append(format_row(pose, target, q_file, xyz, sigma) + "\n")
+        if orientation is not None and not self.orientation:
+            raise RoboCalError("an orientation given for a file without rx, ry, rz columns", source=self.path)
+        self._append(format_row(pose, target, q_file, xyz, sigma,
+                                (orientation if orientation is not None else [np.nan] * 6) if self.orientation
+                                else None) + "\n")

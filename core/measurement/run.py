@@ -40,7 +40,7 @@ from core.files import drop_partial_last_line
 from core.robot.driver import RobotFault
 from core.robot.model import RobotModel
 from core.measurement.appended_file import AppendedFile
-from core.measurement.file import MeasurementWriter
+from core.measurement.file import MeasurementWriter, orientation_cells
 from core.poses.file import PoseList
 
 REJECTS_FAMILY = "robocal.rejects"
@@ -159,9 +159,9 @@ class RejectsWriter(AppendedFile):
 
 # -- existing measurements ----------------------------------------------------------------------------
 
-def _existing_measurements(path: Path, target: str) -> tuple[dict[int, np.ndarray], bool | None]:
-    """pose id -> q_file of the rows of `target` already in the file; and whether the file
-    has sigma columns (None when the file does not exist or has no header yet). A partly
+def _existing_measurements(path: Path, target: str) -> tuple[dict[int, np.ndarray], set[str] | None]:
+    """pose id -> q_file of the rows of `target` already in the file; and the file's column
+    names (None when the file does not exist or has no header yet). A partly
     written last line (a run killed while writing) is not a measurement: it is ignored here
     and ended by the writer."""
     from core.measurement.file import read_measurements
@@ -173,9 +173,9 @@ def _existing_measurements(path: Path, target: str) -> tuple[dict[int, np.ndarra
     lines = [ln.strip() for ln in complete.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
     if not lines:
         return {}, None
-    sigmas = "sx" in lines[0].replace(" ", "").split(",")
+    columns = set(lines[0].replace(" ", "").split(","))
     if len(lines) < 2:
-        return {}, sigmas
+        return {}, columns
     if complete is text:
         meas = read_measurements(path)
     else:
@@ -186,7 +186,7 @@ def _existing_measurements(path: Path, target: str) -> tuple[dict[int, np.ndarra
                 meas = read_measurements(copy)
             except RoboCalError as exc:
                 raise RoboCalError(exc.problem, source=path, hint=exc.hint) from None
-    return {int(meas.pose[i]): meas.q_file[i] for i in range(meas.n_points) if meas.target[i] == target}, sigmas
+    return {int(meas.pose[i]): meas.q_file[i] for i in range(meas.n_points) if meas.target[i] == target}, columns
 
 
 # -- the run --------------------------------------------------------------------------------------
@@ -271,7 +271,7 @@ def run_measurements(poses: PoseList, out: str | Path, *, locate: Callable, capt
     if len(set(ids.tolist())) != len(ids):
         raise RoboCalError("the pose list has a pose number twice", source=getattr(poses, "path", None),
                            hint="Give every pose its own number.")
-    done_meas, sigmas = _existing_measurements(out, target)
+    done_meas, columns = _existing_measurements(out, target)
     if done_meas and not resume:
         raise RoboCalError(f"the file already holds {len(done_meas)} measurements", source=out,
                            hint="Resume the run, or choose a new file.")
@@ -288,7 +288,9 @@ def run_measurements(poses: PoseList, out: str | Path, *, locate: Callable, capt
     if resume:                           # a partial row is no measurement: that pose is measured again
         drop_partial_last_line(out)
         drop_partial_last_line(rejects)
-    writer = MeasurementWriter(out, dof, sigmas=True if sigmas is None else sigmas)
+    # a new file has sigmas and orientation columns; an existing one keeps its own
+    writer = MeasurementWriter(out, dof, sigmas=columns is None or "sx" in columns,
+                               orientation=columns is None or "rx" in columns)
     rej_writer = None
     result = MeasurementRunResult(out, rejects, len(poses))
     total = max(len(poses), 1)
@@ -357,7 +359,10 @@ def run_measurements(poses: PoseList, out: str | Path, *, locate: Callable, capt
                 point = np.asarray(location.point, dtype=float)
                 sig = (np.maximum(np.asarray(location.sigma, dtype=float), 1e-6)      # written with 6 decimals
                        if location.covariance is not None else None)
-                writer.append(pid, target, q_record, point, sig if writer.sigmas else None)
+                orientation = getattr(location, "orientation", None)
+                writer.append(pid, target, q_record, point, sig if writer.sigmas else None,
+                              orientation_cells(orientation.rotation_vector, np.sqrt(np.diag(orientation.covariance)))
+                              if orientation is not None and writer.orientation else None)
                 outcome.status, outcome.point, outcome.sigma = "measured", point, sig
             except _PoseRejected as rej:
                 reason = str(rej)

@@ -62,6 +62,9 @@ class RobotModel:
     calibration: dict | None = None
     collision_radius: np.ndarray | None = None
     tools: dict[str, list[str]] = field(default_factory=dict)
+    # orientation (3x3) of a target's frame in the tool frame, where it matters (a marker whose
+    # orientation is measured); a target absent here is aligned with the tool frame
+    target_rotations: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def dof(self) -> int:

@@ -9,10 +9,12 @@ from __future__ import annotations
 from typing import Sequence
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from core import transforms as tf
 from core.identification.jacobian import hayati_joints, predict_points
 from core.identification.identifiability import random_configurations
+from core.identification.orientation import predict_rotations
 from core.robot.model import RobotModel
 from core.measurement.file import Measurements
 
@@ -42,9 +44,11 @@ def perturbed_model(nominal: RobotModel, rng: np.random.Generator | int = 0, *, 
 def simulate_measurements(true: RobotModel, n_poses: int, *, sigma_mm: float = 0.05,
                           targets: Sequence[str] | None = None, rng: np.random.Generator | int = 0,
                           Q: np.ndarray | None = None, with_sigma: bool = False,
-                          margin_deg: float = 5.0) -> Measurements:
+                          margin_deg: float = 5.0, orientation_sigma_deg: float | None = None) -> Measurements:
     """Measurements of `true` at `n_poses` random configurations (or the given Q), every pose
-    seeing every target, with isotropic Gaussian noise `sigma_mm` per axis."""
+    seeing every target, with isotropic Gaussian noise `sigma_mm` per axis; with
+    `orientation_sigma_deg`, also the targets' frames (core.identification.orientation), turned
+    by Gaussian small rotations of that σ about each measurement axis."""
     rng = np.random.default_rng(rng)
     targets = list(true.targets) if targets is None else list(targets)
     if Q is None:
@@ -56,7 +60,15 @@ def simulate_measurements(true: RobotModel, n_poses: int, *, sigma_mm: float = 0
     xyz = predict_points(true, Qp, names) + rng.normal(0, sigma_mm, (len(Qp), 3))
     pose = np.repeat(np.arange(len(Q)), len(targets))
     sigma = np.full((len(Qp), 3), sigma_mm) if with_sigma else None
-    return Measurements(pose=pose, target=names, q_file=true.q_to_file(Qp), xyz=xyz, Q=Qp, sigma=sigma)
+    rotation = rotation_sigma = None
+    if orientation_sigma_deg is not None:
+        s = np.deg2rad(orientation_sigma_deg)
+        R = predict_rotations(true, Qp, names)
+        turned = np.array([tf.rot_vec(w) @ r for w, r in zip(rng.normal(0, s, (len(Qp), 3)), R)])
+        rotation = Rotation.from_matrix(turned).as_rotvec()
+        rotation_sigma = np.full((len(Qp), 3), s)
+    return Measurements(pose=pose, target=names, q_file=true.q_to_file(Qp), xyz=xyz, Q=Qp, sigma=sigma,
+                        rotation=rotation, rotation_sigma=rotation_sigma)
 
 
 __all__ = ["perturbed_model", "simulate_measurements", "random_configurations"]

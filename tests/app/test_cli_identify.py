@@ -166,3 +166,21 @@ def test_identify_with_a_prior_estimated_from_the_measurements(data, tmp_path, c
                  "--prior", "0.01"]) == 0
     text = capsys.readouterr().out
     assert "Prior toward nominal: weight 0.01 (given)" in text
+
+
+def test_identify_with_orientation(tmp_path, capsys):
+    nominal = read_robot(ROBOT)
+    true = perturbed_model(nominal, 3, target_mm=0.0)         # the marker on the last joint's axis
+    meas = simulate_measurements(true, 40, sigma_mm=0.02, rng=4, with_sigma=True, orientation_sigma_deg=0.02)
+    write_measurements(meas, tmp_path / "m.csv")
+    argv = ["identify", "--robot", ROBOT, "--measurements", str(tmp_path / "m.csv"), "--out", str(tmp_path / "c.json")]
+    code, plain, _ = run_json(capsys, argv)
+    assert code == 0 and "orientation" not in plain and plain["parameters"]["J6.theta"]["std"] is None
+    code, result, err = run_json(capsys, argv + ["--orientation", "--fix", "marker.rz"])
+    assert code == 0 and err == ""
+    assert result["orientation"]["determined_only_with_orientation"] == ["J6.theta"]
+    assert result["parameters"]["J6.theta"]["std"] > 0 and result["parameters"]["marker.rx"]["std"] > 0
+    assert result["orientation"]["rms_after_deg"] < 0.07
+    code = main(argv + ["--orientation"])
+    text = capsys.readouterr().out
+    assert code == 0 and "Orientation (40 points)" in text and "marker.rz" in text

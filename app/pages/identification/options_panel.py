@@ -1,5 +1,6 @@
 """The identification's options: validation (hold-out or k-fold), robust Huber weights, a prior
-toward nominal, the parameters kept at nominal; the Identify button and the progress row."""
+toward nominal, the measured marker orientations, the parameters kept at nominal; the Identify
+button and the progress row."""
 from __future__ import annotations
 
 from typing import Callable
@@ -40,6 +41,13 @@ class OptionsPanel(QGroupBox):
         self.prior_check.setToolTip("Estimate the parameters the poses barely determine with a pull toward their "
                                     "nominal values instead of keeping them at nominal; how strong the pull is "
                                     "(for lengths and for angles) is estimated from the measurements.")
+        self.orientation_check = QCheckBox("Use the marker's orientation")
+        self.orientation_check.setObjectName("orientationCheck")
+        self.orientation_check.setToolTip(
+            "Also fit how the marker is turned in every pose (measured from its four corners) and estimate how it "
+            "sits on the flange (marker.rx, .ry, .rz). Fix marker.rz when the marker's turn about the last axis "
+            "is known: the last joint's zero is then determined even with the marker on that axis.")
+        self.orientation_check.toggled.connect(lambda _: self.rebuild_fix_menu())
         self.fix_edit = QLineEdit()
         self.fix_edit.setObjectName("fixEdit")
         self.fix_edit.setPlaceholderText("parameters kept at nominal, e.g. J6.d, marker.z")
@@ -57,7 +65,7 @@ class OptionsPanel(QGroupBox):
         grid.setHorizontalSpacing(8)
         grid.addWidget(QLabel("Validation:"), 0, 0)
         validation = row(self.validation_combo, self.holdout_spin, self.kfold_spin, self.huber_check,
-                         self.huber_spin, self.prior_check)
+                         self.huber_spin, self.prior_check, self.orientation_check)
         validation.insertSpacing(3, 12)
         grid.addLayout(validation, 0, 1, 1, 3)
         grid.addWidget(QLabel("Fix:"), 1, 0)
@@ -77,7 +85,8 @@ class OptionsPanel(QGroupBox):
                 "holdout": self.holdout_spin.value() / 100.0 if mode == VALIDATION_HOLDOUT else None,
                 "kfold": self.kfold_spin.value() if mode == VALIDATION_KFOLD else None,
                 "fixed": self.fixed_names(),
-                "prior": PriorOptions() if self.prior_check.isChecked() else None}
+                "prior": PriorOptions() if self.prior_check.isChecked() else None,
+                "orientation": self.orientation_check.isChecked()}
 
     def fixed_names(self) -> list[str]:
         """The canonical names of the parameters typed in the Fix field (RoboCalError if unknown)."""
@@ -85,11 +94,16 @@ class OptionsPanel(QGroupBox):
         if not raw:
             return []
         robot = self._robot()
-        return resolve_names(raw, all_parameters(robot, list(robot.targets)), robot)
+        return resolve_names(raw, self._parameters(robot), robot)
+
+    def _parameters(self, robot) -> list:
+        """Every parameter of `robot`, with the targets' orientations when they are used."""
+        targets = list(robot.targets)
+        return all_parameters(robot, targets, targets if self.orientation_check.isChecked() else ())
 
     def set_busy(self, busy: bool) -> None:
         for w in (self.validation_combo, self.holdout_spin, self.kfold_spin, self.huber_check, self.prior_check,
-                  self.fix_edit, self.fix_button):
+                  self.orientation_check, self.fix_edit, self.fix_button):
             w.setEnabled(not busy)
         self.huber_spin.setEnabled(not busy and self.huber_check.isChecked())
         self.progress.bar.setVisible(busy)
@@ -108,7 +122,7 @@ class OptionsPanel(QGroupBox):
         if robot is None:
             return
         try:
-            params = all_parameters(robot, list(robot.targets))
+            params = self._parameters(robot)
         except RoboCalError:
             return
         groups: dict[str, list] = {}

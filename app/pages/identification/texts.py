@@ -68,9 +68,19 @@ def _fit_part(r) -> list[str]:
              + "</li></ul>"]
     if r.prior is not None:
         parts += _prior_part(r.prior)
+    if r.orientation is not None:
+        parts += _orientation_part(r.orientation)
     if r.warnings:
         parts.append("<h3>Warnings</h3><ul>" + "".join(f"<li>{esc(w)}</li>" for w in r.warnings) + "</ul>")
     return parts
+
+
+def _orientation_part(o) -> list[str]:
+    held = (f"; {o.holdout_rms_after_deg:.4f}° on the poses left out" if o.holdout_rms_after_deg is not None else "")
+    only = (f" Determined only thanks to the orientation: {esc(', '.join(o.determined))}." if o.determined
+            else " No robot parameter is determined by the orientation alone here.")
+    return [f"<h3>Marker orientation</h3><p>{o.n_points} points with a measured orientation: RMS "
+            f"{o.rms_before_deg:.4f}° before, {o.rms_after_deg:.4f}° after{held}.{only}</p>"]
 
 
 def _prior_part(p) -> list[str]:

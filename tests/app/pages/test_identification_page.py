@@ -282,3 +282,23 @@ def test_prior_option_reaches_the_identification_and_is_reported(hw_page, qtbot)
     assert prior is not None and prior.chosen_by == "empirical Bayes" and not prior.weights.plain
     text = page.results.validation_view.toPlainText()
     assert "Prior toward nominal" in text and f"Weight {prior.weight_text}" in text
+
+
+def test_orientation_option_determines_the_last_joint_zero(hw_page, qtbot):
+    page = hw_page
+    robot = page.state.robot
+    true = perturbed_model(robot, 3, target_mm=0.0)              # the marker on the last joint's axis
+    meas = simulate_measurements(true, 30, sigma_mm=0.02, rng=4, with_sigma=True, orientation_sigma_deg=0.02)
+    write_measurements(meas, page.measurements_path())
+    page.on_enter()
+    assert page.options.options()["orientation"] is False and "marker.rz" not in page.options.fix_actions
+    page.options.orientation_check.setChecked(True)
+    assert "marker.rz" in page.options.fix_actions                # the Choose menu offers the marker's turn
+    page.options.fix_actions["marker.rz"].setChecked(True)
+    assert page.fixed_names() == ["marker.rz"]
+    identify(qtbot, page)
+    result = page.result
+    assert result.orientation is not None and result.orientation.determined == ["J6.theta"]
+    assert result.row("J6.theta").identifiable
+    text = page.results.validation_view.toPlainText()
+    assert "Marker orientation" in text and "Determined only thanks to the orientation: J6.theta" in text

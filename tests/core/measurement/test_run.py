@@ -6,6 +6,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from core import transforms as tf
 from core.errors import RoboCalError
 from core.measurement.run import (RejectsWriter, poses_from_internal, read_rejects, rejects_path_for,
                                   run_measurements)
@@ -244,3 +245,26 @@ def test_an_unusable_rejects_path_is_a_clear_error(tmp_path):
     (tmp_path / "m.rejects.csv").mkdir()              # a folder where the rejects file should be
     with pytest.raises(RoboCalError, match="m.rejects.csv"):
         RejectsWriter(tmp_path / "m.rejects.csv", 6)
+
+
+def test_the_run_records_the_marker_orientation_when_located(tmp_path):
+    from core.marker.orientation import MarkerOrientation
+
+    def locate(left, right):
+        loc = fake_locate(left, right)
+        q = np.asarray(left, dtype=float)        # joint values in rad (fake_capture)
+        if loc.ok and q[1] > np.deg2rad(30):     # some points come without an orientation
+            R = tf.rot_vec(q[:3] / 10.0)
+            loc.orientation = MarkerOrientation(R, np.diag(np.deg2rad([0.01, 0.02, 0.03]) ** 2), loc.point)
+        return loc
+
+    out = tmp_path / "meas.csv"
+    poses = pose_list()
+    run_measurements(poses, out, locate=locate, capture=fake_capture)
+    meas = read_measurements(out)
+    assert out.read_text().startswith("# robocal.measurements/1.1")
+    expect = poses.q_file[[0, 1, 3, 4, 5], 1] > 30
+    assert list(meas.has_orientation) == list(expect) and expect.any() and not expect.all()
+    for i in np.flatnonzero(expect):
+        np.testing.assert_allclose(meas.rotation[i], np.deg2rad(meas.q_file[i, :3]) / 10.0, atol=1e-7)
+        np.testing.assert_allclose(np.rad2deg(meas.rotation_sigma[i]), [0.01, 0.02, 0.03], atol=1e-6)
