@@ -35,6 +35,7 @@ COMMANDS = {
     "sim-robot": "sim_robot",
     "report": "report",
     "check": "check",
+    "robustness": "robustness",
 }
 
 

@@ -12,7 +12,7 @@ from pathlib import Path
 from bench.report import Report
 
 # The wizard's order: the virtual lab (renderer accuracy, simulate speed) first.
-ORDER = ["virtual_lab", "stereo_calibration", "marker", "pose_selection", "hardware", "identification",
+ORDER = ["virtual_lab", "stereo_calibration", "marker", "robustness", "pose_selection", "hardware", "identification",
          "real_robot", "end_to_end", "monitoring", "teaching"]
 
 

@@ -39,7 +39,7 @@ class ImagingConditions:
 
     light: float = 1.0
     occlusion: float = 0.0
-    side: str = "left"
+    side: str = "corner"
     tilt: float | None = None
 
     def __post_init__(self):

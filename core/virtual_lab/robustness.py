@@ -116,7 +116,7 @@ def _label(axis: str, value: float) -> str:
 
 
 def robustness_sweep(lab, locator, *, light=LIGHT, occlusion=OCCLUSION, tilt=TILT, pairs: int = 20,
-                     seed: int = 0, side: str = "left", wrong_mm: float = WRONG_MM, progress=None,
+                     seed: int = 0, side: str = "corner", wrong_mm: float = WRONG_MM, progress=None,
                      cancelled=None) -> RobustnessTable:
     """Detection rate and 3D error (mm, left camera frame) of `locator` (a MarkerLocator) on
     `pairs` rendered pairs per value of `light` (gain), `occlusion` (fraction of the outer square,
