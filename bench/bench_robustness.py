@@ -71,7 +71,7 @@ def _errors(report, name: str, r) -> None:
 
 
 def _reason(r) -> str:
-    return r.reasons.most_common(1)[0][0][:70] if r.reasons else ""
+    return r.top_reason[:70]
 
 
 def _label(axis: str, value: float) -> str:

@@ -36,7 +36,8 @@ class RobustnessRow:
     value: float
     rendered: int = 0
     errors: list = field(default_factory=list)
-    reasons: Counter = field(default_factory=Counter)
+    reasons: Counter = field(default_factory=Counter)      # reason without its numbers -> count
+    examples: dict = field(default_factory=dict)            # reason without its numbers -> first in full
     wrong_mm: float = WRONG_MM
 
     @property
@@ -57,6 +58,11 @@ class RobustnessRow:
         return float(np.percentile(self.errors, 95)) if self.errors else float("nan")
 
     @property
+    def top_reason(self) -> str:
+        """The most frequent rejection, as first given in full ("" when none)."""
+        return self.examples[self.reasons.most_common(1)[0][0]] if self.reasons else ""
+
+    @property
     def wrong(self) -> int:
         """Located markers farther than `wrong_mm` from the truth: silent wrong numbers."""
         return int(np.sum(np.asarray(self.errors) > self.wrong_mm))
@@ -68,7 +74,7 @@ class RobustnessRow:
         return {"axis": self.axis, "value": self.value, "rendered": self.rendered, "located": self.located,
                 "detection_rate": num(self.detection_rate), "median_error_mm": num(self.median_error),
                 "p95_error_mm": num(self.p95_error), "wrongly_accepted": self.wrong,
-                "reasons": dict(self.reasons)}
+                "reasons": {self.examples.get(k, k): n for k, n in self.reasons.items()}}
 
 
 @dataclass
@@ -93,7 +99,7 @@ class RobustnessTable:
             label = _label(r.axis, r.value)
             med = f"{r.median_error:.3f} mm" if r.errors else "-"
             p95 = f"{r.p95_error:.3f} mm" if r.errors else "-"
-            reason = r.reasons.most_common(1)[0][0][:60] if r.reasons else ""
+            reason = r.top_reason[:70]
             lines.append(f"{label:<22} {r.rendered:>5d} {100 * r.detection_rate:>8.0f}% {med:>10} {p95:>10} "
                          f"{r.wrong:>6d}  {reason}")
         lines.append(f"wrong: located but more than {self.wrong_mm:g} mm from the truth (silent wrong numbers).")
@@ -146,7 +152,9 @@ def _one(lab, locator, row: RobustnessRow, conditions: ImagingConditions, pose_r
     if loc.ok:
         row.errors.append(float(np.linalg.norm(loc.point - T[:3, 3])))
     else:
-        row.reasons[_short(loc.reason)] += 1
+        key = _short(loc.reason)
+        row.reasons[key] += 1
+        row.examples.setdefault(key, loc.reason)
 
 
 def _short(reason: str) -> str:

@@ -140,7 +140,7 @@ class ConditionsPanel(QWidget):
         for i, r in enumerate(rows):
             label = {"light": f"light {r.value:g}×", "occlusion": f"{100 * r.value:g} % covered ({table.side})",
                      "tilt": f"tilt {r.value:g}°"}[r.axis]
-            reason = r.reasons.most_common(1)[0][0] if r.reasons else ""
+            reason = r.top_reason
             cells = [label, str(r.rendered), f"{100 * r.detection_rate:.0f} %", number(r.median_error, 3, "mm"),
                      number(r.p95_error, 3, "mm"), str(r.wrong), reason]
             for j, text in enumerate(cells):
@@ -150,7 +150,7 @@ class ConditionsPanel(QWidget):
                 if j == 5 and r.wrong:
                     item.setForeground(Qt.GlobalColor.red)
                 if j == 6:
-                    item.setToolTip("; ".join(f"{n}× {k}" for k, n in r.reasons.items()))
+                    item.setToolTip("\n".join(f"{n}× {r.examples[k]}" for k, n in r.reasons.most_common()))
                 self.table.setItem(i, j, item)
         self._draw_plot()
 
