@@ -22,7 +22,7 @@ from core.marker.location import MarkerLocator
 from core.marker.training import train_marker
 from core.stereo.rectification import StereoRectification
 from core.virtual_lab.lab import VirtualLab
-from core.virtual_lab.robustness import robustness_sweep
+from core.virtual_lab.robustness import condition_label, robustness_sweep
 
 PAIRS = 40
 SEED = 7
@@ -45,7 +45,7 @@ def run(report) -> None:
     by = {(r.axis, r.value): r for r in main.rows}
     for r in main.rows:
         med = f"{r.median_error:.3f} / {r.p95_error:.3f}" if r.errors else "-"
-        report.info(f"  {_label(r.axis, r.value)}: detected %, median / 95th pct 3D error (mm)",
+        report.info(f"  {condition_label(r.axis, r.value)}: detected %, median / 95th pct 3D error (mm)",
                     f"{100 * r.detection_rate:.0f} %  {med}")
     for key, name in ((("light", 0.3), "light 0.3x"), (("tilt", 60.0), "tilt 60°")):
         r = by[key]
@@ -58,7 +58,7 @@ def run(report) -> None:
     report.add("detection rate, 10 % covered by a band along one side", 100 * r.detection_rate, ">=", 90.0, "%",
                note=_reason(r))
     for key in (("light", 0.1), ("tilt", 70.0), ("occlusion", 0.3)):
-        report.info(f"  where it breaks, {_label(*key)}: most frequent rejection", _reason(by[key]) or "-")
+        report.info(f"  where it breaks, {condition_label(*key)}: most frequent rejection", _reason(by[key]) or "-")
     report.add("markers accepted more than 2 mm from the truth, whole sweep", float(sum(r.wrong for r in rows)),
                "<=", 0.0, "")
     worst = max((max(r.errors) for r in rows if r.errors), default=float("nan"))
@@ -72,7 +72,3 @@ def _errors(report, name: str, r) -> None:
 
 def _reason(r) -> str:
     return r.top_reason[:70]
-
-
-def _label(axis: str, value: float) -> str:
-    return {"light": f"light {value:g}x", "occlusion": f"{100 * value:g} % covered", "tilt": f"tilt {value:g}°"}[axis]

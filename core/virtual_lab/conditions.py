@@ -56,10 +56,6 @@ class ImagingConditions:
             raise RoboCalError(f"tilt {self.tilt:g}° is outside 0 … 85°", field="tilt",
                                hint="The tilt is the angle between the marker's normal and the view.")
 
-    @property
-    def nominal(self) -> bool:
-        return self.light == 1.0 and self.occlusion == 0.0 and self.tilt is None
-
 
 def occluder_rect(outer_size: float, plate_size, occlusion: float, side: str) -> tuple[float, float, float, float]:
     """The occluder (xmin, xmax, ymin, ymax) in plate mm (reference point at 0, y up as in the
@@ -98,8 +94,9 @@ def marker_pose(lab, rng: np.random.Generator, conditions: ImagingConditions = I
     its normal `conditions.tilt` degrees away from the direction to the middle of the cameras
     in a random direction (no tilt given: up to NOMINAL_TILT, uniform over the cap).
 
-    The random numbers drawn do not depend on the tilt, so the same generator state gives the
-    same place, turn and tilt direction at every tilt (a paired comparison)."""
+    The numbers drawn do not depend on the tilt: a generator in the same state gives the same
+    place, turn and tilt direction at every tilt whose first draw keeps the marker in view (a
+    paired comparison)."""
     cam = lab.rig.left
     middle = 0.5 * lab.rig.right_centre
     corners = lab.marker.plate_corners()

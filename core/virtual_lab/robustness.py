@@ -23,8 +23,6 @@ LIGHT = (1.0, 0.7, 0.5, 0.3, 0.2, 0.1)
 OCCLUSION = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5)
 TILT = (0.0, 20.0, 40.0, 50.0, 60.0, 70.0, 75.0)
 WRONG_MM = 2.0                  # a located marker farther than this from the truth is wrongly accepted
-AXES = {"light": ("light", "× normal light"), "occlusion": ("occlusion", "fraction of the marker covered"),
-        "tilt": ("tilt", "deg from facing the cameras")}
 
 
 @dataclass
@@ -96,7 +94,7 @@ class RobustnessTable:
         lines = [f"{'condition':<22} {'pairs':>5} {'detected':>9} {'median 3D':>10} {'95th pct':>10} "
                  f"{'wrong':>6}  most frequent rejection"]
         for r in self.rows:
-            label = _label(r.axis, r.value)
+            label = condition_label(r.axis, r.value)
             med = f"{r.median_error:.3f} mm" if r.errors else "-"
             p95 = f"{r.p95_error:.3f} mm" if r.errors else "-"
             reason = r.top_reason[:70]
@@ -113,7 +111,8 @@ class RobustnessTable:
                 "rows": [r.to_dict() for r in self.rows]}
 
 
-def _label(axis: str, value: float) -> str:
+def condition_label(axis: str, value: float) -> str:
+    """"light 0.3x", "occlusion 10 %" or "tilt 60°"."""
     if axis == "light":
         return f"light {value:g}x"
     if axis == "occlusion":
@@ -136,7 +135,7 @@ def robustness_sweep(lab, locator, *, light=LIGHT, occlusion=OCCLUSION, tilt=TIL
     done = 0
     for row, (_, _, conditions) in zip(rows, plan):
         for i in range(pairs):
-            monitor.step(done / total, f"{_label(row.axis, row.value)}: pair {i + 1} of {pairs}")
+            monitor.step(done / total, f"{condition_label(row.axis, row.value)}: pair {i + 1} of {pairs}")
             _one(lab, locator, row, conditions, np.random.default_rng([seed, 41, i]),
                  np.random.default_rng([seed, 42, i]))
             done += 1
