@@ -1,6 +1,6 @@
 """The Marker step's page (step 3): the training controls and the stereo line above six tabs
-(Training, Live pair, SSD correlation, Verification, Compare markers, Conditions); the chain is described
-in the package's docstring. Long work goes through `TaskMixin.start` with the virtual lab from
+(Training, Live pair, SSD correlation, Verification, Compare markers, Conditions); the chain is
+described in the package's docstring. Long work goes through `TaskMixin.start` with the virtual lab from
 `state.request_lab`; the page keeps the step's state and draws what the work returns."""
 from __future__ import annotations
 
@@ -433,11 +433,7 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         locator = self._conditions_locator()
         if locator is None:
             return False
-        try:
-            conditions = self.conditions_panel.conditions()
-        except RoboCalError as exc:
-            self._set_status(f"✗ {exc.message}", False)
-            return False
+        conditions = self.conditions_panel.conditions()          # the controls keep it within bounds
         self.tabs.setCurrentIndex(TAB_CONDITIONS)
 
         def go(lab: VirtualLab) -> bool:
