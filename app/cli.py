@@ -37,6 +37,7 @@ COMMANDS = {
     "report": "report",
     "check": "check",
     "identify-tool": "identify_tool",
+    "robustness": "robustness",
 }
 
 

@@ -11,9 +11,11 @@
    second-best minimum) rejects ambiguous matches, and d ≤ 0 is refused.
 3. **Right image**: the SSD disparity tells where the marker is in the right image; SIFT in
    that region only and the same Canny chain give the right reference point.
-4. **Checks**: both reference points on the same rectified row (within `epipolar_tolerance`),
-   the edge disparity u_l − u_r within `disparity_tolerance` of the SSD one, and, when the
-   marker size is known, the triangulated outer square as large as the trained one.
+4. **Checks**: both reference points, and each corner of the outer square, on the same
+   rectified row (within `epipolar_tolerance`; a corner off its row means the outline was found
+   differently in the two images, e.g. an edge partly covered), the edge disparity u_l − u_r
+   within `disparity_tolerance` of the SSD one, and, when the marker size is known, the
+   triangulated outer square as large as the trained one.
 5. **Triangulation** (eq. 23–25, core.marker.triangulation.triangulate_rectified) of the left point
    with the disparity, and the general eq. (22) from the raw points as a cross-check; the
    covariance propagates the reference points' standard deviations (from the edge-fit
@@ -259,6 +261,12 @@ class MarkerLocator:
             return _reject(loc, "check", f"the left and right reference points are {abs(loc.epipolar_error):.2f} px "
                            f"apart across the epipolar line (limit {opt.epipolar_tolerance} px): a wrong match, or "
                            "the stereo calibration no longer fits the cameras")
+        corner_rows = np.abs(det_l.outline.corners_ideal[:, 1] - det_r.outline.corners_ideal[:, 1])
+        if corner_rows.max() > opt.epipolar_tolerance:
+            return _reject(loc, "check", f"corner {int(np.argmax(corner_rows)) + 1} of the outer square is "
+                           f"{corner_rows.max():.2f} px apart across the epipolar line in the two images (limit "
+                           f"{opt.epipolar_tolerance} px): the outline was found differently in the two images (an "
+                           "edge partly covered?)")
         if abs(loc.disparity_edges - corr.disparity) > opt.disparity_tolerance:
             return _reject(loc, "check", f"the SSD disparity ({corr.disparity:.2f} px) and the one of the two "
                            f"reference points ({loc.disparity_edges:.2f} px) disagree by more than "

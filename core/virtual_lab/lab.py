@@ -21,6 +21,7 @@ from core.robot.model import RobotModel, robot_path
 from core.robot.file import read_robot
 from core.stereo.rig import StereoRig
 from core.virtual_lab.background import Room, make_room
+from core.virtual_lab.conditions import ImagingConditions, draw_occluder
 from core.marker.description import MarkerDescription
 from core.virtual_lab.renderer import ImageComposer, PlateTexture
 from core.virtual_lab.rig import default_rig, right_from_left
@@ -286,12 +287,16 @@ class VirtualLab:
             right.canvas[...] = self._room_canvas[1]
         return left, right
 
-    def _finish(self, left: ImageComposer, right: ImageComposer, rng, noise) -> tuple[np.ndarray, np.ndarray]:
+    def _finish(self, left: ImageComposer, right: ImageComposer, rng, noise,
+                gain: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+        """Both images finished; `gain` scales the scene's light (the sensor noise stays)."""
         rng = _rng(rng)
         noise = self.noise if noise is None else float(noise)
         light = Lighting.draw(rng)
-        a = left.finish(rng, noise, gradient=light.gradient, gradient_angle=light.angle, exposure=light.exposure_left)
-        b = right.finish(rng, noise, gradient=light.gradient, gradient_angle=light.angle, exposure=light.exposure_right)
+        a = left.finish(rng, noise, gradient=light.gradient, gradient_angle=light.angle,
+                        exposure=light.exposure_left * gain)
+        b = right.finish(rng, noise, gradient=light.gradient, gradient_angle=light.angle,
+                         exposure=light.exposure_right * gain)
         return a, b
 
     def _draw_robot(self, composers, q) -> None:
@@ -333,28 +338,33 @@ class VirtualLab:
             c.draw_checkerboard(self.board, pose)
         return self._finish(left, right, rng, noise)
 
-    def render_marker_pair(self, q, rng=None, *, noise: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def render_marker_pair(self, q, rng=None, *, noise: float | None = None,
+                           conditions: ImagingConditions | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Left and right uint8 images of the robot (true geometry) at joint values q (rad/mm)
-        carrying the marker, in the room."""
+        carrying the marker, in the room (light and occlusion of `conditions`, if given)."""
         left, right = self._composers()
         self._draw_robot((left, right), q)
-        pose = self.marker_pose(q)
-        for c in (left, right):
-            c.draw_plate(self.marker_texture, pose)
-        return self._finish(left, right, rng, noise)
+        return self._plate_pair(left, right, self.marker_pose(q), rng, noise, conditions)
 
     def render_marker_at(self, pose: np.ndarray, rng=None, *, noise: float | None = None,
-                         background: bool = True) -> tuple[np.ndarray, np.ndarray]:
+                         background: bool = True,
+                         conditions: ImagingConditions | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Left and right images of the marker plate alone at an arbitrary pose (4x4, marker
-        plate frame -> left camera frame), over the room (or a plain grey background)."""
+        plate frame -> left camera frame), over the room (or a plain grey background), with
+        the light and occlusion of `conditions`, if given."""
         if background:
             left, right = self._composers()
         else:
             left = ImageComposer(self.rig.left, None, fill=128.0)
             right = ImageComposer(self.rig.right, self._right_from_left, fill=128.0)
+        return self._plate_pair(left, right, pose, rng, noise, conditions)
+
+    def _plate_pair(self, left, right, pose, rng, noise, conditions) -> tuple[np.ndarray, np.ndarray]:
+        conditions = conditions or ImagingConditions()
         for c in (left, right):
             c.draw_plate(self.marker_texture, pose)
-        return self._finish(left, right, rng, noise)
+            draw_occluder(c, self.marker, pose, conditions)
+        return self._finish(left, right, rng, noise, conditions.light)
 
     # -- training image -----------------------------------------------------------------
     def training_camera(self) -> tuple[CameraModel, np.ndarray]:

@@ -20,6 +20,9 @@ work it runs on worker threads is app/jobs/marker.py. The chapter's chain, one t
 4. **Verification** over N random robot poses (worker, progress, Cancel): detection rate,
    median and RMS 3D error against the truth, rejection reasons counted.
 5. **Compare markers** (the virtual lab's marker comparison, Fig. 11).
+6. **Conditions** (virtual lab; work in app/jobs/marker_conditions.py): one pair under a chosen
+   light level, occluded share and tilt, and the robustness sweep over all three (detection
+   rate, median and 95th-percentile 3D error, markers wrongly accepted) as a table and plots.
 
 The stereo rectification comes from the project's stereo.yaml (else the Stereo step's
 result); in the virtual lab without one, the page offers a clearly labelled preview with the

@@ -1,6 +1,6 @@
-"""The Marker step's page (step 3): the training controls and the stereo line above five tabs
-(Training, Live pair, SSD correlation, Verification, Compare markers); the chain is described
-in the package's docstring. Long work goes through `TaskMixin.start` with the virtual lab from
+"""The Marker step's page (step 3): the training controls and the stereo line above six tabs
+(Training, Live pair, SSD correlation, Verification, Compare markers, Conditions); the chain is
+described in the package's docstring. Long work goes through `TaskMixin.start` with the virtual lab from
 `state.request_lab`; the page keeps the step's state and draws what the work returns."""
 from __future__ import annotations
 
@@ -15,11 +15,13 @@ from app.jobs.marker import (Comparison, LiveResult, Training, TrainingImage, Ve
                              camera_live_pair, camera_training_image, capture_training_image, live_pair, load_training_image, recorded_verification,
                              run_comparison, run_verification, save_trained, train_job, write_details,
                              write_verification)
-from app.lab import VirtualLab
+from app.jobs.marker_conditions import ConditionsPair, conditions_pair, run_sweep
+from app.lab import RobustnessTable, VirtualLab
 from app.pages.base import WizardPage
 from app.pages.marker.autopilot import MarkerAutopilot
 from app.safety import motion_refused
 from app.pages.marker.compare_panel import ComparePanel
+from app.pages.marker.conditions_panel import ConditionsPanel
 from app.pages.marker.live_panel import LivePanel
 from app.pages.marker.stereo_bar import StereoBar
 from app.pages.marker.ssd_panel import SsdPanel
@@ -31,7 +33,7 @@ from core.errors import RoboCalError
 from core.marker.location import LocatorOptions, MarkerLocator
 from core.marker.training import TrainedMarker
 
-TAB_TRAINING, TAB_LIVE, TAB_SSD, TAB_VERIFY, TAB_COMPARE = range(5)
+TAB_TRAINING, TAB_LIVE, TAB_SSD, TAB_VERIFY, TAB_COMPARE, TAB_CONDITIONS = range(6)
 
 
 class MarkerPage(MarkerAutopilot, WizardPage):
@@ -51,6 +53,7 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         self.comparison: Comparison | None = None
         self._live_count = 0
         self._verify_count = 0
+        self._conditions_count = 0
         self._build()
         state.projectChanged.connect(self._context_changed)
         state.camerasChanged.connect(lambda *_: self._update_buttons())
@@ -72,6 +75,9 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         self.verification_panel.verify_button.clicked.connect(lambda: self.verify())
         self.compare_panel = ComparePanel()
         self.compare_panel.compare_button.clicked.connect(lambda: self.compare())
+        self.conditions_panel = ConditionsPanel()
+        self.conditions_panel.show_button.clicked.connect(lambda: self.show_conditions())
+        self.conditions_panel.sweep_button.clicked.connect(lambda: self.sweep())
         self.stereo_bar = StereoBar()
         self.stereo_bar.preview_button.clicked.connect(lambda: self.use_preview())
         top = QVBoxLayout()
@@ -83,7 +89,7 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         self.tabs.setObjectName("markerTabs")
         for panel, name in ((self.training_panel, "Training"), (self.live_panel, "Live pair"),
                             (self.ssd_panel, "SSD correlation"), (self.verification_panel, "Verification"),
-                            (self.compare_panel, "Compare markers")):
+                            (self.compare_panel, "Compare markers"), (self.conditions_panel, "Conditions")):
             self.tabs.addTab(panel, name)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
@@ -190,6 +196,8 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         self.live_panel.next_button.setEnabled(not busy and ready and (virtual or live))
         self.verification_panel.verify_button.setEnabled(not busy and ready and virtual)
         self.compare_panel.compare_button.setEnabled(not busy and virtual)
+        self.conditions_panel.show_button.setEnabled(not busy and ready and virtual)
+        self.conditions_panel.sweep_button.setEnabled(not busy and ready and virtual)
 
     # -- stereo preview -----------------------------------------------------------------------
     def use_preview(self, then=None) -> bool:
@@ -411,3 +419,56 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         best = next(p for p in result.patterns if p.key == result.recommended)
         self._set_status(f"✓ Compared {len(result.patterns)} patterns over {result.views} views: "
                          f"{best.name} detected best ({100 * best.detection_rate:.0f} %).", True)
+
+    # -- imaging conditions ---------------------------------------------------------------------
+    def _conditions_locator(self) -> MarkerLocator | None:
+        """The locator, when the marker may be rendered under conditions (virtual lab only)."""
+        if not self.state.virtual or self.state.robot is None:
+            self._set_status("Imaging conditions are rendered in the virtual lab.", False)
+            return None
+        return self._ready_locator()
+
+    def show_conditions(self, then=None) -> bool:
+        """One marker pair under the chosen light, occlusion and tilt, located."""
+        locator = self._conditions_locator()
+        if locator is None:
+            return False
+        conditions = self.conditions_panel.conditions()          # the controls keep it within bounds
+        self.tabs.setCurrentIndex(TAB_CONDITIONS)
+
+        def go(lab: VirtualLab) -> bool:
+            self._conditions_count += 1
+            return self.start(conditions_pair, lab, locator, conditions, self._conditions_count, int(self.state.seed),
+                              on_done=self._conditions_shown, label="Conditions", then=then,
+                              status="Rendering the marker under these conditions and locating it…")
+
+        return self.with_lab(go)
+
+    def _conditions_shown(self, pair: ConditionsPair) -> None:
+        self.conditions_panel.draw_pair(pair)
+        loc = pair.location
+        if loc.ok:
+            self._set_status(f"✓ Located {number(pair.error, 3, 'mm')} from the true position.", True)
+        else:
+            self._set_status(f"Not located under these conditions: {loc.reason}", False)
+
+    def sweep(self, then=None) -> bool:
+        """Detection rate and 3D error over light levels, occlusions and tilts."""
+        locator = self._conditions_locator()
+        if locator is None:
+            return False
+        pairs = self.conditions_panel.pairs_spin.value()
+        side = self.conditions_panel.side_combo.currentText()
+        self.tabs.setCurrentIndex(TAB_CONDITIONS)
+        return self.with_lab(lambda lab: self.start(
+            run_sweep, lab, locator, pairs, int(self.state.seed), side, on_done=self._swept, label="Conditions sweep",
+            then=then, status=f"Sweeping light, occlusion and tilt, {pairs} pairs per value…"))
+
+    def _swept(self, table: RobustnessTable) -> None:
+        self.conditions_panel.draw_table(table)
+        if table.wrong:
+            self._set_status(f"✗ {table.wrong} marker(s) accepted more than {table.wrong_mm:g} mm from the truth: "
+                             "the locator's checks let a wrong point through.", False)
+        else:
+            self._set_status(f"✓ Swept {len(table.rows)} conditions × {table.pairs} pairs: no marker accepted more "
+                             f"than {table.wrong_mm:g} mm off. See where detection drops.", True)
