@@ -19,17 +19,22 @@ from core.robot.file import read_robot
 TIMEOUT = 120_000
 
 
-@pytest.fixture
-def page(qtbot, tmp_path):
-    state, tasks = WizardState(), TaskRunner()
-    state.new_project(tmp_path / "project")
-    state.choose_preset("educational_6r")
+def open_page(qtbot, state: WizardState, tasks: TaskRunner) -> CheckPage:
+    """The Check page of `state`, shown and entered."""
     p = CheckPage(state, tasks)
     qtbot.addWidget(p)
     p.resize(1100, 760)
     p.show()
     p.on_enter()
-    yield p
+    return p
+
+
+@pytest.fixture
+def page(qtbot, tmp_path):
+    state, tasks = WizardState(), TaskRunner()
+    state.new_project(tmp_path / "project")
+    state.choose_preset("educational_6r")
+    yield open_page(qtbot, state, tasks)
     tasks.shutdown()
     state.close()
 
@@ -158,12 +163,7 @@ def two_tool_page(qtbot, tmp_path):
     state, tasks = WizardState(), TaskRunner()
     state.new_project(tmp_path / "project")
     state.set_robot(two_tool_robot(), "two tools")
-    p = CheckPage(state, tasks)
-    qtbot.addWidget(p)
-    p.resize(1100, 760)
-    p.show()
-    p.on_enter()
-    yield p
+    yield open_page(qtbot, state, tasks)
     tasks.shutdown()
     state.close()
 
