@@ -15,7 +15,9 @@ or by tracking), `fit_outline`:
    bright levels may vary linearly along the side; Gauss–Newton with Huber weights, so a
    little clutter on a side does not pull it). The band is symmetric about the edge and
    limited by the marker's black band inside and the white border outside (measured at
-   training), so that no other edge enters it; near the corners it is cut off;
+   training), so that no other edge enters it; near the corners it is cut off, and so is any
+   stretch of the side without Canny pixels (covered, e.g. a cable over a corner: its shade and
+   its own edges would bend the line), with a margin;
 5. intersects adjacent lines (corners) and the two diagonals of the quadrilateral: the
    reference point, the image of the square's centre, exact under perspective;
 6. propagates the line-fit covariance (from the edge-model residuals) to the reference point.
@@ -46,7 +48,8 @@ class EdgeOptions:
     half_band: float = 3.5                 # px: edge-model band, each side of the edge (at most)
     min_half_band: float = 1.2             # px: below this the side is not fitted
     corner_gap: float = 2.5                # px cut off near the corners, beyond the band
-    min_side_coverage: float = 0.35        # fraction of a side that must carry edge pixels
+    min_side_coverage: float = 0.2         # fraction of a side whose edge must be seen (a covered corner hides some)
+    max_edge_gap: float = 6.0              # px along a side without Canny pixels: the edge is hidden there
     max_corner_shift: float = 0.12         # fitted corner vs predicted, fraction of the mean side
     min_corner_shift_px: float = 4.0
     iterations: int = 12
@@ -203,6 +206,22 @@ def _edge_model_fit(values: np.ndarray, pts: np.ndarray, line: np.ndarray, t_mid
     return (np.array([c, sn, x[1]]), cov[:2, :2], float(x[2]), float(x[5]), float(np.sqrt(np.mean(r * r))), x)
 
 
+def _along_visible_edge(t: np.ndarray, t_edge: np.ndarray, start: float, end: float, max_gap: float,
+                        margin: float) -> np.ndarray:
+    """Which band positions `t` (ideal px along the side) lie where the edge is seen: away from
+    every stretch of [start, end] longer than `max_gap` with no Canny pixel (`t_edge`), by
+    `margin` (an occluder's own edges and shade blur into the band there)."""
+    keep = np.ones(t.shape, bool)
+    te = np.sort(t_edge[(t_edge > start) & (t_edge < end)])
+    stops = np.concatenate([[start], te, [end]])
+    last = len(stops) - 2
+    for i in np.nonzero(np.diff(stops) > max_gap)[0]:
+        lo = -np.inf if i == 0 else stops[i] - margin
+        hi = np.inf if i == last else stops[i + 1] + margin
+        keep &= (t <= lo) | (t >= hi)
+    return keep
+
+
 def _reference_from_params(params: np.ndarray) -> np.ndarray:
     lines = np.column_stack([np.cos(params[0::2]), np.sin(params[0::2]), params[1::2]])
     return diagonal_intersection(corners_from_lines(lines))
@@ -332,6 +351,8 @@ def fit_outline(image: np.ndarray, predicted: np.ndarray, pixel_map: PixelMap | 
             tt = cand_ideal @ tau
             cut_i = (hb_raw + opt.corner_gap) * scale
             sel = (np.abs(dd) <= hb) & (tt >= t0 + cut_i) & (tt <= t1 - cut_i)
+            sel &= _along_visible_edge(tt, ideal_pts[labels == k] @ tau, t0 + cut_i, t1 - cut_i,
+                                       opt.max_edge_gap * scale, cut_i)
             if sel.sum() < 12:
                 return _fail(f"side {k + 1}: too few pixels along the edge to fit it", **base)
             covered = np.ptp(tt[sel]) / max(t1 - t0, 1e-6) if sel.any() else 0.0

@@ -13,9 +13,10 @@
    that region only and the same Canny chain give the right reference point.
 4. **Checks**: both reference points, and each corner of the outer square, on the same
    rectified row (within `epipolar_tolerance`; a corner off its row means the outline was found
-   differently in the two images, e.g. an edge partly covered), the edge disparity u_l − u_r
-   within `disparity_tolerance` of the SSD one, and, when the marker size is known, the
-   triangulated outer square as large as the trained one.
+   differently in the two images, e.g. an edge partly covered), the four corners' disparities
+   on one plane (within `max_corner_planarity`: an edge fitted through an occluder bends it),
+   the edge disparity u_l − u_r within `disparity_tolerance` of the SSD one, and, when the
+   marker size is known, the triangulated outer square as large as the trained one.
 5. **Triangulation** (eq. 23–25, core.marker.triangulation.triangulate_rectified) of the left point
    with the disparity, and the general eq. (22) from the raw points as a cross-check; the
    covariance propagates the reference points' standard deviations (from the edge-fit
@@ -78,6 +79,9 @@ class LocatorOptions:
     max_mismatch: float = DEFAULT_MAX_MISMATCH
     epipolar_tolerance: float = 1.0        # px, |v_left − v_right| of the reference points
     disparity_tolerance: float = 2.0       # px, |edge disparity − SSD disparity|
+    # px: the four corner disparities off one plane (nominal ~0.01 px; an edge fitted through
+    # part of an occluder: 0.1 px and more); None: not checked
+    max_corner_planarity: float | None = 0.1
     max_size_error: float | None = 0.2     # relative; None: the marker size is not checked
     sigma_floor_px: float = 0.0            # added in quadrature to each reference point's sigma
     general_check: bool = True             # also triangulate with eq. (22) from the raw points (not when tracking)
@@ -110,6 +114,7 @@ class MarkerLocation:
     disparity_ssd: float = float("nan")
     disparity_edges: float = float("nan")
     epipolar_error: float = float("nan")   # v_left − v_right, px
+    corner_planarity: float = float("nan") # px, largest corner disparity off the plane of all four
     sigma_px: float = float("nan")         # per-image reference point sigma used, px
     size_mm: float = float("nan")          # triangulated side of the outer square
     orientation: MarkerOrientation | None = None   # the marker frame from its 4 corners (core.marker.orientation)
@@ -142,6 +147,7 @@ class MarkerLocation:
                         "sigma_px": num(self.right.sigma_px) if self.right and self.right.ok else None},
                  disparity=num(self.disparity), disparity_ssd=num(self.disparity_ssd),
                  disparity_edges=num(self.disparity_edges), epipolar_error=num(self.epipolar_error),
+                 corner_planarity=num(self.corner_planarity),
                  sigma_px=num(self.sigma_px), size_mm=num(self.size_mm),
                  point_ssd=arr(self.point_ssd), point_general=arr(self.point_general))
         if c is not None:
@@ -267,6 +273,11 @@ class MarkerLocator:
                            f"{corner_rows.max():.2f} px apart across the epipolar line in the two images (limit "
                            f"{opt.epipolar_tolerance} px): the outline was found differently in the two images (an "
                            "edge partly covered?)")
+        loc.corner_planarity = corner_planarity(det_l.outline.corners_ideal, det_r.outline.corners_ideal)
+        if opt.max_corner_planarity is not None and loc.corner_planarity > opt.max_corner_planarity:
+            return _reject(loc, "check", f"the disparities of the four corners of the outer square are "
+                           f"{loc.corner_planarity:.2f} px off one plane (limit {opt.max_corner_planarity} px): "
+                           "an edge was fitted through something else (partly covered?)")
         if abs(loc.disparity_edges - corr.disparity) > opt.disparity_tolerance:
             return _reject(loc, "check", f"the SSD disparity ({corr.disparity:.2f} px) and the one of the two "
                            f"reference points ({loc.disparity_edges:.2f} px) disagree by more than "
@@ -405,6 +416,16 @@ class MarkerTracker:
             loc = loc_.locate(left, right)
         self.last = loc if loc.ok else None
         return loc
+
+
+def corner_planarity(left: np.ndarray, right: np.ndarray) -> float:
+    """Largest distance (px) of a corner's disparity from the plane d = a·u + b·v + c through
+    all four (rectified corners (4, 2) in both images). The square is flat and disparity is
+    affine in (u, v) over a plane, so only errors of the fitted outline leave a residual."""
+    A = np.column_stack([left[:, 0], 0.5 * (left[:, 1] + right[:, 1]), np.ones(4)])
+    d = left[:, 0] - right[:, 0]
+    coef = np.linalg.lstsq(A, d, rcond=None)[0]
+    return float(np.max(np.abs(A @ coef - d)))
 
 
 def square_pose(corners: np.ndarray, K: np.ndarray, size: float = 2.0) -> tuple[np.ndarray, np.ndarray]:

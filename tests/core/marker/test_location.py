@@ -10,7 +10,7 @@ from core import transforms as tf
 from core.camera import CameraModel
 from core.stereo.rectification import StereoRectification
 from core.errors import RoboCalError
-from core.marker.location import LocatorOptions, MarkerLocator, MarkerTracker, square_pose
+from core.marker.location import LocatorOptions, MarkerLocator, MarkerTracker, corner_planarity, square_pose
 from core.stereo.rig import StereoRig
 
 from tests.core import marker_scenes as scenes
@@ -155,6 +155,22 @@ def test_stale_calibration_is_caught(pairs):
     tilted = StereoRig(rig.left, rig.right, rig.R @ tf.rot_axis(np.array([1.0, 0, 0]), np.deg2rad(0.08)), rig.T)
     loc = MarkerLocator(scenes.trained(), StereoRectification.from_rig(tilted)).locate(*pairs[0][1:])
     assert not loc.ok and loc.stage == "check" and "epipolar line" in loc.reason
+
+
+def test_corner_disparities_off_one_plane(locator, pairs):
+    """The four corners' disparities lie on a plane (affine in u, v); one corner 0.2 px off
+    leaves a quarter of it at every corner of a square (one residual degree of freedom)."""
+    left = np.array([[100.0, 100.0], [300.0, 100.0], [300.0, 300.0], [100.0, 300.0]])
+    right = left - (40.0 + 0.01 * left[:, :1] - 0.02 * left[:, 1:]) * [1.0, 0.0]
+    assert corner_planarity(left, right) < 1e-9
+    bent = right.copy()
+    bent[0, 0] += 0.2
+    assert corner_planarity(left, bent) == pytest.approx(0.05, abs=1e-9)
+    for T, l_img, r_img in pairs:
+        assert locator.locate(l_img, r_img).corner_planarity < 0.02      # px (nominal: ~0.002)
+    strict = MarkerLocator(scenes.trained(), StereoRectification.from_rig(scenes.lab().rig),
+                           LocatorOptions(max_corner_planarity=1e-6)).locate(*pairs[0][1:])
+    assert not strict.ok and strict.stage == "check" and "off one plane" in strict.reason
 
 
 def test_images_of_another_size(locator):
