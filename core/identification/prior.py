@@ -59,6 +59,7 @@ import numpy as np
 from scipy.linalg import cho_factor, cho_solve
 from scipy.optimize import minimize
 
+from core.errors import RoboCalError
 from core.bounds import Bound
 from core.identification.identifiability import column_scales
 from core.identification.jacobian import Parameter
@@ -222,7 +223,7 @@ def log_evidence(J: np.ndarray, b: np.ndarray, P: np.ndarray, c: np.ndarray) -> 
         H = G + Ps.T @ (lam[:, None] * Ps)
         try:
             factor = cho_factor(H)
-        except np.linalg.LinAlgError:
+        except (np.linalg.LinAlgError, ValueError):      # singular, or not finite
             return -math.inf
         rhs = g - Ps.T @ (lam * c)
         delta = cho_solve(factor, rhs)
@@ -253,6 +254,10 @@ def evidence_weights(lin: Linearised, term: PriorTerm) -> Weights:
     grid = np.linspace(lo, hi, 9)
     starts = np.array(np.meshgrid(*[grid] * len(kinds))).reshape(len(kinds), -1).T
     x0 = min(starts, key=lambda x: neg(x))
+    if not math.isfinite(neg(x0)):
+        raise RoboCalError("the prior's weights cannot be estimated from these measurements: some parameters "
+                           "are determined neither by the measurements nor by the prior",
+                           hint="Give the prior's weight (--prior WEIGHT) or fix those parameters.")
     x = minimize(neg, x0, method="L-BFGS-B", bounds=[(lo, hi)] * len(kinds)).x
     value = dict(zip(kinds, np.exp(x).tolist()))
     return Weights(value.get(False, term.weights.length), value.get(True, term.weights.angle))

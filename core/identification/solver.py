@@ -657,11 +657,17 @@ def fit_model(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (
 
 
 def linearised(fit: _Fit, meas: Measurements) -> Linearised:
-    """The fit's whitened Jacobian and residual on `meas` (robust weights included)."""
+    """The fit's whitened Jacobian and residual on `meas` (robust weights included), with the
+    orientation rows when the fit estimated the marker's orientation, as `fit_model` stacks them."""
+    free = fit.ident.free
     sw = np.sqrt(_weights0(meas) * fit.weights[:, None]).reshape(-1)
-    J = sw[:, None] * calibration_jacobian(fit.model, meas.Q, meas.target, fit.ident.free)
+    J = sw[:, None] * calibration_jacobian(fit.model, meas.Q, meas.target, free)
     b = sw * (meas.xyz - predict_points(fit.model, meas.Q, meas.target)).reshape(-1)
-    return Linearised(fit.model, list(fit.ident.free), J, b)
+    if any(p.group == "orientation" for p in free):
+        sw_o = np.sqrt(orientation_weights(meas)).reshape(-1)
+        J = np.vstack([J, sw_o[:, None] * orientation_jacobian(fit.model, meas.Q, meas.target, free)])
+        b = np.concatenate([b, sw_o * orientation_residuals(fit.model, meas).reshape(-1)])
+    return Linearised(fit.model, list(free), J, b)
 
 
 def _reset_to(model: RobotModel, reference: RobotModel, params: Sequence[Parameter]) -> RobotModel:

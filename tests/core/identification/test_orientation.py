@@ -96,3 +96,18 @@ def test_orientation_needs_orientations_and_position_sigmas(nominal, meas):
                             rotation=meas.rotation, rotation_sigma=meas.rotation_sigma)
     with pytest.raises(RoboCalError, match="sx, sy, sz"):
         identify(nominal, no_sigma, orientation=True)
+
+
+def test_the_prior_with_orientation_estimates_its_weights_from_every_row(nominal, true, meas):
+    """The prior's evidence sees the orientation rows too (without them the marker's rx, ry, rz
+    columns are empty and the weights cannot be estimated)."""
+    from core.identification.prior import PriorOptions
+
+    plain = identify(nominal, meas, orientation=True, fixed=["marker.rz"])
+    prior = identify(nominal, meas, orientation=True, fixed=["marker.rz"], prior=PriorOptions())
+    w = prior.prior.weights
+    assert prior.prior.chosen_by == "empirical Bayes" and 0 < w.length and 0 < w.angle
+    truth = np.degrees(true.joints[5].theta - nominal.joints[5].theta)
+    row = prior.row("J6.theta")
+    assert abs(row.correction - truth) < 4 * plain.row("J6.theta").std
+    assert prior.orientation.rms_after_deg < 2 * SIGMA_DEG * np.sqrt(3)
