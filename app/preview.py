@@ -123,6 +123,10 @@ class PreviewPump(QObject):
                 with self._lock:
                     self._error = exc.message
                 return
+            except (cv2.error, ValueError, MemoryError) as exc:     # a frame OpenCV cannot handle
+                with self._lock:
+                    self._error = f"the live view stopped: a camera frame could not be processed ({exc})"
+                return
             seq += 1
             pair = PreviewPair(seq, left, right, (shrink(left, self.width), shrink(right, self.width)), answer)
             with self._lock:

@@ -42,6 +42,9 @@ def run(args) -> CommandResult:
 
     if args.poses_out is None and args.out is None:
         raise UsageError("give --out (the updated calibrated robot) or --poses-out (the poses to measure)")
+    if args.poses_out is not None and args.out is not None:
+        raise UsageError("--poses-out only proposes the poses to measure; give --out with --measurements (or on the "
+                         "virtual lab) to identify the tool: one or the other")
     if args.poses_out is not None and args.measurements is not None:
         raise UsageError("--poses-out proposes the poses to measure; --measurements identifies from them: "
                          "one or the other")

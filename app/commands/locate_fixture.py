@@ -33,9 +33,8 @@ def run(args) -> CommandResult:
     from core.fixtures.base import read_base_transform
     from core.fixtures.description import read_fixture_description
     from core.fixtures.file import fixture_pose_dict, write_fixture_pose
-    from core.fixtures.pairs import fixture_pair_files
+    from core.fixtures.pairs import fixture_image_loaders, fixture_pair_files
     from core.fixtures.run import locate_fixture
-    from core.images import read_camera_image
     from core.task import Monitor
 
     check_output(args.out, "fixture pose")
@@ -44,9 +43,7 @@ def run(args) -> CommandResult:
     base = read_base_transform(args.calibrated)
     files = fixture_pair_files(args.pairs, description.names)
     locator, _ = setup_locator(args)
-    size = locator.rect.image_size
-    pairs = [lambda l=left, r=right: (read_camera_image(l, "left", size), read_camera_image(r, "right", size))
-             for left, right in files]
+    pairs = fixture_image_loaders(files, locator.rect.image_size)
     progress = ProgressLine("locate-fixture")
     try:
         result = locate_fixture(pairs, locator, base, description, progress=Monitor(progress))

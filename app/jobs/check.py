@@ -109,8 +109,8 @@ def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: D
                              progress=None, cancelled=None) -> Update:
     """Propose the few poses that, with the check's points (measured after the change), determine
     what changed, measure them, re-identify from them and the check's points with the calibration
-    as prior, and only when all that succeeded: keep the file at `out` in history/ (`archive`),
-    write `out` atomically and check the updated model at the check poses. A failure leaves no
+    as prior, check the updated model at the check poses, and only when all that succeeded: keep
+    the file at `out` in history/ (`archive`) and write `out` atomically. A failure leaves no
     file behind."""
     monitor = Monitor(progress, cancelled)
     opts = {k: v for k, v in (lab_options or {}).items() if k != "robot"}
@@ -134,11 +134,11 @@ def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: D
     re = reidentify(cell.model, cell.unc, diagnosis.parameters, meas, reason=diagnosis.text,
                     previous=str(kept) if kept is not None else cell.source, progress=monitor.sub(0.6, 0.7),
                     cancelled=cancelled)
-    path = write_keeping_previous(re, out, kept)
     unc = calibration_uncertainty(re.model, source=out, sigma_mm=cell.unc.sigma_mm)
-    updated = replace(cell, model=re.model, unc=unc, source=str(path),
+    updated = replace(cell, model=re.model, unc=unc, source=str(out),
                       limits=check_limits(re.model, unc, cell.Q, [cell.target] * len(cell.Q), cell.limits.alpha))
     after, _ = check(updated, measure, log=log, progress=monitor.sub(0.7, 1.0), cancelled=cancelled)
+    path = write_keeping_previous(re, out, kept)
     return Update(re, Path(path), proposal.Q, after, updated)
 
 
@@ -191,7 +191,7 @@ def history_path(path) -> Path:
     """history/<name>-<UTC time>.json beside the calibrated robot file `path`: where a
     re-identification keeps the calibration it replaces (nothing is written here)."""
     path = Path(path)
-    stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ")
+    stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S.%fZ")     # two in one second stay apart
     return path.parent / "history" / f"{path.stem}-{stamp}.json"
 
 

@@ -61,15 +61,12 @@ def locate_on_lab(calibrated, trained, rect, folder, *, lab, seed: int = 0, prog
 def locate_from_folder(calibrated, trained, rect, description_path, pairs_folder, folder, *, progress=None,
                        cancelled=None) -> FixtureRun:
     """The fixture of `description_path` from `pairs_folder` (left/<name>.png, right/<name>.png)."""
-    from core.fixtures.pairs import fixture_pair_files
-    from core.images import read_camera_image
+    from core.fixtures.pairs import fixture_image_loaders, fixture_pair_files
 
     description = read_fixture_description(description_path)
     base = read_base_transform(calibrated)
     files = fixture_pair_files([str(pairs_folder)], description.names)
-    size = rect.image_size
-    pairs = [lambda l=left, r=right: (read_camera_image(l, "left", size), read_camera_image(r, "right", size))
-             for left, right in files]
+    pairs = fixture_image_loaders(files, rect.image_size)
     result = locate_fixture(pairs, MarkerLocator(trained, rect, LocatorOptions()), base, description,
                             progress=Monitor(progress, cancelled).sub(0.0, 0.95))
     pose, urdf = _write(result, folder, {

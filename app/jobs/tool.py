@@ -64,8 +64,8 @@ def identify_on_lab(calibrated, tool: str, lab, out=None, *, change: str | None 
     proposal = propose(calibrated, tool, lab_options=lab_options_of(lab), count=count, seed=seed,
                        progress=monitor.sub(0.0, 0.5), cancelled=cancelled)
     Q, poses, targets, xyz = [], [], [], []
-    for target in model.tool_targets(tool):
-        measure = lab_measure(lab, change, sigma_mm=unc.sigma_mm, seed=seed, images=images, target=target)
+    for i, target in enumerate(model.tool_targets(tool)):     # each target its own noise
+        measure = lab_measure(lab, change, sigma_mm=unc.sigma_mm, seed=seed + 1000 * i, images=images, target=target)
         for k, q in enumerate(proposal.Q):
             monitor.step(0.5 + 0.4 * k / len(proposal.Q), f"measuring {target} at pose {k + 1} of {len(proposal.Q)}")
             p = measure(q)

@@ -84,3 +84,12 @@ def test_a_tool_the_lab_lacks_is_said(cell, tmp_path, capsys):
                  str(tmp_path / "u.json")])
     assert code in (1, 2) and "no target 'long_marker'" in capsys.readouterr().err
     assert not (tmp_path / "u.json").exists()
+
+
+def test_poses_out_with_out_is_refused(cell, tmp_path, capsys):
+    calibrated, _ = cell
+    code = main(["identify-tool", "--robot", str(calibrated), "--tool", "long_gripper",
+                 "--poses-out", str(tmp_path / "p.csv"), "--out", str(tmp_path / "u.json")])
+    err = capsys.readouterr().err
+    assert code == 2 and "--poses-out only proposes" in err and err.count("\n") == 1
+    assert not (tmp_path / "p.csv").exists() and not (tmp_path / "u.json").exists()

@@ -20,7 +20,8 @@ HEADERS = ["Condition", "Pairs", "Detected", "Median 3D error", "95th percentile
 AXES = {"light": "light (× normal)", "occlusion": "marker covered (%)", "tilt": "tilt from facing the cameras (°)"}
 RANDOM_TILT = -1                   # the tilt spin's special value: a random tilt up to 30°
 NOTE = ("<b>Detected</b>: located and passing every check, of the pairs rendered. <b>3D error</b>: distance of the "
-        "located point from the lab's true marker position. <b>Wrong</b>: accepted more than 2 mm off — a silent "
+        f"located point from the lab's true marker position. <b>Wrong</b>: accepted more than "
+        f"{RobustnessTable.wrong_mm:g} mm off — a silent "
         "wrong number a calibration would use; it must stay 0: where the method cannot see the marker well it "
         "must say why instead.")
 
