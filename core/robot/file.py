@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from core import transforms as tf
 from core.errors import RoboCalError
@@ -87,7 +88,27 @@ def robot_from_dict(data: dict, source: str | Path = "<robot>") -> RobotModel:
                       tool=_pose_from_dict(data.get("tool"), source, "tool"), targets=targets,
                       calibration=calibration,
                       collision_radius=_collision_from_dict(data.get("collision"), len(joints), source),
-                      tools=_tools_from_dict(data.get("tools"), targets, source))
+                      tools=_tools_from_dict(data.get("tools"), targets, source),
+                      target_rotations=_rotations_from_dict(data.get("target_rotations"), targets, source))
+
+
+def _rotations_from_dict(data, targets: dict, source) -> dict[str, np.ndarray]:
+    """Optional `"target_rotations": {"marker": [rx, ry, rz]}`: a target's frame in the tool frame
+    as a rotation vector in degrees (written when identification estimated a marker's
+    orientation); a target absent here is aligned with the tool frame."""
+    if data is None:
+        return {}
+    if not isinstance(data, dict):
+        raise RoboCalError("expected an object of target name: [rx, ry, rz] (degrees)", source=source,
+                           field="target_rotations")
+    out = {}
+    for name, value in data.items():
+        f = f"target_rotations.{name}"
+        if name not in targets:
+            raise RoboCalError(f"target '{name}' is not in \"targets\"", source=source, field=f,
+                               hint="Add its offset to \"targets\" or fix the name.")
+        out[str(name)] = Rotation.from_rotvec(vector(value, 3, source, f, "degrees"), degrees=True).as_matrix()
+    return out
 
 
 def _tools_from_dict(data, targets: dict, source) -> dict[str, list[str]]:
@@ -181,6 +202,9 @@ def robot_to_dict(model: RobotModel) -> dict:
     }
     if model.tools:
         out["tools"] = {k: list(v) for k, v in model.tools.items()}
+    if model.target_rotations:
+        out["target_rotations"] = {k: [float(v) for v in Rotation.from_matrix(R).as_rotvec(degrees=True)]
+                                   for k, R in model.target_rotations.items()}
     if model.collision_radius is not None:
         out["collision"] = {"radius": [float(v) for v in model.collision_radius]}
     if model.calibration is not None:

@@ -134,3 +134,27 @@ def test_joint_names_default_and_round_trip(tmp_path):
     data["joints"][0]["name"] = 7
     with pytest.raises(RoboCalError, match=r"field 'joints\[0\]\.name': expected text"):
         robot_from_dict(data)
+
+
+def test_a_marker_orientation_on_the_tool_round_trips_and_moves_the_predicted_frame(tmp_path):
+    """`target_rotations` (identification with orientation estimates the marker's turn on the
+    tool) is written as a rotation vector in degrees and read back to the same frame."""
+    from scipy.spatial.transform import Rotation
+
+    from core.identification.orientation import predict_rotations
+
+    robot = read_robot(robot_path("educational_6r"))
+    R = Rotation.from_rotvec([0.3, -12.0, 40.0], degrees=True).as_matrix()
+    robot.target_rotations = {"marker": R}
+    data = robot_to_dict(robot)
+    assert np.allclose(data["target_rotations"]["marker"], [0.3, -12.0, 40.0])
+    back = read_robot(write_robot(robot, tmp_path / "r.json"))
+    assert np.allclose(back.target_rotations["marker"], R, atol=1e-12)
+    q = np.zeros((1, robot.dof))
+    assert np.allclose(predict_rotations(back, q, ["marker"]), predict_rotations(robot, q, ["marker"]), atol=1e-12)
+    plain = read_robot(robot_path("educational_6r"))
+    assert "target_rotations" not in robot_to_dict(plain)      # files without it stay as they were
+    bad = dict(data, target_rotations={"nozzle": [0, 0, 1]})
+    with pytest.raises(RoboCalError) as info:
+        robot_from_dict(bad, "r.json")
+    assert info.value.field == "target_rotations.nozzle" and "not in" in info.value.message
