@@ -51,8 +51,9 @@ def calibrated_tools(model: RobotModel, unc: CalibrationUncertainty) -> list[str
 
 
 def tool_poses(model: RobotModel, tool: str) -> int:
-    """How many poses to propose for identifying `tool`: DEFAULT_POSES per target, and at
-    least two more than the fewest that determine its offsets."""
+    """How many poses to propose for identifying `tool`: enough for DEFAULT_POSES measured
+    points in all (each pose measures every target of the tool), and at least two more than the
+    fewest that determine its offsets."""
     targets = model.tool_targets(tool)
     fixed = [p.name for p in all_parameters(model, targets) if p.group != "target"]
     return max(minimum_poses(model, targets, fixed=fixed) + 2, math.ceil(DEFAULT_POSES / len(targets)))
