@@ -1,7 +1,8 @@
 """`robocal stereo-calibrate`: stereo calibration from checkerboard image pairs.
 
 Pairs are matched by sorted file name. `--left`/`--right` take a folder, a (quoted) glob
-pattern such as 'data/left*.jpg', or the image files themselves. Bad pairs are skipped
+pattern such as 'data/left*.jpg', or the image files themselves; `--pairs DIR` takes one folder
+of both cameras' images named leftNN / rightNN. Bad pairs are skipped
 with a reason; when too few usable pairs remain, one line names the files and reasons,
 the exit code is 1 and no file is written (a previous stereo.yaml stays as it was).
 """
@@ -23,15 +24,18 @@ from core.stereo.file import ros_camera_info_files, stereo_json_text, stereo_yam
 HELP = "Stereo calibration from checkerboard image pairs (matched by sorted file name)"
 
 
-INPUTS = ("left", "right")      # checked against OUTPUTS before the run (app/commands/paths.py)
+INPUTS = ("left", "right", "pairs")      # checked against OUTPUTS before the run (app/commands/paths.py)
 OUTPUTS = ("out", "export_json", "ros/left.yaml", "ros/right.yaml")
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--left", required=True, nargs="+", metavar="DIR",
+    parser.add_argument("--left", nargs="+", metavar="DIR",
                         help="left camera images: a folder, a quoted pattern like 'dir/left*.jpg', or files")
-    parser.add_argument("--right", required=True, nargs="+", metavar="DIR",
+    parser.add_argument("--right", nargs="+", metavar="DIR",
                         help="right camera images (same forms as --left)")
+    parser.add_argument("--pairs", metavar="DIR",
+                        help="instead of --left/--right: one folder of both cameras' images named leftNN and rightNN "
+                             "(as OpenCV's stereo samples)")
     parser.add_argument("--board", required=True, metavar="COLSxROWS",
                         help="inner corners of the checkerboard, e.g. 9x6")
     parser.add_argument("--square", required=True, type=options.size_mm, metavar="MM", help="square size in mm")
@@ -75,7 +79,21 @@ def _parse_exclude(text: str, detections) -> list[int]:
     return out
 
 
+def _image_sources(args) -> tuple:
+    """(left, right) image sources: --left/--right, or --pairs' folder given for both (pair_images
+    tells its images apart by name)."""
+    if args.pairs is not None:
+        if args.left or args.right:
+            raise UsageError("give either --pairs DIR or --left and --right, not both")
+        return args.pairs, args.pairs
+    if not args.left or not args.right:
+        raise UsageError("give the images: --left DIR --right DIR, or --pairs DIR for one folder of leftNN/rightNN "
+                         "images")
+    return _source(args.left), _source(args.right)
+
+
 def run(args) -> CommandResult:
+    left, right = _image_sources(args)
     board = Board.parse(args.board, args.square)
     options = CalibrationOptions(radial=args.radial, tangential=not args.no_tangential,
                                  fix_aspect=args.fix_aspect, fix_principal=args.fix_principal,
@@ -87,7 +105,7 @@ def run(args) -> CommandResult:
             check_output(str(Path(args.ros) / name), "--ros", folder_given=True)
     progress = ProgressLine("stereo-calibrate")
     try:
-        detections = detect_folders(_source(args.left), _source(args.right), board, progress=Monitor(progress).sub(0, 0.6))
+        detections = detect_folders(left, right, board, progress=Monitor(progress).sub(0, 0.6))
         exclude = _parse_exclude(args.exclude, detections)
         result = calibrate_stereo(detections, options, exclude=exclude, progress=Monitor(progress).sub(0.6, 1.0))
     finally:
@@ -133,7 +151,7 @@ def _text(r: StereoCalibrationResult, written: list[str], ignored: list[str]) ->
     for index, what in r.reordered:
         lines.append(f"  pair {index + 1}: {what}")
     for name in ignored:
-        lines.append(f"  ignored (not an image file type): {name}")
+        lines.append(f"  ignored: {name}")
     for w in r.warnings:
         lines.append(f"  warning: {w}")
     lines.append("wrote " + ", ".join(written))

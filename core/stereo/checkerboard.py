@@ -51,6 +51,7 @@ import numpy as np
 from core.stereo.board import Board
 from core.errors import RoboCalError
 from core.images import IMAGE_SUFFIXES, load_gray, to_gray8
+from core.stereo.image_pairs import split_mixed_folder
 from core.task import Monitor
 
 
@@ -200,11 +201,18 @@ def list_images(source: str | Path | Sequence[str | Path]) -> tuple[list[Path], 
 
 def pair_images(left: str | Path | Sequence, right: str | Path | Sequence
                 ) -> tuple[list[tuple[Path, Path]], list[str]]:
-    """Pair left and right images by sorted file name. Raises RoboCalError for unequal counts."""
+    """Pair left and right images by sorted file name. Raises RoboCalError for unequal counts.
+    The same folder for both cameras is one folder of both cameras' images told apart by name
+    (leftNN / rightNN, core.stereo.image_pairs)."""
     if isinstance(left, (str, Path)) and isinstance(right, (str, Path)) and Path(left).is_dir() \
             and Path(right).is_dir() and Path(left).resolve() == Path(right).resolve():
-        raise RoboCalError("the left and right images are the same folder", source=left,
-                           hint="Give each camera's images, e.g. --left DIR/left*.jpg --right DIR/right*.jpg.")
+        mixed = split_mixed_folder(left)
+        if mixed is None:
+            raise RoboCalError("the left and right images are the same folder, and no image name says its "
+                               "camera", source=left,
+                               hint="Name the images leftNN and rightNN, or give each camera's own folder.")
+        lefts, rights, others = mixed
+        return list(zip(lefts, rights)), [f"{left}: {n}" for n in others]
     lefts, ignored_l = list_images(left)
     rights, ignored_r = list_images(right)
     shown_l = _shown_source(left)

@@ -63,6 +63,25 @@ def test_json_on_real_pairs(tmp_path, capsys):
     assert json.loads((tmp_path / "full.json").read_text())["calibration"]["pairs_used"] == 10
 
 
+def test_one_folder_of_left_and_right_images(tmp_path, capsys):
+    """--pairs DIR: the real pairs as they are published, leftNN and rightNN in one folder."""
+    folder = tmp_path / "pairs"
+    folder.mkdir()
+    for a, b in real_pairs(NUMBERS):
+        shutil.copy(a, folder / a.name)
+        shutil.copy(b, folder / b.name)
+    (folder / "README.md").write_text("pairs")
+    out = tmp_path / "stereo.yaml"
+    code, stdout, err = _run(capsys, "--pairs", folder, "--board", "9x6", "--square", "24", "--out", out, "--json")
+    assert code == 0, err
+    data = json.loads(stdout)
+    assert data["pairs_used"] == 10 and data["ignored_files"] == [f"{folder}: README.md"]
+    left, right = _copy(tmp_path)
+    code, stdout, err = _run(capsys, *_args(left, right, tmp_path / "split.yaml", "--json"))
+    assert code == 0, err
+    assert json.loads(stdout)["rms_stereo"] == pytest.approx(data["rms_stereo"], rel=1e-9)
+
+
 def test_text_output_patterns_and_exclude(tmp_path, capsys):
     out = tmp_path / "s.yaml"
     pattern_l = str(REAL_DATA / "left0*.jpg")       # 9 pairs from the shared folder itself
@@ -164,6 +183,11 @@ def test_missing_folder_and_no_images(tmp_path, capsys, previous):
     _assert_failed(code, stdout, err, "no image files")
 
 
+def test_no_images_given_is_a_usage_error(tmp_path, capsys):
+    code, stdout, err = _run(capsys, "--left", tmp_path, "--board", "9x6", "--square", "24")
+    assert code == 2 and stdout == "" and "--pairs DIR for one folder of leftNN/rightNN images" in err
+
+
 def test_unwritable_output_refused_before_the_work(tmp_path, capsys):
     left, right = _copy(tmp_path, [1, 2])
     blocker = tmp_path / "a-file"
@@ -177,6 +201,7 @@ def test_unwritable_output_refused_before_the_work(tmp_path, capsys):
     (["--square", "-3"], ["argument --square: -3 mm is outside 0.001 … 10000 mm"]),
     (["--radial", "4"], ["invalid choice"]),
     (["--exclude", "99"], ["pair 99 does not exist"]),
+    (["--pairs", "."], ["either --pairs DIR or --left and --right"]),
 ])
 def test_usage_errors_exit_2(tmp_path, capsys, extra, words):
     left, right = _copy(tmp_path, [1, 2])

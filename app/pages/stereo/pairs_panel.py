@@ -20,6 +20,7 @@ from core.errors import RoboCalError
 from core.stereo.board import Board
 from core.stereo.checkerboard import (MIN_BAR, MIN_GOOD_PAIRS, MIN_PAIRS_TO_CALIBRATE, coverage, pair_images,
                                       screen_pairs)
+from core.stereo.image_pairs import split_mixed_folder
 from widgets.coverage_bars import CoverageBars
 from widgets.thumbnail_strip import BAD, MUTED, WARN, ThumbnailStrip
 
@@ -36,7 +37,8 @@ class PairsPanel(QGroupBox):
         super().__init__("Checkerboard pairs", parent)
         self.folders_button = button("Add from folders…", "foldersButton",
                                      tooltip="Choose the left camera's folder, then the right camera's; images "
-                                             "are paired by sorted file name")
+                                             "are paired by sorted file name. One folder of leftNN and rightNN "
+                                             "images is paired by name.")
         self.virtual_button = button("Render virtual-lab pairs", "virtualButton")
         self.virtual_count = spin(VIRTUAL_PAIRS, 1, 60, suffix=" pairs")
         self.capture_button = button("Capture from cameras", "captureButton")
@@ -146,8 +148,15 @@ class PairsActions:
 
     def add_folders_dialog(self) -> bool:
         start = str(self.state.project.folder) if self.state.project is not None else ""
-        left = QFileDialog.getExistingDirectory(self, "Folder of the LEFT camera's images", start)
+        left = QFileDialog.getExistingDirectory(
+            self, "Folder of the LEFT camera's images (or one folder of leftNN and rightNN images)", start)
         if not left:
+            return False
+        try:
+            if split_mixed_folder(left) is not None:
+                return self.add_folders(left, left)
+        except RoboCalError as exc:
+            self._set_status(f"Cannot add this folder: {exc.message}", ok=False)
             return False
         right = QFileDialog.getExistingDirectory(self, "Folder of the RIGHT camera's images", str(Path(left).parent))
         if not right:

@@ -180,6 +180,23 @@ def test_capture_is_disabled_for_hardware_until_cameras_are_opened(qtbot, tmp_pa
 
 
 # -- folders ----------------------------------------------------------------------------------
+def test_one_folder_of_left_and_right_images_asks_once(page, qtbot, monkeypatch, rendered_folders, tmp_path):
+    mixed = tmp_path / "mixed"
+    mixed.mkdir()
+    for i in range(8):
+        shutil.copy(rendered_folders / "left" / f"img_{i:02d}.png", mixed / f"left{i + 1:02d}.png")
+        shutil.copy(rendered_folders / "right" / f"img_{i:02d}.png", mixed / f"right{i + 1:02d}.png")
+    patch_dirs(monkeypatch, mixed)                # one answer: a second dialog would find none
+    qtbot.mouseClick(page.pairs.folders_button, Qt.MouseButton.LeftButton)
+    wait(qtbot, page)
+    assert len(page.items) == 8 and len(page.usable_pairs()) == 8
+    assert page.items[0].detection.name == "left01.png | right01.png"
+    (mixed / "right08.png").unlink()
+    patch_dirs(monkeypatch, mixed)
+    assert not page.add_folders_dialog()
+    assert "left08.png has no partner" in page.status.text()
+
+
 def test_add_folders_then_change_the_board(page, qtbot, monkeypatch, rendered_folders):
     patch_dirs(monkeypatch, rendered_folders / "left", rendered_folders / "right")
     qtbot.mouseClick(page.pairs.folders_button, Qt.MouseButton.LeftButton)
