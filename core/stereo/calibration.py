@@ -86,6 +86,11 @@ class StereoCalibrationResult:
         return self.fit.file
 
     @property
+    def cameras_look_swapped(self) -> bool:
+        """The right camera came out to the left of the left one: the images are likely swapped."""
+        return right_camera_to_the_left_mm(self.file) is not None
+
+    @property
     def epipolar_rms(self) -> float:
         return self.epipolar.rms
 
@@ -286,11 +291,21 @@ def _warnings(pair: StereoFile, cv: CrossValidation | None, outliers: list[int],
         warnings.append(f"{len(outliers)} pair(s) with a large error (above {threshold:.3f} px): "
                         + ", ".join(outlier_names)
                         + " — look at them and exclude them if the detection is wrong")
-    centre = -pair.R.T @ pair.T
-    if abs(centre[0]) >= abs(centre[1]) and centre[0] < 0:
-        warnings.append(f"the right camera sits {abs(centre[0]):.0f} mm to the left of the left camera: "
+    swapped = right_camera_to_the_left_mm(pair)
+    if swapped is not None:
+        warnings.append(f"the right camera sits {swapped:.0f} mm to the left of the left camera: "
                         f"are the left and right images swapped?")
     return warnings
+
+
+def right_camera_to_the_left_mm(pair: StereoFile) -> float | None:
+    """How far (mm) the right camera's centre sits to the left of the left camera (along the
+    left camera's x) when that is the larger offset of a horizontal rig — the sign of images
+    given to the wrong cameras —, else None."""
+    centre = -pair.R.T @ pair.T
+    if abs(centre[0]) >= abs(centre[1]) and centre[0] < 0:
+        return float(abs(centre[0]))
+    return None
 
 
 def _order_consensus(mono_l: MonoCalibration, mono_r: MonoCalibration, board: Board,

@@ -9,6 +9,7 @@ and the two images with the same key make a pair, in sorted key order.
 """
 from __future__ import annotations
 
+import os
 import re
 from pathlib import Path
 
@@ -66,3 +67,20 @@ def split_mixed_folder(folder: str | Path) -> tuple[list[Path], list[Path], list
                            hint="Each leftNN image needs its rightNN partner: add it or remove the unmatched ones.")
     keys = sorted(left)
     return [left[k] for k in keys], [right[k] for k in keys], others
+
+
+def swap_camera_folders(folder: str | Path) -> bool:
+    """Exchange `folder`/left and `folder`/right (pairs saved for the wrong cameras), by three
+    renames within the folder; False when the folder does not hold both. Raises RoboCalError
+    when an interrupted swap left its temporary folder behind."""
+    folder = Path(folder)
+    left, right, aside = folder / "left", folder / "right", folder / ".left-being-swapped"
+    if aside.exists():
+        raise RoboCalError("an earlier swap of the cameras' folders was interrupted", source=aside,
+                           hint="Look at left/, right/ and this folder, put the images back by hand, then remove it.")
+    if not (left.is_dir() and right.is_dir()):
+        return False
+    os.rename(left, aside)
+    os.rename(right, left)
+    os.rename(aside, right)
+    return True

@@ -67,6 +67,7 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, StereoFileActions,
         self._lab_token = 0
         self._preview_token = 0                    # the latest rectified preview asked for
         self._after_adding_note = ""
+        self._calibration_note = ""                # said once after the next calibration (a swap)
         self._board = self._default_board()
         self._build()
         state.projectChanged.connect(self._context_changed)
@@ -89,6 +90,9 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, StereoFileActions,
                                             f"stereo.yaml ({FORMATS}; several files: select them together)")
         self.ros_button = button("ROS camera_info…", on_click=self.export_ros,
                                  tooltip="Write left.yaml and right.yaml (ROS camera_info) into a folder")
+        self.swap_button = button("Swap left and right", "swapButton", on_click=lambda: self.swap_cameras(),
+                                  tooltip="The right camera came out on the left: give each pair's images to the "
+                                          "other camera and calibrate again")
         self.json_button = button("JSON…", on_click=self.export_json, tooltip="Write the calibration, its "
                                   "parameter table and per-pair errors as JSON")
         self.status.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
@@ -110,7 +114,7 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, StereoFileActions,
         layout.setSpacing(6)
         layout.addWidget(self.splitter, 1)
         layout.addWidget(self.status)
-        exports = row(self.import_button, self.save_button, "Export:", self.ros_button, self.json_button,
+        exports = row(self.swap_button, self.import_button, self.save_button, "Export:", self.ros_button, self.json_button,
                       stretch=False)
         exports.insertStretch(0, 1)
         layout.addLayout(exports)
@@ -271,6 +275,8 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, StereoFileActions,
         self.import_button.setEnabled(not busy and has_project)
         self.ros_button.setEnabled(not busy and has_result)
         self.json_button.setEnabled(not busy and has_result)
+        self.swap_button.setVisible(has_result and not self.result_stale and self.result.cameras_look_swapped)
+        self.swap_button.setEnabled(not busy)
         r.drop_button.setEnabled(not busy and has_result and bool(r.errors_chart.selected()))
         r.flagged_button.setEnabled(not busy and has_result and bool(self.result.outliers if has_result else []))
         r.restore_button.setEnabled(not busy and any(a.excluded for a in self.items))
@@ -317,6 +323,11 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, StereoFileActions,
                 + (f" ({len(result.warnings)} warning{'s' if len(result.warnings) > 1 else ''}: see Summary)"
                    if result.warnings else "")
                 + ". Drop outliers if needed, then Save stereo.yaml.")
-        self._set_status(text, ok=True)
+        if result.cameras_look_swapped:
+            text = (text.removesuffix(" Drop outliers if needed, then Save stereo.yaml.")
+                    + " The right camera came out on the left of the left one: the images are likely given to the "
+                      "wrong cameras. Press Swap left and right to calibrate them the other way round.")
+        self._set_status(text + self._calibration_note, ok=not result.cameras_look_swapped)
+        self._calibration_note = ""
         if self._autopilot_done is not None:
             QTimer.singleShot(0, self._autopilot_save)

@@ -20,7 +20,7 @@ from core.errors import RoboCalError
 from core.stereo.board import Board
 from core.stereo.checkerboard import (MIN_BAR, MIN_GOOD_PAIRS, MIN_PAIRS_TO_CALIBRATE, coverage, pair_images,
                                       screen_pairs)
-from core.stereo.image_pairs import split_mixed_folder
+from core.stereo.image_pairs import split_mixed_folder, swap_camera_folders
 from widgets.coverage_bars import CoverageBars
 from widgets.thumbnail_strip import BAD, MUTED, WARN, ThumbnailStrip
 
@@ -184,6 +184,44 @@ class PairsActions:
         self._set_status(f"Detecting the board in {n} pair{'s' if n != 1 else ''}…{note}")
         self._after_adding_note = note
         self._run_queue(jobs, then=lambda: self._adding_finished(then))
+        return True
+
+    def swap_cameras(self) -> bool:
+        """Give every pair's images to the other camera, detect them again and calibrate again
+        (for a calibration whose right camera came out on the left). The pairs saved in the
+        project (checkerboard/left, right) are swapped on disk too, so the project opens right."""
+        if not self._need_project() or not self.items:
+            return False
+        saved = self.state.project.folder / "checkerboard"
+        inside = [Path(a.detection.left_path).parent == saved / "left" for a in self.items]
+        try:
+            moved = any(inside) and swap_camera_folders(saved)
+        except (RoboCalError, OSError) as exc:
+            self._set_status(f"Cannot swap the saved pairs' folders: {getattr(exc, 'message', exc)}", ok=False)
+            return False
+        # a saved pair keeps its paths (its folders were exchanged), any other pair exchanges them
+        pairs = [(Path(a.detection.left_path), Path(a.detection.right_path)) if moved and here
+                 else (Path(a.detection.right_path), Path(a.detection.left_path)) for a, here in zip(self.items, inside)]
+        sources = [a.source for a in self.items]
+        excluded = [a.excluded for a in self.items]
+        self.items.clear()
+        self.pairs.strip.clear_all()
+        self.result = None
+        self._changed()
+        jobs = [(partial(detect_files, pairs[s:s + FILE_CHUNK], self._board, sources[s:s + FILE_CHUNK]),
+                 "Detecting checkerboards", self._add) for s in range(0, len(pairs), FILE_CHUNK)]
+
+        def detected():
+            for a, was in zip(self.items, excluded):
+                a.excluded = was
+            self._changed()
+            self._calibration_note = " Left and right images swapped." + (
+                " The cameras opened on the Setup page are still the other way round: swap them there."
+                if self.state.cameras is not None else "")
+            if not self.calibrate():
+                self._calibration_note = ""
+        self._set_status(f"Swapping left and right in {len(pairs)} pairs…")
+        self._run_queue(jobs, then=detected)
         return True
 
     def add_virtual_pairs(self, n: int = VIRTUAL_PAIRS, then: Callable[[], None] | None = None, *,

@@ -342,3 +342,61 @@ def test_autopilot_without_pairs_in_a_hardware_project_fails_clearly(qtbot, tmp_
     finally:
         page.tasks.shutdown()
         page.state.close()
+
+
+# -- swapped cameras -----------------------------------------------------------------------
+@pytest.mark.skipif(not REAL_DATA.is_dir(), reason=f"real checkerboard pairs not found at {REAL_DATA}")
+def test_swapped_real_pairs_are_swapped_on_the_spot(page, qtbot, monkeypatch, tmp_path):
+    """The published real pairs are given to the wrong cameras: the page says so and one button
+    calibrates them the other way round."""
+    folder = tmp_path / "real"
+    folder.mkdir()
+    for a, b in real_pairs([1, 3, 5, 8, 11, 13, 17, 19, 22, 24]):
+        shutil.copy(a, folder / a.name)
+        shutil.copy(b, folder / b.name)
+    page.pairs.cols_spin.setValue(9)
+    page.pairs.rows_spin.setValue(6)
+    page.pairs.square_spin.setValue(24.0)
+    page.apply_board()
+    patch_dirs(monkeypatch, folder)
+    qtbot.mouseClick(page.pairs.folders_button, Qt.MouseButton.LeftButton)
+    wait(qtbot, page)
+    assert page.calibrate()
+    wait(qtbot, page)
+    before = page.result
+    assert before.cameras_look_swapped and page.swap_button.isVisible()
+    assert "Swap left and right" in page.status.text()
+    qtbot.mouseClick(page.swap_button, Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: page.result is not None and not page.busy, timeout=WAIT_MS)
+    after = page.result
+    assert not after.cameras_look_swapped and not page.swap_button.isVisible()
+    assert page.items[0].detection.name == "right01.jpg | left01.jpg"
+    assert after.pairs_used == before.pairs_used
+    assert after.baseline_mm == pytest.approx(before.baseline_mm, rel=0.01)
+    assert -after.file.T[0] > 0.9 * after.baseline_mm        # the right camera now on the right (x > 0)
+    assert "Left and right images swapped" in page.status.text()
+
+
+def test_swapping_pairs_saved_in_the_project_swaps_their_folders(qtbot, tmp_path, shared_lab, monkeypatch,
+                                                                   rendered_folders):
+    project = tmp_path / "project"
+    saved = project / "checkerboard"
+    shutil.copytree(rendered_folders / "left", saved / "right")        # saved the wrong way round
+    shutil.copytree(rendered_folders / "right", saved / "left")
+    page = make_page(qtbot, tmp_path)
+    try:
+        wait(qtbot, page)
+        assert len(page.items) == 8
+        assert page.calibrate()
+        wait(qtbot, page)
+        assert page.result.cameras_look_swapped
+        first_right = (saved / "right" / "img_00.png").read_bytes()
+        assert page.swap_cameras()
+        qtbot.waitUntil(lambda: page.result is not None and not page.busy, timeout=WAIT_MS)
+        assert not page.result.cameras_look_swapped
+        assert (saved / "left" / "img_00.png").read_bytes() == first_right
+        assert (saved / "left" / "img_00.png").read_bytes() == (rendered_folders / "left" / "img_00.png").read_bytes()
+        assert page.items[0].detection.name == "img_00.png | img_00.png"
+    finally:
+        page.tasks.shutdown()
+        page.state.close()
