@@ -6,7 +6,9 @@
 PROJECT       a project folder to open (with --demo, created there if it is not a project, and kept:
               `robocal report PROJECT` makes the demo's report afterwards); also --project PROJECT
 
-Qt is imported only when the command runs, so the other subcommands never load it.
+Qt is imported only when the command runs, so the other subcommands never load it. Before a
+window on a display server (xcb, wayland) is tried, app/qt_libs.py checks the system libraries
+and the display, so a missing one is named with its package instead of Qt's own abort.
 """
 from __future__ import annotations
 
@@ -59,6 +61,12 @@ def run(args) -> CommandResult:
         ensure_writable_dir(screenshots)
     if args.project and not args.demo and not Path(args.project).exists():
         raise UsageError(f"no such project folder: {args.project}")
+
+    from app.qt_libs import DISPLAY_PLATFORMS, check_qt_libraries, platform_in_use
+    if platform_in_use() in DISPLAY_PLATFORMS:       # Qt would abort with its own words: say what to do first
+        libraries = check_qt_libraries()
+        if not libraries.ok:
+            raise libraries.error()
 
     from PySide6.QtCore import QTimer
     from PySide6.QtWidgets import QApplication
