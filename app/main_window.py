@@ -12,6 +12,7 @@ from PySide6.QtWidgets import (QApplication, QDockWidget, QHBoxLayout, QLabel, Q
                                QVBoxLayout, QWidget)
 
 from app import project_actions
+from app.help_menu import add_help_menu
 from app.messages import show_error, show_info
 from app.pages.base import WizardPage
 from app.pages.registry import create_pages
@@ -259,7 +260,9 @@ class MainWindow(QMainWindow):
         view_menu = menu.addMenu("&View")
         view_menu.addAction(self.action_explain)
         help_menu = menu.addMenu("&Help")
-        help_menu.addAction(self.action_about)
+        add_help_menu(self, help_menu, self.action_about,
+                      [self.action_new, self.action_open, self.action_save, self.action_quit, self.action_stop,
+                       self.action_back, self.action_next, self.action_explain])
 
         bar = self.addToolBar("Main")
         bar.setObjectName("mainToolBar")
