@@ -13,7 +13,7 @@ from PySide6.QtWidgets import (QApplication, QDockWidget, QHBoxLayout, QLabel, Q
 
 from app import project_actions
 from app.help_menu import add_help_menu
-from app.messages import show_error, show_info
+from app.messages import choose, show_error, show_info
 from app.pages.base import WizardPage
 from app.pages.registry import create_pages
 from app.pages.steps import Step
@@ -126,6 +126,8 @@ class MainWindow(QMainWindow):
         self.action_save = QAction(style.standardIcon(QStyle.StandardPixmap.SP_DialogSaveButton), "&Save", self)
         self.action_save.setShortcut(QKeySequence.StandardKey.Save)
         self.action_save.triggered.connect(self.save_project)
+        self.action_save_demo = QAction("Save the demo as a project…", self)
+        self.action_save_demo.triggered.connect(lambda: project_actions.save_demo_as_project(self, self.state))
         self.action_quit = QAction("&Quit", self)
         self.action_quit.setShortcut(QKeySequence.StandardKey.Quit)
         self.action_quit.setMenuRole(QAction.MenuRole.QuitRole)
@@ -247,7 +249,7 @@ class MainWindow(QMainWindow):
     def _build_menus_and_toolbar(self) -> None:
         menu = self.menuBar()
         file_menu = menu.addMenu("&File")
-        for a in (self.action_new, self.action_open, self.action_save):
+        for a in (self.action_new, self.action_open, self.action_save, self.action_save_demo):
             file_menu.addAction(a)
         file_menu.addSeparator()
         file_menu.addAction(self.action_quit)
@@ -383,6 +385,7 @@ class MainWindow(QMainWindow):
         name = project.name if project is not None else "no project"
         demo = " (temporary demo)" if self.state.is_temporary() else ""
         self.setWindowTitle(f"RoboCal — {name}{demo}")
+        self.action_save_demo.setVisible(self.state.is_temporary())
 
     def _update_mode_label(self, *_):
         conn = self.state.robot_connection
@@ -460,7 +463,22 @@ class MainWindow(QMainWindow):
                         "stereo calibration, marker detection, pose selection, measurement and "
                         "kinematic identification, with a built-in virtual lab.", "About RoboCal")
 
+    def _demo_may_close(self) -> bool:
+        """A demo with results is kept only if saved: ask (False: the user cancelled)."""
+        if not project_actions.demo_has_results(self.state):
+            return True
+        save, discard = "Save the demo as a project…", "Quit without saving"
+        answer = choose(self, "The demo's images, results, exports and report are in a temporary folder that is "
+                              "deleted when RoboCal quits. Save them as a project first?",
+                        [save, discard], "RoboCal: quit", non_interactive_answer=discard)
+        if answer == save:
+            return project_actions.save_demo_as_project(self, self.state) is not None
+        return answer == discard
+
     def closeEvent(self, event: QCloseEvent) -> None:
+        if not self._demo_may_close():
+            event.ignore()
+            return
         QApplication.instance().removeEventFilter(self._modal_stop)
         self.state.stop_robot()
         self.tasks.shutdown()

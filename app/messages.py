@@ -45,6 +45,22 @@ def confirm(parent: QWidget | None, question: str, title: str = "RoboCal", *, ye
     return box.clickedButton() is ok
 
 
+def choose(parent: QWidget | None, question: str, answers: list[str], title: str = "RoboCal", *,
+           non_interactive_answer: str) -> str | None:
+    """Ask `question` with one button per answer (the first is the default; Cancel is added):
+    the answer chosen, or None for Cancel. When nobody is there to click (autopilot, tests) the
+    question goes to stderr and `non_interactive_answer` is taken."""
+    if NON_INTERACTIVE:
+        sys.stderr.write(f"robocal gui: {title}: {question} -> {non_interactive_answer}\n")
+        return non_interactive_answer
+    box = QMessageBox(QMessageBox.Icon.Question, title, question, parent=parent)
+    buttons = {box.addButton(a, QMessageBox.ButtonRole.AcceptRole): a for a in answers}
+    box.addButton(QMessageBox.StandardButton.Cancel)
+    box.setDefaultButton(next(iter(buttons)))
+    box.exec()
+    return buttons.get(box.clickedButton())
+
+
 def install_excepthook(parent_getter=lambda: None, on_fatal=None):
     """Route uncaught exceptions (e.g. in a slot) to a message box instead of killing the app.
 

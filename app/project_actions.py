@@ -4,6 +4,7 @@ Each action asks for a folder when none is given, shows a RoboCalError as one me
 line, and returns the project (or None when cancelled or failed)."""
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 from PySide6.QtWidgets import QFileDialog, QWidget
@@ -11,7 +12,7 @@ from PySide6.QtWidgets import QFileDialog, QWidget
 from app.messages import show_error
 from app.state import WizardState
 from core.errors import RoboCalError
-from core.project import Project
+from core.project import PROJECT_FILE, Project
 
 
 def new_project(parent: QWidget | None, state: WizardState, folder: str | Path | None = None) -> Project | None:
@@ -47,3 +48,36 @@ def save_project(parent: QWidget | None, state: WizardState) -> bool:
         show_error(parent, exc.message, "RoboCal: save project")
         return False
     return True
+
+
+def demo_has_results(state: WizardState) -> bool:
+    """A temporary (demo) project holds work beyond its project and robot files."""
+    project = state.project
+    if project is None or not state.is_temporary():
+        return False
+    setup = {PROJECT_FILE, project.path("robot").name}
+    return any(p.name not in setup for p in project.folder.iterdir())
+
+
+def save_demo_as_project(parent: QWidget | None, state: WizardState, folder: str | Path | None = None
+                         ) -> Project | None:
+    """Copy the temporary demo project (its images, results, exports, report) into `folder`
+    (asked for; a new or empty folder) and make the copy the open project."""
+    if folder is None:
+        folder = QFileDialog.getExistingDirectory(
+            parent, "Save the demo as a project: choose or create an empty folder", str(Path.home()))
+        if not folder:
+            return None
+    folder = Path(folder)
+    try:
+        if folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
+            raise RoboCalError("the folder is not empty", source=folder,
+                               hint="Choose a new or an empty folder for the demo's project.")
+        state.save_project()
+        shutil.copytree(state.project.folder, folder, dirs_exist_ok=True)
+        return state.open_project(folder)
+    except OSError as exc:
+        show_error(parent, f"{folder}: cannot copy the demo there ({exc.strerror or exc}).", "RoboCal: save demo")
+    except RoboCalError as exc:
+        show_error(parent, exc.message, "RoboCal: save demo")
+    return None
