@@ -44,8 +44,11 @@ QPushButton#nextButton { font-weight: 600; }
 
 
 class _StopKeyWhileModal(QObject):
-    """Qt blocks the window's shortcuts while a modal dialog or a menu is open. The Stop keys
-    must still stop the robot then (the dialog or menu gets the key too: Esc also closes it)."""
+    """The window's Stop shortcuts act while the main window has the keyboard. Elsewhere — a
+    modal or file dialog, a menu, another window of RoboCal, where Qt blocks the window's
+    shortcuts — Ctrl+. still stops the robot, and Esc does only while a motion is running: there
+    Esc first means "close this dialog", and stopping a robot that stands still would be a
+    surprise. The dialog or menu gets the key too."""
 
     def __init__(self, window: "MainWindow"):
         super().__init__(window)
@@ -53,12 +56,14 @@ class _StopKeyWhileModal(QObject):
         self._last = (None, 0.0)
 
     def eventFilter(self, obj, event) -> bool:
-        blocked = (QApplication.activeModalWidget() is not None
-                   or isinstance(QApplication.activePopupWidget(), QMenu))   # menus eat Esc too
-        if (event.type() == QEvent.Type.KeyPress and blocked
-                and isinstance(event, QKeyEvent) and not event.isAutoRepeat()):
+        if event.type() != QEvent.Type.KeyPress or not isinstance(event, QKeyEvent) or event.isAutoRepeat():
+            return False
+        elsewhere = (QApplication.activeModalWidget() is not None
+                     or isinstance(QApplication.activePopupWidget(), QMenu)    # menus eat Esc too
+                     or QApplication.activeWindow() is not self.window)
+        if elsewhere:
             key, mods = event.key(), event.modifiers() & ~Qt.KeyboardModifier.KeypadModifier
-            if ((key == Qt.Key.Key_Escape and mods == Qt.KeyboardModifier.NoModifier)
+            if ((key == Qt.Key.Key_Escape and mods == Qt.KeyboardModifier.NoModifier and self.window.motion_running())
                     or (key == Qt.Key.Key_Period and mods == Qt.KeyboardModifier.ControlModifier)):
                 # an unhandled key press travels up from its receiver to the dialog, passing
                 # this filter at each step: act on the first step only
@@ -136,8 +141,9 @@ class MainWindow(QMainWindow):
         # Robot safety: Stop is always one key away, whatever has the focus.
         self.action_stop = QAction(style.standardIcon(QStyle.StandardPixmap.SP_BrowserStop), "&Stop robot", self)
         self.action_stop.setShortcuts([QKeySequence(Qt.Key.Key_Escape), QKeySequence("Ctrl+.")])
-        self.action_stop.setShortcutContext(Qt.ShortcutContext.ApplicationShortcut)
-        self.action_stop.setToolTip("Stop the robot now and cancel the running task (Esc or Ctrl+.)")
+        self.action_stop.setShortcutContext(Qt.ShortcutContext.WindowShortcut)   # other windows: _StopKeyWhileModal
+        self.action_stop.setToolTip("Stop the robot now and cancel the running task (Esc or Ctrl+.; in a dialog, "
+                                    "Ctrl+., and Esc while the robot moves)")
         self.action_stop.triggered.connect(self.stop_robot)
         self.action_resume = QAction("&Resume after stop", self)
         self.action_resume.triggered.connect(self.resume_robot)
@@ -398,6 +404,11 @@ class MainWindow(QMainWindow):
         self.resume_button.setVisible(conn is not None and conn.stopped)
 
     # -- robot safety --------------------------------------------------------------------
+    def motion_running(self) -> bool:
+        """A robot is connected and ready, and a task runs that may be moving it."""
+        conn = self.state.robot_connection
+        return conn is not None and not conn.stopped and self.tasks.busy
+
     def stop_robot(self) -> None:
         """Stop the robot (if any) and cancel the running tasks: one key, always."""
         stopped = self.state.stop_robot()

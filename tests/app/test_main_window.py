@@ -277,11 +277,37 @@ def test_stop_key_works_while_a_modal_dialog_is_open(ready_window, qtbot):
     qtbot.waitUntil(lambda: QApplication.activeModalWidget() is dialog, timeout=5000)
     qtbot.keyClick(field, Qt.Key.Key_Period, Qt.KeyboardModifier.ControlModifier)
     assert robot.stop_count == 1                      # once, although the key travels up to the dialog
-    qtbot.keyClick(field, Qt.Key.Key_Escape)          # Esc: stops and closes the dialog
-    assert robot.stop_count == 2
+    ready_window.resume_robot()
+    qtbot.keyClick(field, Qt.Key.Key_Escape)          # Esc with the robot standing still: only closes the dialog
+    assert robot.stop_count == 1 and not robot.stopped
     qtbot.waitUntil(lambda: not dialog.isVisible(), timeout=5000)
     qtbot.keyClick(ready_window, Qt.Key.Key_A)        # other keys do nothing
-    assert robot.stop_count == 2
+    assert robot.stop_count == 1
+    dialog.deleteLater()
+
+
+def test_esc_in_a_dialog_stops_a_moving_robot(ready_window, qtbot):
+    import threading
+    from PySide6.QtWidgets import QDialog, QLineEdit, QVBoxLayout
+    robot = ready_window.state.robot_connection
+    release = threading.Event()
+    handle = ready_window.run_task(lambda progress=None, cancelled=None: release.wait(30), label="Moving")
+    assert ready_window.motion_running()
+    dialog = QDialog(ready_window)
+    field = QLineEdit(dialog)
+    QVBoxLayout(dialog).addWidget(field)
+    dialog.setModal(True)
+    qtbot.addWidget(dialog)
+    dialog.show()
+    qtbot.waitExposed(dialog)
+    dialog.activateWindow()
+    field.setFocus()
+    qtbot.waitUntil(lambda: QApplication.activeModalWidget() is dialog, timeout=5000)
+    qtbot.keyClick(field, Qt.Key.Key_Escape)          # while a motion runs, Esc stops it (and closes the dialog)
+    assert robot.stopped and robot.stop_count == 1
+    release.set()
+    qtbot.waitUntil(lambda: not ready_window.tasks.busy, timeout=10000)
+    assert handle is not None
     dialog.deleteLater()
 
 
@@ -290,6 +316,9 @@ def test_stop_key_works_while_a_menu_is_open(ready_window, qtbot):
     menu = ready_window.menuBar().actions()[0].menu()
     menu.popup(ready_window.mapToGlobal(ready_window.rect().center()))
     qtbot.waitUntil(lambda: QApplication.activePopupWidget() is menu, timeout=5000)
-    qtbot.keyClick(menu, Qt.Key.Key_Escape)           # Esc stops the robot and closes the menu
+    qtbot.keyClick(menu, Qt.Key.Key_Period, Qt.KeyboardModifier.ControlModifier)   # Ctrl+. stops from a menu
     assert robot.stopped and robot.stop_count == 1
+    ready_window.resume_robot()
+    qtbot.keyClick(menu, Qt.Key.Key_Escape)           # Esc with the robot still: closes the menu only
+    assert not robot.stopped and robot.stop_count == 1
     qtbot.waitUntil(lambda: not menu.isVisible(), timeout=5000)
