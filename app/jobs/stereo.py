@@ -46,11 +46,13 @@ def thumbnail(left, right, det: PairDetection, board: Board) -> np.ndarray:
 
 
 def detect_files(pairs: Sequence[tuple[Path, Path]], board: Board, sources: str | Sequence[str] = "folders", *,
-                 progress=None, cancelled=None) -> list[AddedPair]:
+                 first: int = 0, total: int | None = None, progress=None, cancelled=None) -> list[AddedPair]:
     """Detect the board in image files (two at a time) and make their thumbnails. `sources`:
-    where the pairs came from, one for all or one per pair."""
+    where the pairs came from, one for all or one per pair. `first` and `total` number the
+    pairs in the progress messages when these are a batch of a longer list."""
     monitor = Monitor(progress, cancelled)
     n = len(pairs)
+    total = n if total is None else total
     names = [sources] * n if isinstance(sources, str) else list(sources)
 
     def work(lr, source):
@@ -64,7 +66,7 @@ def detect_files(pairs: Sequence[tuple[Path, Path]], board: Board, sources: str 
         futures = [pool.submit(work, lr, s) for lr, s in zip(pairs, names)]
         try:
             for i, fut in enumerate(futures):
-                monitor.step(i / max(n, 1), f"detecting the board: pair {i + 1} of {n}")
+                monitor.step(i / max(n, 1), f"detecting the board: pair {first + i + 1} of {total}")
                 out.append(fut.result())
         except BaseException:
             for fut in futures:
@@ -86,18 +88,20 @@ def board_poses(lab, count: int, rng_key: Sequence[int], *, progress=None, cance
 
 def render_pairs(lab, poses: Sequence[np.ndarray], seeds: Sequence[Sequence[int]],
                  paths: Sequence[tuple[Path, Path]], board: Board, source: str = "virtual lab", *,
-                 progress=None, cancelled=None) -> list[AddedPair]:
+                 first: int = 0, total: int | None = None, progress=None, cancelled=None) -> list[AddedPair]:
     """Render the lab's checkerboard at each pose, save both images as PNG, detect the board
     (overlapping with the next rendering) and make the thumbnails. A cancelled or failed
-    run removes the files it wrote."""
+    run removes the files it wrote. `first` and `total` number the pairs in the progress
+    messages when these are a batch of a longer list."""
     monitor = Monitor(progress, cancelled)
     n = len(poses)
+    total = n if total is None else total
     written: list[Path] = []
     results = []
     try:
         with ThreadPoolExecutor(max_workers=1) as pool:
             for i, (pose, key, (lp, rp)) in enumerate(zip(poses, seeds, paths)):
-                monitor.step(i / max(n, 1), f"rendering pair {i + 1} of {n}")
+                monitor.step(i / max(n, 1), f"rendering pair {first + i + 1} of {total}")
                 left, right = lab.render_checkerboard_pair(pose, np.random.default_rng(list(key)))
                 for img, p in ((left, lp), (right, rp)):
                     ok, buf = cv2.imencode(".png", img, PNG_PARAMS)
@@ -108,7 +112,7 @@ def render_pairs(lab, poses: Sequence[np.ndarray], seeds: Sequence[Sequence[int]
                 results.append((pool.submit(detect_pair, lp, rp, board), left, right))
             out = []
             for i, (fut, left, right) in enumerate(results):
-                monitor.step((i + 0.5) / max(n, 1) * 0.2 + 0.8, "detecting the board")
+                monitor.step((i + 0.5) / max(n, 1) * 0.2 + 0.8, f"detecting the board: pair {first + i + 1} of {total}")
                 det = fut.result()
                 out.append(AddedPair(det, thumbnail(left, right, det, board), source))
     except BaseException:

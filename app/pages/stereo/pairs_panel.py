@@ -174,8 +174,7 @@ class PairsActions:
             self._set_status(f"Cannot add these folders: {exc.message}", ok=False)
             return False
         self.ignored_files = list(ignored)
-        jobs = [(partial(detect_files, pairs[s:s + FILE_CHUNK], self._board, "folders"), "Detecting checkerboards",
-                 self._add) for s in range(0, len(pairs), FILE_CHUNK)]
+        jobs = self._detect_jobs(pairs, self._board, "folders")
         note = ""
         if ignored:
             shown = ", ".join(ignored[:4]) + (", …" if len(ignored) > 4 else "")
@@ -185,6 +184,13 @@ class PairsActions:
         self._after_adding_note = note
         self._run_queue(jobs, then=lambda: self._adding_finished(then))
         return True
+
+    def _detect_jobs(self, pairs: list[tuple[Path, Path]], board: Board, sources: str | list[str]) -> list:
+        """Queue jobs detecting `pairs` in batches of FILE_CHUNK (thumbnails fill in between),
+        their progress numbered over all the pairs."""
+        return [(partial(detect_files, pairs[s:s + FILE_CHUNK], board,
+                         sources if isinstance(sources, str) else sources[s:s + FILE_CHUNK], first=s, total=len(pairs)),
+                 "Detecting checkerboards", self._add) for s in range(0, len(pairs), FILE_CHUNK)]
 
     def swap_cameras(self) -> bool:
         """Give every pair's images to the other camera, detect them again and calibrate again
@@ -208,8 +214,7 @@ class PairsActions:
         self.pairs.strip.clear_all()
         self.result = None
         self._changed()
-        jobs = [(partial(detect_files, pairs[s:s + FILE_CHUNK], self._board, sources[s:s + FILE_CHUNK]),
-                 "Detecting checkerboards", self._add) for s in range(0, len(pairs), FILE_CHUNK)]
+        jobs = self._detect_jobs(pairs, self._board, sources)
 
         def detected():
             for a, was in zip(self.items, excluded):
@@ -243,8 +248,8 @@ class PairsActions:
                      for i in range(len(poses))]
             seeds = [[seed, 11, first + i] for i in range(len(poses))]
             jobs = [(partial(render_pairs, lab, poses[s:s + RENDER_CHUNK], seeds[s:s + RENDER_CHUNK],
-                             paths[s:s + RENDER_CHUNK], self._board, source), "Rendering virtual-lab pairs", self._add)
-                    for s in range(0, len(poses), RENDER_CHUNK)]
+                             paths[s:s + RENDER_CHUNK], self._board, source, first=s, total=len(poses)),
+                     "Rendering virtual-lab pairs", self._add) for s in range(0, len(poses), RENDER_CHUNK)]
             self._queue[:0] = jobs
             self._queue_total += len(jobs)
 
@@ -331,8 +336,7 @@ class PairsActions:
         self.items.clear()
         self.pairs.strip.clear_all()
         self._changed()
-        jobs = [(partial(detect_files, pairs[s:s + FILE_CHUNK], new, sources[s:s + FILE_CHUNK]),
-                 "Detecting checkerboards", self._add) for s in range(0, len(pairs), FILE_CHUNK)]
+        jobs = self._detect_jobs(pairs, new, sources)
         self._set_status(f"Board {new.cols}x{new.rows}: detecting the board again in {len(pairs)} pairs…")
         self._after_adding_note = ""
         self._run_queue(jobs, then=lambda: self._adding_finished(None))

@@ -71,6 +71,20 @@ def test_detect_files_keeps_the_source_of_each_pair(lab, tmp_path):
     assert not wrong[0].detection.accepted and "8x6" in wrong[0].detection.reason
 
 
+def test_a_batch_numbers_its_pairs_in_the_whole_list(lab, tmp_path):
+    """Pairs 5 and 6 of 20: the messages say so, not "pair 1 of 2"."""
+    poses = board_poses(lab, 2, [0, 10, 0])
+    said = []
+    render_pairs(lab, poses, [[0, 11, 0], [0, 11, 1]], _paths(tmp_path, 2), lab.board, first=4, total=20,
+                 progress=lambda f, m: said.append(m))
+    assert [m for m in said if m.startswith("rendering")] == ["rendering pair 5 of 20", "rendering pair 6 of 20"]
+    assert "detecting the board: pair 6 of 20" in said
+    said.clear()
+    detect_files(_paths(tmp_path, 2), lab.board, first=18, total=20, progress=lambda f, m: said.append(m))
+    assert [m for m in said if m.startswith("detecting")] == ["detecting the board: pair 19 of 20",
+                                                              "detecting the board: pair 20 of 20"]
+
+
 def test_next_free_number_after_the_saved_pairs(tmp_path):
     assert next_free_number(tmp_path) == 0
     (tmp_path / "left").mkdir()
