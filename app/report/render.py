@@ -132,4 +132,6 @@ def write_report(project, outputs, *, robot=None, identification=None, accuracy=
             if fig.key in images:
                 files[folder / f"{fig.key}.png"] = png_bytes(images[fig.key])
     monitor.step(0.95, "saving")
-    return atomic_write_many(files)
+    written = atomic_write_many(files)
+    monitor.step(1.0, "report written")
+    return written

@@ -111,6 +111,8 @@ def test_export_all_writes_every_available_file(page, calibration, qtbot):
     assert page.is_complete()
     status = page.status.text()
     assert "5 file(s) written" in status and "Stereo camera files" in status and "Skipped" in status
+    bar = page.progress_row().bar
+    assert bar.value() == bar.maximum() and "report written" in bar.format()      # not left at "saving 95 %"
 
     model = read_robot(folder / "calibrated.json")
     assert model.calibration["statistics"]["rms_after_mm"] == pytest.approx(result.after.rms_mm)
