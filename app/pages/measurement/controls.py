@@ -1,4 +1,4 @@
-"""The Measurement page's top rows: where the inputs come from, Load poses, Start / Resume,
+"""The Measurement page's top rows: where the inputs come from, Load poses, Start / Measure the rest,
 Pause / Continue, the progress row with Cancel, Start over, Teach mode."""
 from __future__ import annotations
 
@@ -39,7 +39,7 @@ class RunControls(QWidget):
         self.teach_check = QCheckBox("Teach mode")
         self.teach_check.setObjectName("teachModeCheck")
         self.teach_check.toggled.connect(on_teach)
-        progress.cancel_button.setToolTip("Stop the run after the current pose; Resume continues from there")
+        progress.cancel_button.setToolTip("Stop the run after the current pose; Measure the rest starts from there")
         progress.bar.setObjectName("runProgress")
 
         grid = QGridLayout(self)
@@ -57,10 +57,10 @@ class RunControls(QWidget):
 
     def set_buttons(self, *, busy: bool, can_start: bool, resume: bool, can_start_over: bool,
                     teach: bool = False) -> None:
-        """Enable what makes sense now; Start reads Resume when poses are left after a run; in
+        """Enable what makes sense now; Start reads Measure the rest when poses are left after a run; in
         teach mode the technician moves the robot (no Start, no Pause)."""
         self.start_button.setEnabled(not busy and can_start and not teach)
-        self.start_button.setText("Resume" if resume else "Start")
+        self.start_button.setText("Measure the rest" if resume else "Start")
         self.pause_button.setEnabled(busy and not teach)
         self.over_button.setEnabled(not busy and can_start_over)
         self.load_button.setEnabled(not busy)

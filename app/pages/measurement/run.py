@@ -4,7 +4,7 @@ the poses as they come in, the outcome, start over.
 In the virtual lab the simulated robot moves and the lab renders each pair
 (app.jobs.measurement.measure_virtual). With a serial robot or chosen cameras the run goes
 over them (app.jobs.measurement_hardware.measure_hardware): app.safety checks every target and
-asks before the first motion; a fault stops the run, keeps what was measured, and Resume
+asks before the first motion; a fault stops the run, keeps what was measured, and Measure the rest
 continues with the first pose not measured once the robot is connected again.
 
 A mixin of MeasurementPage (before WizardPage): it uses the page's `rows`,
@@ -24,7 +24,7 @@ from core.measurement.run import PoseOutcome, rejects_path_for
 
 
 class RunMixin:
-    """Start / Resume through `TaskMixin.start` once the lab exists; the pause event and the run
+    """Start / Measure the rest through `TaskMixin.start` once the lab exists; the pause event and the run
     id (the poses an older run reports are dropped) are the run's own."""
 
     def _inputs(self):
@@ -50,8 +50,8 @@ class RunMixin:
             self._set_status("No robot connection (Setup step).", False)
             return False
         if driver.stopped:
-            self._set_status("The robot is stopped. When the way is clear: Robot ▸ Resume after stop, then Resume "
-                             "the run.", False)
+            self._set_status("The robot is stopped. When the way is clear: Robot ▸ Resume after stop, then Measure "
+                             "the rest.", False)
             return False
         return True
 
@@ -95,7 +95,7 @@ class RunMixin:
         lost = getattr(driver, "lost", None)
         if lost:
             return (f"The connection to the robot is lost ({lost}). Connect the robot again on the Setup page, "
-                    "then Resume.")
+                    "then Measure the rest.")
         Q = self.poses.Q[[r.index for r in self._pending()]]
         return motion_refused(self, state, Q)
 
@@ -193,7 +193,7 @@ class RunMixin:
 
     def _stopped_text(self, kept: str) -> str:
         return (f"Robot stopped: the run stopped before pose {self._next_pose_text()}. {kept}. "
-                "When the way is clear: Robot ▸ Resume after stop, then Resume.")
+                "When the way is clear: Robot ▸ Resume after stop, then Measure the rest.")
 
     def _finished(self, result) -> None:
         self.result = result
@@ -204,8 +204,8 @@ class RunMixin:
             if self._robot_stopped():                 # the run stopped the robot: the window offers Resume
                 self.state.stoppedChanged.emit(True)
             nxt = self._next_pose_text()
-            self._set_status(f"✗ Stopped before pose {nxt}: {result.fault.rstrip('.')}. {kept}; Resume continues "
-                             f"with pose {nxt} (connect the robot again on the Setup page first).", False)
+            self._set_status(f"✗ Stopped before pose {nxt}: {result.fault.rstrip('.')}. {kept}; Measure the rest starts "
+                             f"at pose {nxt} (connect the robot again on the Setup page first).", False)
             self._finish_autopilot(False, result.fault)
             return
         if result.cancelled:
@@ -213,7 +213,7 @@ class RunMixin:
                 self._set_status(self._stopped_text(kept), False)
                 self._finish_autopilot(False, "the robot was stopped")
             else:
-                self._set_status(f"Cancelled. {kept}. Resume continues with pose {self._next_pose_text()}.", False)
+                self._set_status(f"Cancelled. {kept}. Measure the rest starts at pose {self._next_pose_text()}.", False)
                 self._finish_autopilot(False, "cancelled")
             return
         if self.state.project is not None and self.measurements_path().is_file():

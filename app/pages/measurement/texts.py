@@ -74,7 +74,7 @@ def ready_text(rows: list[PoseRow], n_min: int, file_problem: str, complete: boo
         return ("Teach mode: bring the robot to the pose shown below, then Record pose. Each pose is written "
                 "to measurements.csv as it is recorded.")
     if c[MEASURED] or c[REJECTED]:
-        return (f"{c[MEASURED] + c[REJECTED]} of {len(rows)} poses done in an earlier run: Resume "
-                "continues with the others.")
+        return (f"{c[MEASURED] + c[REJECTED]} of {len(rows)} poses done in an earlier run: Measure "
+                "the rest measures the others.")
     return ("Start drives the robot through the poses; each measurement is written to "
             "measurements.csv as it is taken. Esc stops the robot.")

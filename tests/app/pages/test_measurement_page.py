@@ -89,8 +89,8 @@ def test_cancel_keeps_every_measurement_and_resume_continues(qtbot, page, boxes)
     first = measured_ids(page)
     assert 2 <= len(first) < N_POSES
     assert sorted(page_ids(page)) == sorted(first)          # the table is the file
-    assert page.result.cancelled and "Cancelled" in page.status.text() and "Resume" in page.status.text()
-    assert page.controls.start_button.text() == "Resume" and page.controls.start_button.isEnabled()
+    assert page.result.cancelled and "Cancelled" in page.status.text() and "Measure the rest" in page.status.text()
+    assert page.controls.start_button.text() == "Measure the rest" and page.controls.start_button.isEnabled()
     pending = page_ids(page, PENDING)
     assert pending and len(pending) + len(first) + len(page_ids(page, REJECTED)) == N_POSES
     rows_before = {p: page.rows[page._row_of[p]].point.copy() for p in first}

@@ -131,10 +131,10 @@ def test_a_disconnect_keeps_what_was_measured_and_resume_finishes(qtbot, lab, tr
             text = page.status.text()
             assert "Stopped before pose 3" in text and "connection is lost" in text, text
             assert state.robot_connection.stopped and stopped_seen == [True]      # the window offers Resume
-            assert "Resume continues with pose 3" in text and "Setup page" in text
+            assert "Measure the rest starts at pose 3" in text and "Setup page" in text
             assert sorted(measured_ids(page)) == [0, 1, 2]                   # kept on disk
             assert [r.pose for r in page.rows if r.status == PENDING] == list(range(3, N_POSES))
-            assert page.controls.start_button.text() == "Resume"
+            assert page.controls.start_button.text() == "Measure the rest"
             page.grab().save(str(tmp_path / "measurement-fault.png"))
             # not reconnected yet: refused, nothing sent
             moves = sum(line.startswith("MOVE") for line in sim.received)
