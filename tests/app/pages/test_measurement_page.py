@@ -19,6 +19,7 @@ from core.measurement.run import read_rejects, rejects_path_for
 from core.measurement.file import read_measurements
 from core.poses.file import write_poses
 from tests.app.virtual_inputs import lab_marker, lab_state, make_lab
+from tests.app.windows import close_window
 
 N_POSES = 10
 
@@ -208,7 +209,7 @@ def test_stop_key_stops_the_robot_and_the_run(qtbot, lab, trained, q_file, boxes
         ids = measured_ids(page)
         assert len(ids) == len(set(ids)) and set(first) <= set(ids) and not page_ids(page, PENDING)
     finally:
-        win.close()
+        close_window(win)
 
 
 def test_autopilot_measures_the_poses(qtbot, page):
@@ -276,5 +277,5 @@ def test_demo_autopilot_identifies_from_the_measured_points(qtbot, tmp_path):
         assert run.synthetic is None and run.source == path          # the measured points, not ideal ones
         assert 0.005 < run.result.after.rms_mm < 0.1 and run.result.before.rms_mm > 1.0
     finally:
-        win.close()
+        close_window(win)
         messages.set_non_interactive(False)

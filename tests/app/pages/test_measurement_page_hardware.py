@@ -23,6 +23,7 @@ from core.project import HARDWARE
 from core.robot.controller_sim import ControllerSim
 from tests.app.jobs.test_measurement_hardware import rendered_folders
 from tests.app.virtual_inputs import lab_marker, lab_state, make_lab, true_stereo_yaml
+from tests.app.windows import close_window
 
 N_POSES = 10
 
@@ -230,7 +231,7 @@ def test_the_stop_key_ends_a_run_over_a_pty(qtbot, hardware, lab):
             assert sorted(measured_ids(page)) == list(range(N_POSES)), page.status.text()
         finally:
             state.robot_connection.disconnect()
-            win.close()
+            close_window(win)
 
 
 def test_teach_mode_reads_the_joints_from_the_controller(qtbot, hardware, lab, Q):
