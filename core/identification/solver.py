@@ -823,6 +823,8 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
         raise UsageError(f"the payload must be a mass of 0 kg or more, got {payload_kg}")
     if holdout is not None and kfold is not None:
         raise UsageError("use either a held-out fraction or k-fold cross validation, not both")
+    if compliance != OFF:
+        check_vertical_arm(robot, field="--compliance")
     monitor = Monitor(progress, cancelled)
     input_robot = robot
     robot, unknown = with_unknown_targets(robot, meas)
@@ -955,7 +957,6 @@ def _compliance_robots(robot: RobotModel, mode: str) -> tuple[RobotModel, RobotM
         rigid.compliance = None
     if mode == OFF:
         return rigid, rigid
-    check_vertical_arm(robot, field="--compliance")
     with_terms = robot.copy()
     with_terms.compliance = (Compliance.zero(robot.dof) if robot.compliance is None
                              else robot.compliance.with_terms(DEFAULT_TERMS))
