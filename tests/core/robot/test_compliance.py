@@ -159,3 +159,26 @@ def test_vertical_arms_are_accepted(name):
     model.compliance = Compliance.zero(model.dof)
     check_vertical_arm(model)             # no error
     assert model.compliance.is_zero and SHAPES[0] == "sin_q2"
+
+
+def test_check_limits_include_the_deflection_terms_through_the_covariance():
+    """A calibration with deflection terms: their covariance enters the predicted uncertainty of a
+    check pose through the Jacobian (core.monitoring.uncertainty)."""
+    from core.identification.solver import identify
+    from core.monitoring.uncertainty import calibration_uncertainty, prediction_covariance
+    from core.virtual_lab.ideal_measurements import ideal_lab_measurements
+    from core.virtual_lab.lab import VirtualLab
+
+    lab = VirtualLab.create(read_robot(robot_path("abb_irb120")), seed=0, deflection=True)
+    result = identify(lab.nominal_robot, ideal_lab_measurements(lab, 40, sigma_mm=0.05, seed=0), compliance="on")
+    unc = calibration_uncertainty(result.model)
+    names = unc.names
+    assert "J2.cos_q2" in names and "J3.sin_q23" in names
+    Q = lab.random_visible_poses(5, 7)
+    S = prediction_covariance(result.model, unc, Q, ["marker"] * 5)
+    keep = [k for k, p in enumerate(unc.parameters) if p.group != "compliance"]
+    geometric = type(unc)(parameters=[unc.parameters[k] for k in keep], covariance=unc.covariance[np.ix_(keep, keep)],
+                          sigma_mm=unc.sigma_mm)
+    S_geo = prediction_covariance(result.model, geometric, Q, ["marker"] * 5)
+    # the deflection terms' own uncertainty (and their correlations) change the predicted spread
+    assert not np.allclose(np.diag(S), np.diag(S_geo), rtol=1e-3)
