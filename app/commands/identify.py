@@ -39,6 +39,14 @@ def add_arguments(parser) -> None:
                              "and estimate the marker's orientation on the tool (marker.rx, marker.ry, marker.rz); "
                              "with --fix marker.rz the last joint's zero is determined even when the marker sits "
                              "on the last joint's axis")
+    parser.add_argument("--compliance", choices=["off", "on", "auto"], default="off",
+                        help="deflection of the shoulder and elbow under the arm's weight (a vertical articulated "
+                             "arm): 'on' estimates six terms that follow the gravity torque (sin/cos of q2 and of "
+                             "q2+q3), 'auto' keeps them only when cross validation over the poses shows they "
+                             "predict new poses better, 'off' is geometry only (default)")
+    parser.add_argument("--payload", type=options.payload_kg, metavar="KG",
+                        help="the mass mounted on the flange during the measurements (kg), recorded with the "
+                             "calibration: deflection terms hold for this payload")
 
 
 def run(args) -> CommandResult:
@@ -56,7 +64,8 @@ def run(args) -> CommandResult:
     fixed = [n.strip() for n in args.fix.split(",") if n.strip()]
     prior = None if args.prior is False else PriorOptions(weight=args.prior)
     result = identify(robot, meas, fixed=fixed, huber=args.huber, holdout=args.holdout, kfold=args.kfold,
-                      seed=args.seed, prior=prior, orientation=args.orientation)
+                      seed=args.seed, prior=prior, orientation=args.orientation, compliance=args.compliance,
+                      payload_kg=args.payload)
     write_calibrated_model(result, args.out)
     data = result.summary()
     data["out"] = str(args.out)
@@ -98,6 +107,14 @@ def _text(result, out) -> str:
         if p.dominated:
             lines.append("    dominated by the prior (share the measurements determine): " + ", ".join(
                 f"{n} {p.shares[n]:.0%}" for n in p.dominated))
+    c = result.compliance
+    if c is not None and c.mode != "off":
+        lines.append(f"  Deflection under the arm's weight: {c.verdict}")
+    if result.payload_kg is not None:
+        lines.append(f"  Payload during calibration: {result.payload_kg:g} kg.")
+    elif c is not None and c.kept:
+        lines.append("  Payload during calibration: not given (--payload KG); the deflection terms hold for the "
+                     "payload that was mounted.")
     if result.unidentifiable:
         lines.append("  Not estimated (kept at nominal):")
         for r in result.unidentifiable:

@@ -15,6 +15,7 @@ FRACTION = Bound(0.0, 1.0, "", "a fraction of the poses")
 FOLDS = Bound(2, 1000, "", "K-fold validation needs at least two folds")
 OUTLIER_K = Bound(0.5, 100.0, "", "a threshold in multiples of the median error")
 DEPTH_MM = Bound(1.0, 1e5, "mm", "a depth in front of the cameras")
+PAYLOAD_KG = Bound(0.0, 5000.0, "kg", "the mass mounted on the robot's flange")
 
 
 def _make(bound: Bound, kind: type) -> Callable[[str], float | int]:
@@ -55,6 +56,7 @@ angle_deg = number_in(B.OPTION_ANGLE_DEG)
 huber_k = number_in(B.HUBER_K)
 fraction = number_in(FRACTION)
 outlier_k = number_in(OUTLIER_K)
+payload_kg = number_in(PAYLOAD_KG)
 _prior_weight = number_in(P.WEIGHT)
 
 
@@ -64,3 +66,14 @@ def prior_weight(text: str) -> float | None:
 
 
 prior_weight.__name__ = "prior weight"
+
+
+def target_names(text: str) -> list[str]:
+    """Comma-separated target names (at least one)."""
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    if not names:
+        raise argparse.ArgumentTypeError("expected one or more target names separated by commas")
+    return names
+
+
+target_names.__name__ = "target names"

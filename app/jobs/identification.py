@@ -35,17 +35,21 @@ class IdentificationRun:
 def run_identification(robot: RobotModel, path: str | Path, *, fixed=(), huber: float | None = None,
                        holdout: float | None = None, kfold: int | None = None, prior: PriorOptions | None = None,
                        seed: int = 0, lab=None, truth_poses: int = TRUTH_POSES, orientation: bool = False,
+                       compliance: str = "off", payload_kg: float | None = None,
                        progress=None, cancelled=None) -> IdentificationRun:
     """Read the measurements at `path`, identify `robot`'s parameters, and with a virtual `lab`
     compare the nominal and the calibrated model with its true robot at `truth_poses` fresh
-    visible poses (drawn from `seed`). `orientation`: also fit the measured marker orientations."""
+    visible poses (drawn from `seed`). `orientation`: also fit the measured marker orientations.
+    `compliance` ("off", "on", "auto") and `payload_kg`: the deflection terms and the payload mounted
+    during calibration (core.identification.solver.identify)."""
     monitor = Monitor(progress, cancelled)
     path = Path(path)
     monitor.step(0.0, "reading the measurements")
     meas = read_measurements(path, robot)
     fit = monitor.sub(0.02, 0.85 if lab is not None else 1.0)
     result = identify(robot, meas, fixed=list(fixed), huber=huber, holdout=holdout, kfold=kfold, prior=prior,
-                      seed=seed, orientation=orientation, progress=fit, cancelled=cancelled)
+                      seed=seed, orientation=orientation, compliance=compliance, payload_kg=payload_kg,
+                      progress=fit, cancelled=cancelled)
     accuracy = None
     if lab is not None:
         monitor.step(0.95, "virtual lab: comparing with the true robot")

@@ -5,7 +5,9 @@ same 16 columns, one row per joint:
 `joint,type,theta_deg,d_mm,a_mm,alpha_deg,beta_deg,min_deg,max_deg,min_mm,max_mm` (joint limits
 in the deg pair for revolute, the mm pair for prismatic joints, the other pair empty) and the
 standard deviations `theta_std_deg,d_std_mm,a_std_mm,alpha_std_deg,beta_std_deg` (empty where
-a parameter was not estimated, and for a model that carries no calibration).
+a parameter was not estimated, and for a model that carries no calibration). A model with
+deflection terms (core.robot.compliance) gets one `#` comment line before the header saying that
+the table cannot hold them.
 
 URDF (metres and radians, as URDF requires), a kinematic model with no visuals or inertias:
     world ─(fixed base_joint: base pose)→ base_link = DH frame 0
@@ -20,6 +22,8 @@ name, so the URDF's joints match the robot's joint states: characters other than
 digits and `_` become `_`, a leading digit gets a `_` in front, and a name already taken gets
 `_2`, `_3`… (`urdf_names`). Effort and velocity limits are not known to RoboCal; they are
 written as 0 with a comment (fill them in before using the URDF for motion planning).
+Neither format can hold deflection terms: for a model that has them, a comment says so and names
+the robot JSON file as the complete model.
 """
 from __future__ import annotations
 
@@ -63,10 +67,24 @@ def _std_table(model: RobotModel) -> dict[str, float | None]:
     return {row.get("name"): row.get("std") for row in cal["parameters"] if isinstance(row, dict)}
 
 
+def compliance_note(model: RobotModel) -> str:
+    """One line for a model with deflection terms: the export cannot hold them ("" without)."""
+    if model.compliance is None or model.compliance.is_zero:
+        return ""
+    joints = sorted({f"J{j + 1}" for j, _ in model.compliance.terms})
+    return (f"This model also has deflection terms ({', '.join(joints)} bend under the arm's weight) that this "
+            f"format cannot hold: positions computed from it alone miss that deflection. The robot JSON "
+            f"file keeps the complete model.")
+
+
 def dh_table_csv(model: RobotModel) -> str:
-    """The DH table as CSV text (`CSV_COLUMNS`; standard deviations from the model's calibration)."""
+    """The DH table as CSV text (`CSV_COLUMNS`; standard deviations from the model's calibration),
+    after a `#` line saying so when the model has deflection terms the table cannot hold."""
     stds = _std_table(model)
     out = io.StringIO()
+    note = compliance_note(model)
+    if note:
+        out.write(f"# {note}\r\n")
     writer = csv.writer(out)                     # quotes a name holding a comma, quote or line break
     writer.writerow(CSV_COLUMNS)
     for i, j in enumerate(model.joints):
@@ -153,11 +171,14 @@ def urdf_text(model: RobotModel, robot_name: str | None = None) -> str:
     out = ['<?xml version="1.0"?>',
            f"<!-- Exported by RoboCal from the model {_comment_text(model.name)}. Lengths in metres, angles in",
            "     radians. link{i} is DH frame i; world is the measurement (left camera) frame. Joint names",
-           "     are the robot file's. effort and velocity limits are unknown to RoboCal and written as 0. -->",
-           f"<robot name={quoteattr(name)}>",
-           '  <link name="world"/>', '  <link name="base_link"/>',
-           f'  <joint name="{names.base_joint}" type="fixed">', '    <parent link="world"/>',
-           '    <child link="base_link"/>', f"    {_origin(model.base)}", "  </joint>"]
+           "     are the robot file's. effort and velocity limits are unknown to RoboCal and written as 0. -->"]
+    note = compliance_note(model)
+    if note:
+        out.append(f"<!-- {_comment_text(note)} -->")
+    out += [f"<robot name={quoteattr(name)}>",
+            '  <link name="world"/>', '  <link name="base_link"/>',
+            f'  <joint name="{names.base_joint}" type="fixed">', '    <parent link="world"/>',
+            '    <child link="base_link"/>', f"    {_origin(model.base)}", "  </joint>"]
     parent = "base_link"
     for i, j in enumerate(model.joints):
         jn, moving, frame = names.joints[i], names.moving[i], f"link{i + 1}"

@@ -222,9 +222,10 @@ def random_configurations(model: RobotModel, count: int, seed: int = 0) -> np.nd
 
 def _elimination_order(params: Sequence[Parameter]) -> list[int]:
     """Indices in the order parameters are preferably given up: joints from the last to the
-    first (d, theta, a, alpha, beta within a joint), then targets, then the base."""
+    first (d, theta, a, alpha, beta within a joint), then targets, then the base; deflection terms
+    (core.robot.compliance) before all of them: geometry comes first."""
     kind_rank = {"d": 0, "theta": 1, "a": 2, "alpha": 3, "beta": 4}
-    group_rank = {"joint": 0, "target": 1, "orientation": 1, "base": 2}
+    group_rank = {"compliance": -1, "joint": 0, "target": 1, "orientation": 1, "base": 2}
 
     def key(k):
         p = params[k]
@@ -378,7 +379,9 @@ def practical_identifiability(ident: Identifiability, model: RobotModel, Q: np.n
         with np.errstate(invalid="ignore"):
             std = sigma_hat * np.sqrt(var) / D
         std = np.where(np.isfinite(D), std, np.inf)
-        ratio = {keep[k]: (std[k] / limit[free[keep[k]].angular] if free[keep[k]].group != "base" else 0.0)
+        # the base is always estimated; deflection terms carry their own ridge (core.identification.prior)
+        ratio = {keep[k]: (std[k] / limit[free[keep[k]].angular]
+                           if free[keep[k]].group not in ("base", "compliance") else 0.0)
                  for k in range(len(keep))}
         if not any(not r <= 1.0 for r in ratio.values()):
             break

@@ -25,6 +25,8 @@ Parameter vector g
   on the left: base ← [Exp(ω)·R | t + δt].
 * one 3D offset per measured target, `<target>.x/.y/.z` (mm, in the tool frame). The tool
   transform itself stays fixed: the target points carry the tool offset.
+* with compliance (core.robot.compliance), the deflection coefficients the model holds,
+  `Ji.<shape>` (e.g. `J2.cos_q2`, rad per unit shape value): δq_i = Σ c_ik·f_k(q).
 * with measured orientations (core.identification.orientation), the orientation of each such
   target's frame on the tool, `<target>.rx/.ry/.rz`: small rotations (rad) about the tool
   frame's axes, applied on the left of `RobotModel.target_rotations[target]`. They do not move
@@ -40,6 +42,7 @@ Jacobian (analytic, via the joint frames, world = measurement frame; P a measure
     ∂P/∂β_i = y_i × (P − o_i)
     ∂P/∂base.(x,y,z) = e_(x,y,z)             ∂P/∂base.r(x,y,z) = e_(x,y,z) × (P − o_0)
     ∂P/∂target = R_tool (columns: tool frame axes in the world)
+    ∂P/∂c_ik = f_k(q) · z_(i-1) × (P − o_(i-1))   (a deflection coefficient turns joint i by f_k(q))
 where frame i−1 is (z_(i-1), o_(i-1)), frame i is after A_i, x'_i = R_i·Ry(β_i)ᵀ·e_x is the x
 axis before Hayati's rotation (the direction of a_i and of the α_i rotation), y_i = R_i·e_y.
 Rows are stacked point by point: [x_0, y_0, z_0, x_1, …] (eq. 6–7: Φ).
@@ -53,6 +56,7 @@ import numpy as np
 
 from core import transforms as tf
 from core.errors import RoboCalError, UsageError
+from core.robot.compliance import SHAPES, Compliance
 from core.robot.model import RobotModel
 
 JOINT_KINDS = ("theta", "d", "a", "alpha", "beta")
@@ -60,6 +64,7 @@ BASE_KINDS = ("x", "y", "z", "rx", "ry", "rz")
 TARGET_KINDS = ("x", "y", "z")
 ORIENTATION_KINDS = ("rx", "ry", "rz")
 ANGULAR_KINDS = {"theta", "alpha", "beta", "rx", "ry", "rz"}
+COMPLIANCE = "compliance"
 
 
 @dataclass(frozen=True)
@@ -67,14 +72,14 @@ class Parameter:
     """One element of g. `joint` is the 0-based joint index (−1 otherwise)."""
 
     name: str
-    group: str          # "joint" | "base" | "target" | "orientation"
-    kind: str           # theta d a alpha beta | x y z rx ry rz | x y z | rx ry rz
+    group: str          # "joint" | "base" | "target" | "orientation" | "compliance"
+    kind: str           # theta d a alpha beta | x y z rx ry rz | x y z | rx ry rz | a compliance shape
     joint: int = -1
     target: str = ""
 
     @property
     def angular(self) -> bool:
-        return self.kind in ANGULAR_KINDS and self.group != "target"
+        return (self.kind in ANGULAR_KINDS and self.group != "target") or self.group == COMPLIANCE
 
     @property
     def unit(self) -> str:
@@ -98,10 +103,11 @@ def hayati_joints(model: RobotModel) -> list[int]:
 
 
 def all_parameters(model: RobotModel, targets: Sequence[str],
-                   orientation_targets: Sequence[str] = ()) -> list[Parameter]:
+                   orientation_targets: Sequence[str] = (), compliance: bool = False) -> list[Parameter]:
     """The full parameter vector g for `model` with the measured `targets`, in a fixed order:
     joints (θ, d, a, α, β per joint), base (x, y, z, rx, ry, rz), targets (x, y, z each), then
-    the orientation on the tool (rx, ry, rz) of each of `orientation_targets`."""
+    the orientation on the tool (rx, ry, rz) of each of `orientation_targets`, then (with
+    `compliance`) the deflection terms of `model.compliance`."""
     for t in targets:
         if t == "base" or (t[:1] == "J" and t[1:].isdigit()):
             raise RoboCalError(f"the target name '{t}' clashes with a parameter group name",
@@ -118,6 +124,9 @@ def all_parameters(model: RobotModel, targets: Sequence[str],
         params += [Parameter(f"{t}.{k}", "target", k, target=t) for k in TARGET_KINDS]
     for t in orientation_targets:
         params += [Parameter(f"{t}.{k}", "orientation", k, target=t) for k in ORIENTATION_KINDS]
+    if compliance and model.compliance is not None:
+        params += [Parameter(f"{joint_label(j)}.{shape}", COMPLIANCE, shape, joint=j)
+                   for j, shape in model.compliance.terms]
     return params
 
 
@@ -187,7 +196,13 @@ def calibration_jacobian(model: RobotModel, Q, point_targets: Sequence[str],
 
     o_base = F[:, 0, :3, 3]
     eye = np.eye(3)
+    shapes = None
     for k, prm in enumerate(params):
+        if prm.group == COMPLIANCE:
+            shapes = Compliance.shapes(Q) if shapes is None else shapes
+            z_prev, o_prev, *_ = joint_frames(prm.joint)
+            out[:, :, k] = shapes[:, SHAPES.index(prm.kind), None] * np.cross(z_prev, P - o_prev)
+            continue
         if prm.group == "joint":
             z_prev, o_prev, x_pre, y_i, o_i = joint_frames(prm.joint)
             if prm.kind == "theta":
@@ -239,6 +254,8 @@ def apply_step(model: RobotModel, params: Sequence[Parameter], delta) -> RobotMo
                 omega["xyz".index(prm.kind[1])] += dv
         elif prm.group == "orientation":
             turns.setdefault(prm.target, np.zeros(3))["xyz".index(prm.kind[1])] += dv
+        elif prm.group == COMPLIANCE:
+            out.compliance.set(prm.joint, prm.kind, out.compliance.coefficient(prm.joint, prm.kind) + dv)
         else:
             t = out.targets[prm.target].astype(float).copy()
             t["xyz".index(prm.kind)] += dv
@@ -267,6 +284,8 @@ def parameter_difference(a: RobotModel, b: RobotModel, params: Sequence[Paramete
                 out[k] = a.base["xyz".index(prm.kind), 3] - b.base["xyz".index(prm.kind), 3]
             else:
                 out[k] = omega["xyz".index(prm.kind[1])]
+        elif prm.group == COMPLIANCE:
+            out[k] = compliance_value(a, prm) - compliance_value(b, prm)
         elif prm.group == "orientation":
             turn = log_so3(a.target_rotations.get(prm.target, eye) @ b.target_rotations.get(prm.target, eye).T)
             out[k] = turn["xyz".index(prm.kind[1])]
@@ -274,6 +293,11 @@ def parameter_difference(a: RobotModel, b: RobotModel, params: Sequence[Paramete
             i = "xyz".index(prm.kind)
             out[k] = a.targets[prm.target][i] - b.targets[prm.target][i]
     return out
+
+
+def compliance_value(model: RobotModel, prm: Parameter) -> float:
+    """The deflection coefficient `prm` of `model` (rad; 0 for a rigid model)."""
+    return 0.0 if model.compliance is None else model.compliance.coefficient(prm.joint, prm.kind)
 
 
 def expand_poses(Q_poses, targets: Sequence[str]) -> tuple[np.ndarray, list[str]]:

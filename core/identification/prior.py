@@ -45,6 +45,11 @@ held-out mean error, prior / plain fit, over 10 seeded runs on the true robot �
 0.974 (runs 0.905–1.037), marker near the last axis 0.975 (0.878–1.009; 0.0461 against
 0.0473 mm) — and on the IRB 120 test points 0.978 (0.3153 against 0.3224 mm).
 
+The deflection terms (core.robot.compliance) are regularised by the same machinery: a ridge
+toward the input model's coefficients (zero for a rigid one), weight λ_C per coefficient counted
+like an angle (mm at the tool), estimated by the evidence together with (λ_L, λ_A) when those are
+estimated too, or alone when the geometry has no prior (its parameters then have a flat prior).
+
 How much of a parameter the data determine is the diagonal of the resolution matrix
 (ΦᵀWΦ + Λ)⁻¹·ΦᵀWΦ: 1 when the measurements alone determine it, 0 when only the prior does.
 Below DOMINATED_SHARE the parameter is reported as dominated by the prior.
@@ -62,7 +67,7 @@ from scipy.optimize import minimize
 from core.errors import RoboCalError
 from core.bounds import Bound
 from core.identification.identifiability import column_scales
-from core.identification.jacobian import Parameter
+from core.identification.jacobian import COMPLIANCE, Parameter, compliance_value
 from core.robot.model import RobotModel
 from core.task import Monitor
 
@@ -92,16 +97,37 @@ class PriorOptions:
             WEIGHT.check(self.weight, what="prior weight")
 
 
+#: the kinds of parameters with a prior weight of their own
+CATEGORIES = ("length", "angle", "compliance")
+
+
 @dataclass(frozen=True)
 class Weights:
-    """λ_L for DH lengths and λ_A for DH angles (0 and 0: the plain fit)."""
+    """λ_L for DH lengths, λ_A for DH angles, λ_C for deflection coefficients (all 0: the plain fit)."""
 
     length: float
     angle: float
+    compliance: float = 0.0
 
     @property
     def plain(self) -> bool:
-        return self.length <= 0 and self.angle <= 0
+        return self.length <= 0 and self.angle <= 0 and self.compliance <= 0
+
+    @property
+    def geometric(self) -> bool:
+        """A prior on the DH parameters (not only on the deflection terms)."""
+        return self.length > 0 or self.angle > 0
+
+    def replaced(self, values: dict) -> "Weights":
+        return Weights(**{c: values.get(c, getattr(self, c)) for c in CATEGORIES})
+
+
+def category(p: Parameter) -> str | None:
+    """The weight a parameter's prior row takes: "length", "angle", "compliance", or None (no prior:
+    base pose, target offsets, orientations)."""
+    if p.group == "joint":
+        return "angle" if p.angular else "length"
+    return "compliance" if p.group == COMPLIANCE else None
 
 
 def reach_mm(model: RobotModel) -> float:
@@ -113,24 +139,29 @@ def reach_mm(model: RobotModel) -> float:
 
 @dataclass(frozen=True)
 class PriorTerm:
-    """The penalty rows for the free parameters: √λ·(g_nominal − g)/s per joint parameter
-    (λ = weights.length or weights.angle)."""
+    """The penalty rows for the free parameters: √λ·(g_nominal − g)/s per joint parameter and
+    deflection coefficient (λ = the weight of its category; a category of weight 0 has no rows)."""
 
     nominal: RobotModel
     weights: Weights
     reach: float
 
+    def weight_of(self, p: Parameter) -> float:
+        c = category(p)
+        return 0.0 if c is None else getattr(self.weights, c)
+
+    def has_row(self, p: Parameter) -> bool:
+        return self.weight_of(p) > 0
+
     def scales(self, free: Sequence[Parameter]) -> np.ndarray:
         """s_i per free parameter (internal units: mm, rad); inf for parameters without a prior."""
-        return np.array([(1.0 / self.reach if p.angular else 1.0) if p.group == "joint" else np.inf
-                         for p in free])
+        return np.array([(1.0 / self.reach if p.angular else 1.0) if self.has_row(p) else np.inf for p in free])
 
     def deviations(self, model: RobotModel, free: Sequence[Parameter]) -> tuple[np.ndarray, np.ndarray]:
         """(indices into `free` of the parameters with a prior, their Δg/s)."""
         s = self.scales(free)
         idx = np.flatnonzero(np.isfinite(s))
-        delta = np.array([getattr(model.joints[free[k].joint], free[k].kind)
-                          - getattr(self.nominal.joints[free[k].joint], free[k].kind) for k in idx])
+        delta = np.array([_value(model, free[k]) - _value(self.nominal, free[k]) for k in idx])
         return idx, delta / s[idx] if len(idx) else np.zeros(0)
 
     def rows(self, model: RobotModel, free: Sequence[Parameter]) -> tuple[np.ndarray, np.ndarray]:
@@ -138,10 +169,16 @@ class PriorTerm:
         parameter, in the sign convention of the data rows (b = target − prediction)."""
         s = self.scales(free)
         idx, u = self.deviations(model, free)
-        root = np.sqrt([self.weights.angle if free[k].angular else self.weights.length for k in idx])
+        root = np.sqrt([self.weight_of(free[k]) for k in idx])
         J = np.zeros((len(idx), len(free)))
         J[np.arange(len(idx)), idx] = root / s[idx]
         return J, -root * u
+
+
+def _value(model: RobotModel, p: Parameter) -> float:
+    if p.group == COMPLIANCE:
+        return compliance_value(model, p)
+    return getattr(model.joints[p.joint], p.kind)
 
 
 def data_share(J_data: np.ndarray, J_prior: np.ndarray) -> np.ndarray:
@@ -234,22 +271,26 @@ def log_evidence(J: np.ndarray, b: np.ndarray, P: np.ndarray, c: np.ndarray) -> 
     return value
 
 
-def evidence_weights(lin: Linearised, term: PriorTerm) -> Weights:
-    """The (λ_L, λ_A) in SEARCH that maximise `log_evidence` at the linearisation `lin`: a
-    coarse log grid, then L-BFGS-B on log λ from its best point (deterministic)."""
-    unit = PriorTerm(term.nominal, Weights(1.0, 1.0), term.reach)
-    P, bp = unit.rows(lin.model, lin.free)
-    idx, _ = unit.deviations(lin.model, lin.free)
-    angular = np.array([lin.free[k].angular for k in idx], dtype=bool)
-    kinds = [k for k, present in ((False, (~angular).any()), (True, angular.any())) if present]
+def evidence_weights(lin: Linearised, term: PriorTerm, search: Sequence[str] = ("length", "angle")) -> Weights:
+    """The weights of the categories `search` (CATEGORIES) in SEARCH that maximise `log_evidence` at
+    the linearisation `lin`, the other categories kept at `term`'s weights: a coarse log grid, then
+    L-BFGS-B on log λ from its best point (deterministic)."""
+    cats = [category(p) for p in lin.free]
+    present = {c for c in cats if c is not None}
+    kinds = [c for c in CATEGORIES if c in present and c in search]
     if not kinds:
         return term.weights
+    with_rows = {c: (1.0 if c in kinds else getattr(term.weights, c)) for c in CATEGORIES}
+    unit = PriorTerm(term.nominal, Weights(**{c: 1.0 if with_rows[c] > 0 else 0.0 for c in CATEGORIES}), term.reach)
+    P, bp = unit.rows(lin.model, lin.free)
+    idx, _ = unit.deviations(lin.model, lin.free)
+    row_cat = [cats[k] for k in idx]
     lo, hi = (math.log(v) for v in SEARCH)
     evidence = log_evidence(lin.J, lin.b, P, -bp)
 
     def neg(x):
-        value = dict(zip(kinds, np.exp(x)))
-        return -evidence(np.where(angular, value.get(True, 0.0), value.get(False, 0.0)))
+        value = {**{c: getattr(term.weights, c) for c in CATEGORIES}, **dict(zip(kinds, np.exp(x)))}
+        return -evidence(np.array([value[c] for c in row_cat]))
 
     grid = np.linspace(lo, hi, 9)
     starts = np.array(np.meshgrid(*[grid] * len(kinds))).reshape(len(kinds), -1).T
@@ -259,8 +300,7 @@ def evidence_weights(lin: Linearised, term: PriorTerm) -> Weights:
                            "are determined neither by the measurements nor by the prior",
                            hint="Give the prior's weight (--prior WEIGHT) or fix those parameters.")
     x = minimize(neg, x0, method="L-BFGS-B", bounds=[(lo, hi)] * len(kinds)).x
-    value = dict(zip(kinds, np.exp(x).tolist()))
-    return Weights(value.get(False, term.weights.length), value.get(True, term.weights.angle))
+    return term.weights.replaced(dict(zip(kinds, np.exp(x).tolist())))
 
 
 @dataclass
@@ -270,19 +310,21 @@ class WeightChoice:
 
 
 def choose_weights(fit: Callable[[Weights, Monitor], Linearised], nominal: RobotModel, *,
-                   monitor: Monitor | None = None) -> WeightChoice:
-    """Empirical Bayes: fit at START_WEIGHT, estimate (λ_L, λ_A) by `evidence_weights` at that
-    fit, and fit again at the estimate until the estimate at a fit is within SETTLED of the fit's
-    own weights (at most ROUNDS fits). Returns the weights of the last fit, so that fit is the
-    result."""
+                   monitor: Monitor | None = None, search: Sequence[str] = ("length", "angle"),
+                   start: Weights | None = None) -> WeightChoice:
+    """Empirical Bayes: fit at `start` (START_WEIGHT for the categories of `search`), estimate their
+    weights by `evidence_weights` at that fit, and fit again at the estimate until the estimate
+    at a fit is within SETTLED of the fit's own weights (at most ROUNDS fits). Returns the weights
+    of the last fit, so that fit is the result."""
     monitor = monitor or Monitor()
-    weights = Weights(START_WEIGHT, START_WEIGHT)
+    weights = (start or Weights(0.0, 0.0)).replaced({c: START_WEIGHT for c in search})
     reach = reach_mm(nominal)
     for n in range(1, ROUNDS + 1):
         sub = monitor.sub((n - 1) / ROUNDS, n / ROUNDS)
         sub.step(0.0, f"estimating the prior's weights: fit {n}")
-        new = evidence_weights(fit(weights, sub), PriorTerm(nominal, weights, reach))
-        if all(max(a / b, b / a) < SETTLED for a, b in ((new.length, weights.length), (new.angle, weights.angle))):
+        new = evidence_weights(fit(weights, sub), PriorTerm(nominal, weights, reach), search)
+        if all(max(getattr(new, c) / getattr(weights, c), getattr(weights, c) / getattr(new, c)) < SETTLED
+               for c in search):
             break
         if n < ROUNDS:
             weights = new

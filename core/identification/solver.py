@@ -43,8 +43,8 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from core import transforms as tf
-from core.identification.jacobian import (Parameter, all_parameters, apply_step, calibration_jacobian, log_so3,
-                                       predict_points, resolve_names)
+from core.identification.jacobian import (COMPLIANCE, Parameter, all_parameters, apply_step, calibration_jacobian,
+                                          compliance_value, log_so3, predict_points, resolve_names)
 from core.errors import RoboCalError, UsageError
 from core.files import strict_json
 from core.identification.prior import (DOMINATED_SHARE, EMPIRICAL_BAYES, PRIOR_DOMINATED, Linearised, PriorOptions,
@@ -56,6 +56,10 @@ from core.identification.orientation import (STRUCTURAL_ROW_SCALE, OrientationRe
                                              orientation_errors_deg, orientation_jacobian, orientation_residuals,
                                              orientation_weights, require_orientations, with_measured_rotations)
 from core.identification.orientation import rms as orientation_rms
+from core.identification.compliance_selection import AUTO, MODES, OFF, ON, ComplianceChoice, cross_validate, decide
+from core.identification.compliance_selection import FOLDS as COMPLIANCE_FOLDS
+from core.identification.compliance_selection import fixed_choice
+from core.robot.compliance import DEFAULT_TERMS, Compliance, check_vertical_arm
 from core.robot.model import RobotModel
 from core.measurement.file import Measurements, check_against_robot, read_measurements
 from core.robot.file import read_robot, write_robot
@@ -234,6 +238,8 @@ class IdentificationResult:
     weighted: bool = False             # the measurements gave sx, sy, sz: sigma_hat is unitless
     prior: PriorReport | None = None   # the prior toward nominal, when one was asked for
     orientation: OrientationReport | None = None   # when the measured orientations were used
+    compliance: ComplianceChoice | None = None     # what was done with the deflection terms, and why
+    payload_kg: float | None = None    # the mass mounted during calibration (None: not given)
 
     @property
     def sigma_hat_text(self) -> str:
@@ -285,9 +291,12 @@ class IdentificationResult:
             stats["prior"] = self.prior.summary()
         if self.orientation is not None:
             stats["orientation"] = self.orientation.summary()
+        if self.compliance is not None:
+            stats["compliance"] = self.compliance.summary()
         return {
             "format": "robocal.calibration/1",
             "date": self.date,
+            "payload_kg": self.payload_kg,
             "measurements": Path(self.measurements_source).name if self.measurements_source else "",
             "statistics": stats,
             "parameters": [r.as_dict() for r in self.parameters],
@@ -333,6 +342,9 @@ class IdentificationResult:
             out["prior"] = self.prior.summary()
         if self.orientation is not None:
             out["orientation"] = self.orientation.summary()
+        if self.compliance is not None:
+            out["compliance"] = self.compliance.summary()
+        out["payload_kg"] = self.payload_kg
         if self.validation is not None:
             v = self.validation
             out["holdout"] = v.summary()
@@ -536,13 +548,14 @@ def _base_fixed(ident_params: Sequence[Parameter], fixed_names: set[str]) -> boo
 def fit_model(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (),
               huber: float | None = None, outlier_k: float = 4.0, max_iterations: int = 100,
               damping: float = 1e-3, prior_weights: Weights | None = None, monitor: Monitor | None = None,
-              orientation: bool = False) -> _Fit:
+              orientation: bool = False, compliance: bool = False) -> _Fit:
     """Register the base, decide the identifiable parameters, estimate them (LM + optional
     Huber), and compute their covariance. The building block of `identify` (and of k-fold).
     With `prior_weights` (core.identification.prior, not both 0), parameters the data barely
     determine are estimated with the prior toward `robot`'s values instead of being kept at nominal.
     With `orientation`, the measured marker orientations add residuals and the marker's
-    orientation on the tool is estimated (core.identification.orientation)."""
+    orientation on the tool is estimated (core.identification.orientation). With `compliance`, the
+    deflection terms of `robot.compliance` are estimated too (ridge weight `prior_weights.compliance`)."""
     monitor = monitor or Monitor()
     if huber is not None and not huber > 0:
         raise UsageError(f"the Huber threshold must be positive, got {huber}")
@@ -550,7 +563,7 @@ def fit_model(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (
     check_against_robot(meas, robot)
     targets = [t for t in robot.targets if t in set(meas.target)]
     turned = require_orientations(meas) if orientation else []
-    params = all_parameters(robot, targets, turned)
+    params = all_parameters(robot, targets, turned, compliance=compliance)
     fixed_names = set(resolve_names(fixed, params, robot))
     monitor.step(0.0, "registering the robot base in the measurement frame")
     initial = robot.copy() if _base_fixed(params, fixed_names) else register_base(robot, meas)
@@ -562,7 +575,7 @@ def fit_model(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (
     prior_weights = prior_weights or Weights(0.0, 0.0)
     prior = None if prior_weights.plain else PriorTerm(robot, prior_weights, reach_mm(robot))
     # with a prior, what the data leave undetermined of the joint parameters the prior determines
-    checked = ident if prior is None else replace(ident, free=[p for p in ident.free if p.group != "joint"])
+    checked = ident if prior is None else replace(ident, free=[p for p in ident.free if not prior.has_row(p)])
     check_data(initial, meas.Q, meas.target, checked, source=meas.source or None,
                orientation_weights=None if w_o is None else np.where(w_o > 0, STRUCTURAL_ROW_SCALE ** 2, 0.0))
 
@@ -583,7 +596,7 @@ def fit_model(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (
         if huber is not None:   # outliers would inflate σ and make good parameters look weak
             sigma1 = min(sigma1, _robust_scale(np.sqrt(w0) * b1))
         ident2 = analyse(model, targets, fixed=fixed_names, params=params)
-        if prior is None:
+        if not prior_weights.geometric:
             ident2 = practical_identifiability(ident2, model, meas.Q, meas.target, w0, max(sigma1, 1e-9),
                                                orientation_weights=w_o)
         if ident2.free_names == ident.free_names:
@@ -682,6 +695,8 @@ def _reset_to(model: RobotModel, reference: RobotModel, params: Sequence[Paramet
             out.targets[p.target] = t
         elif p.group == "orientation" and p.target in reference.target_rotations:
             out.target_rotations[p.target] = reference.target_rotations[p.target].copy()
+        elif p.group == COMPLIANCE:
+            out.compliance.set(p.joint, p.kind, compliance_value(reference, p))
     return out
 
 
@@ -714,6 +729,8 @@ def display_value(model: RobotModel, prm: Parameter) -> float:
         return getattr(model.joints[prm.joint], prm.kind) * prm.to_display
     if prm.group == "target":
         return float(model.targets[prm.target]["xyz".index(prm.kind)])
+    if prm.group == COMPLIANCE:        # degrees of joint deflection per unit shape value
+        return float(np.rad2deg(compliance_value(model, prm))) + 0.0
     if prm.group == "orientation":     # the rotation vector of the marker's orientation on the tool
         R = model.target_rotations.get(prm.target, np.eye(3))
         return float(np.rad2deg(log_so3(R)["xyz".index(prm.kind[1])])) + 0.0
@@ -759,7 +776,8 @@ def _parameter_rows(fit: _Fit, nominal: RobotModel) -> tuple[list[ParameterRow],
                 std = float(std_int[k] * prm.to_display)
         else:
             std = None
-        share = fit.shares.get(prm.name) if fit.shares is not None and prm.group == "joint" else None
+        share = (fit.shares.get(prm.name) if fit.shares is not None and prm.group in ("joint", COMPLIANCE)
+                 else None)
         status = IDENTIFIED if k is not None else excl.status
         explanation = "" if excl is None else excl.explanation
         if share is not None and share < DOMINATED_SHARE:
@@ -779,8 +797,8 @@ def _parameter_rows(fit: _Fit, nominal: RobotModel) -> tuple[list[ParameterRow],
 def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (),
              huber: float | None = None, holdout: float | None = None, kfold: int | None = None,
              seed: int = 0, outlier_k: float = 4.0, max_iterations: int = 100, damping: float = 1e-3,
-             prior: PriorOptions | None = None, orientation: bool = False, progress=None,
-             cancelled=None) -> IdentificationResult:
+             prior: PriorOptions | None = None, orientation: bool = False, compliance: str = OFF,
+             payload_kg: float | None = None, progress=None, cancelled=None) -> IdentificationResult:
     """Identify the robot's geometry from measured points.
 
     `fixed`: parameter names kept at their nominal value (`J2.a`, `base.rz`, `marker.x`).
@@ -793,43 +811,78 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
     (core.identification.orientation). `prior`: a prior toward the nominal DH values instead of
     keeping weakly determined parameters at nominal (core.identification.prior); its weights,
     unless given, are estimated by empirical Bayes from the poses the returned model is fitted on
-    (and kept for every fold). Raises RoboCalError for bad data, Cancelled on cancel."""
+    (and kept for every fold). `compliance`: the gravity-shaped deflection terms
+    (core.robot.compliance) "off" (geometry only; a model's own terms are dropped), "on"
+    (estimated, ridge weight by empirical Bayes), or "auto" (kept only when cross validation over
+    poses shows a gain: core.identification.compliance_selection). `payload_kg`: the mass mounted
+    during calibration, recorded beside the result. Raises RoboCalError for bad data, Cancelled on
+    cancel."""
+    if compliance not in MODES:
+        raise UsageError(f"unknown deflection choice '{compliance}'", hint=f"Use one of {', '.join(MODES)}.")
+    if payload_kg is not None and not (math.isfinite(payload_kg) and payload_kg >= 0):
+        raise UsageError(f"the payload must be a mass of 0 kg or more, got {payload_kg}")
     if holdout is not None and kfold is not None:
         raise UsageError("use either a held-out fraction or k-fold cross validation, not both")
+    if compliance != OFF:
+        check_vertical_arm(robot, field="--compliance")
     monitor = Monitor(progress, cancelled)
+    input_robot = robot
     robot, unknown = with_unknown_targets(robot, meas)
     meas = _with_q(meas, robot)
     check_against_robot(meas, robot)
     fixed = list(fixed)
     kw = dict(fixed=fixed, huber=huber, outlier_k=outlier_k, max_iterations=max_iterations, damping=damping,
               orientation=orientation)
+    robot, rigid = _compliance_robots(robot, compliance)
     validation = None
     train = meas
-    main_span = (0.0, 1.0)
     if holdout is not None:
         train_ids, test_ids = split_poses(meas.pose_ids, holdout, seed)
         train, test = meas.select_poses(train_ids), meas.select_poses(test_ids)
     elif kfold is not None:
         folds = kfold_poses(meas.pose_ids, kfold, seed)
-        main_span = (0.0, 1.0 / (kfold + 1))
-    choice, fits = None, {}
-    if prior is not None:
-        if prior.weight is None:
-            def fit_at(weights, mon):
-                fits[weights] = fit_model(robot, train, monitor=mon, **{**kw, "prior_weights": weights})
-                return linearised(fits[weights], train)
-            choice = choose_weights(fit_at, robot, monitor=monitor.sub(0.0, 0.6))
-            monitor = monitor.sub(0.6, 1.0)
-        kw["prior_weights"] = choice.weights if choice is not None else Weights(prior.weight, prior.weight)
-    fit = fits[choice.weights] if choice is not None else fit_model(robot, train, monitor=monitor.sub(*main_span), **kw)
+    search_geometry = ["length", "angle"] if prior is not None and prior.weight is None else []
+    given = prior.weight if prior is not None and prior.weight is not None else 0.0
+    start = Weights(given, given)
+    expensive = bool(search_geometry) or compliance != OFF
+    main_share = 1.0 if kfold is None else (0.6 if expensive else 1.0 / (kfold + 1))
+    main = monitor.sub(0.0, main_share)
+
+    def fit_full(use_compliance: bool, mon: Monitor) -> tuple[_Fit, Weights]:
+        """The fit on the training poses, its prior's (and ridge's) weights by empirical Bayes."""
+        model = robot if use_compliance else rigid
+        search = search_geometry + (["compliance"] if use_compliance else [])
+        if not search:
+            return fit_model(model, train, monitor=mon, prior_weights=start, **kw), start
+        fits = {}
+
+        def fit_at(weights, m):
+            fits[weights] = fit_model(model, train, monitor=m, prior_weights=weights,
+                                      compliance=use_compliance, **kw)
+            return linearised(fits[weights], train)
+        chosen = choose_weights(fit_at, model, monitor=mon, search=search, start=start)
+        return fits[chosen.weights], chosen.weights
+
+    if compliance == AUTO:
+        fit_off, w_off = fit_full(False, main.sub(0.0, 0.2))
+        fit_on, w_on = fit_full(True, main.sub(0.2, 0.5))
+        compliance_choice = _select_compliance(rigid, robot, train, kw, w_off, w_on, seed, main.sub(0.5, 1.0))
+        fit, weights = (fit_on, w_on) if compliance_choice.kept else (fit_off, w_off)
+    else:
+        fit, weights = fit_full(compliance == ON, main)
+        compliance_choice = fixed_choice(compliance, weights.compliance if compliance == ON else None)
+    kw.update(prior_weights=weights, compliance=compliance_choice.kept)
+    if not compliance_choice.kept:
+        robot = rigid
     if holdout is not None:
         before = error_stats(register_base(robot, train), test)
         validation = Validation("holdout", before=before, after=error_stats(fit.model, test),
                                 test_poses=[int(p) for p in test_ids], fraction=float(holdout), seed=seed)
     elif kfold is not None:
         befores, afters, rms = [], [], []
+        rest = monitor.sub(main_share, 1.0)
         for k, test_ids in enumerate(folds):
-            sub = monitor.sub((k + 1) / (kfold + 1), (k + 2) / (kfold + 1))
+            sub = rest.sub(k / kfold, (k + 1) / kfold)
             sub.step(0.0, f"cross validation: fold {k + 1} of {kfold}")
             tr = meas.select_poses([p for p in meas.pose_ids if p not in set(test_ids)])
             te = meas.select_poses(test_ids)
@@ -871,11 +924,13 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
     if fit.dof < len(fit.ident.free):
         warnings.append(f"few measurements for {len(fit.ident.free)} parameters ({fit.dof} degrees of "
                         f"freedom left): the uncertainties are themselves uncertain; measure more poses")
+    if compliance == OFF and rigid is not input_robot and input_robot.compliance is not None:
+        warnings.append("the robot file's deflection terms were dropped (geometry only was asked for)")
     prior_report = None
     if prior is not None:
         prior_report = PriorReport(
             weights=fit.prior_weights, reach_mm=reach_mm(robot), sigma_hat=fit.sigma_hat,
-            chosen_by="given" if choice is None else EMPIRICAL_BAYES,
+            chosen_by=EMPIRICAL_BAYES if search_geometry else "given",
             shares={r.name: r.data_share for r in rows if r.data_share is not None})
     model = fit.model.copy()
     result = IdentificationResult(
@@ -886,9 +941,46 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
         outliers=fit.outliers, validation=validation, measurements_source=meas.source,
         n_poses=train.n_poses, n_points=train.n_points, huber=huber,
         date=datetime.now(timezone.utc).replace(microsecond=0).isoformat(), warnings=warnings,
-        weighted=train.sigma is not None, prior=prior_report, orientation=orientation_report)
+        weighted=train.sigma is not None, prior=prior_report, orientation=orientation_report,
+        compliance=compliance_choice, payload_kg=payload_kg)
     model.calibration = result.calibration_section()
     return result
+
+
+def _compliance_robots(robot: RobotModel, mode: str) -> tuple[RobotModel, RobotModel]:
+    """(the robot with the deflection terms to estimate, the rigid robot). For OFF both are rigid;
+    otherwise the robot's shape is checked (a vertical articulated arm) and the default terms are
+    added to the ones it has (at zero)."""
+    rigid = robot
+    if robot.compliance is not None:
+        rigid = robot.copy()
+        rigid.compliance = None
+    if mode == OFF:
+        return rigid, rigid
+    with_terms = robot.copy()
+    with_terms.compliance = (Compliance.zero(robot.dof) if robot.compliance is None
+                             else robot.compliance.with_terms(DEFAULT_TERMS))
+    return with_terms, rigid
+
+
+def _select_compliance(rigid: RobotModel, robot: RobotModel, train: Measurements, kw: dict, w_off: Weights,
+                       w_on: Weights, seed: int, monitor: Monitor) -> ComplianceChoice:
+    """Cross validation grouped by pose of the fits without and with the deflection terms (their
+    weights kept), decided by the one-standard-error rule."""
+    n = len(train.pose_ids)
+    try:
+        folds = kfold_poses(train.pose_ids, min(COMPLIANCE_FOLDS, n), seed)
+        off, on = cross_validate(
+            lambda tr, m: fit_model(rigid, tr, monitor=m, prior_weights=w_off, **kw).model,
+            lambda tr, m: fit_model(robot, tr, monitor=m, prior_weights=w_on, compliance=True, **kw).model,
+            train, folds, monitor=monitor)
+    except (RoboCalError, UsageError) as exc:
+        return ComplianceChoice(AUTO, False, f"Too few poses to test the deflection terms ({n}: "
+                                f"{exc.problem}); geometry only.")
+    if len(off) < 3:
+        return ComplianceChoice(AUTO, False, f"Too few poses to test the deflection terms ({len(off)} could be "
+                                f"predicted); geometry only.")
+    return decide(off, on, len(folds), w_on.compliance)
 
 
 def _orientation_report(robot: RobotModel, train: Measurements, fit: _Fit, fixed: Sequence[str], with_prior: bool,

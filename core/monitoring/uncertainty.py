@@ -72,7 +72,8 @@ def calibration_uncertainty(model: RobotModel, *, source: str | Path | None = No
     if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
         raise RoboCalError("expected a list of parameter names", source=source,
                            field="calibration.covariance.parameters")
-    known = {p.name: p for p in all_parameters(model, list(model.targets))}
+    # the deflection terms (core.robot.compliance) of a model that has them are parameters too
+    known = {p.name: p for p in all_parameters(model, list(model.targets), compliance=True)}
     unknown = [n for n in names if n not in known]
     if unknown:
         raise RoboCalError(f"unknown parameter '{unknown[0]}' for this robot", source=source,

@@ -12,6 +12,10 @@ from scipy.spatial.transform import Rotation
 from core import transforms as tf
 from core.errors import RoboCalError
 from core.files import atomic_write_json, read_json
+from core.robot.compliance import FORMAT as COMPLIANCE_FORMAT
+from core.robot.compliance import FORMAT_FAMILY as COMPLIANCE_FAMILY
+from core.robot.compliance import FORMAT_MAJOR as COMPLIANCE_MAJOR
+from core.robot.compliance import SHAPES, Compliance, check_vertical_arm
 from core.robot.model import PRISMATIC, REVOLUTE, Joint, RobotModel
 from core.validate import check_format, number, require, text, vector
 
@@ -84,12 +88,63 @@ def robot_from_dict(data: dict, source: str | Path = "<robot>") -> RobotModel:
         raise RoboCalError("expected an object of name: [x, y, z]", source=source, field="targets")
     targets = {str(k): np.array(vector(v, 3, source, f"targets.{k}", "mm")) for k, v in targets_data.items()}
     calibration = _calibration_from_dict(data.get("calibration"), source)
-    return RobotModel(name=name, joints=joints, base=_pose_from_dict(data.get("base"), source, "base"),
-                      tool=_pose_from_dict(data.get("tool"), source, "tool"), targets=targets,
-                      calibration=calibration,
-                      collision_radius=_collision_from_dict(data.get("collision"), len(joints), source),
-                      tools=_tools_from_dict(data.get("tools"), targets, source),
-                      target_rotations=_rotations_from_dict(data.get("target_rotations"), targets, source))
+    model = RobotModel(name=name, joints=joints, base=_pose_from_dict(data.get("base"), source, "base"),
+                       tool=_pose_from_dict(data.get("tool"), source, "tool"), targets=targets,
+                       calibration=calibration,
+                       collision_radius=_collision_from_dict(data.get("collision"), len(joints), source),
+                       tools=_tools_from_dict(data.get("tools"), targets, source),
+                       target_rotations=_rotations_from_dict(data.get("target_rotations"), targets, source))
+    if data.get("compliance") is not None:
+        model.compliance = _compliance_from_dict(data["compliance"], len(joints), source)
+        check_vertical_arm(model, source=source)
+    return model
+
+
+def _compliance_from_dict(data, dof: int, source) -> Compliance:
+    """Optional `"compliance"` (format robocal.compliance/1, docs/file-formats.md): the gravity
+    direction in the base frame and, per joint ("J2"), its deflection coefficients in degrees per
+    shape (sin_q2, cos_q2, sin_q23, cos_q23). Absent: a rigid arm."""
+    if not isinstance(data, dict):
+        raise RoboCalError("expected an object with \"format\", \"gravity\" and \"joints\"", source=source,
+                           field="compliance")
+    check_format(data, COMPLIANCE_FAMILY, COMPLIANCE_MAJOR, f"{source}: compliance")
+    if data.get("unit", "deg") != "deg":
+        raise RoboCalError(f"unsupported unit {data.get('unit')!r}", source=source, field="compliance.unit",
+                           hint='Deflection coefficients are written in degrees: "unit": "deg".')
+    gravity = np.array(vector(data.get("gravity", [0.0, 0.0, -1.0]), 3, source, "compliance.gravity"))
+    if np.linalg.norm(gravity) <= 0:
+        raise RoboCalError("the gravity direction must not be zero", source=source, field="compliance.gravity",
+                           hint="Write [0, 0, -1] for a floor-mounted robot, [0, 0, 1] for one on the ceiling.")
+    joints = data.get("joints", {})
+    if not isinstance(joints, dict):
+        raise RoboCalError('expected an object like {"J2": {"sin_q2": 0.01, …}}', source=source,
+                           field="compliance.joints")
+    out = Compliance.zero(dof, terms=(), gravity=gravity / np.linalg.norm(gravity))
+    terms = []
+    for label, shapes in joints.items():
+        f = f"compliance.joints.{label}"
+        index = int(label[1:]) - 1 if str(label)[:1] == "J" and str(label)[1:].isdigit() else -1
+        if not 0 <= index < dof:
+            raise RoboCalError(f"unknown joint '{label}'", source=source, field=f,
+                               hint=f"Name joints J1 … J{dof}.")
+        if not isinstance(shapes, dict):
+            raise RoboCalError("expected an object of shape: degrees", source=source, field=f)
+        for shape, value in shapes.items():
+            if shape not in SHAPES:
+                raise RoboCalError(f"unknown shape '{shape}'", source=source, field=f"{f}.{shape}",
+                                   hint=f"Use {', '.join(SHAPES)}.")
+            out.set(index, shape, np.deg2rad(number(value, source, f"{f}.{shape}", "degrees")))
+            terms.append((index, shape))
+    out.terms = tuple(terms)
+    return out
+
+
+def _compliance_to_dict(c: Compliance) -> dict:
+    joints: dict[str, dict[str, float]] = {}
+    for joint, shape in c.terms:
+        joints.setdefault(f"J{joint + 1}", {})[shape] = float(np.rad2deg(c.coefficient(joint, shape)))
+    return {"format": COMPLIANCE_FORMAT, "unit": "deg", "gravity": [float(v) for v in c.gravity],
+            "joints": joints}
 
 
 def _rotations_from_dict(data, targets: dict, source) -> dict[str, np.ndarray]:
@@ -207,6 +262,8 @@ def robot_to_dict(model: RobotModel) -> dict:
                                    for k, R in model.target_rotations.items()}
     if model.collision_radius is not None:
         out["collision"] = {"radius": [float(v) for v in model.collision_radius]}
+    if model.compliance is not None:
+        out["compliance"] = _compliance_to_dict(model.compliance)
     if model.calibration is not None:
         out["calibration"] = model.calibration
     return out

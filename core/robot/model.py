@@ -3,6 +3,8 @@
 Per joint, A = Rz(θ) · Tz(d) · Tx(a) · Rx(α) · Ry(β)  (eq. 1, plus Hayati's rotation).
 For a revolute joint θ = q + theta; for a prismatic joint d = q + d.
 The tool pose in the world (measurement) frame is  T = base · A1 · … · An · tool  (eq. 2–3).
+With joint compliance (core.robot.compliance) every A_i is taken at q + δq(q): the joint angles
+the arm really stands at under its own weight, for the joint values q the controller reports.
 
 Internally lengths are mm and angles radians; robot files and joint CSVs use degrees.
 """
@@ -13,6 +15,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from core.robot.compliance import Compliance
 
 
 REVOLUTE = "revolute"
@@ -65,6 +69,8 @@ class RobotModel:
     # orientation (3x3) of a target's frame in the tool frame, where it matters (a marker whose
     # orientation is measured); a target absent here is aligned with the tool frame
     target_rotations: dict[str, np.ndarray] = field(default_factory=dict)
+    # the gravity-shaped joint deflection (core.robot.compliance); None: a rigid arm
+    compliance: Compliance | None = None
 
     @property
     def dof(self) -> int:
@@ -150,9 +156,17 @@ class RobotModel:
         return {k: np.array([getattr(j, k) for j in self.joints], dtype=float)
                 for k in ("theta", "d", "a", "alpha", "beta")}
 
-    def joint_transforms(self, Q) -> np.ndarray:
-        """A_i for every configuration: Q (N, n) -> (N, n, 4, 4)."""
+    def deflected(self, Q) -> np.ndarray:
+        """The joint values the arm stands at, q + δq(q) with its compliance (Q itself for a rigid
+        arm): Q (N, n) -> (N, n), internal units."""
         Q = np.atleast_2d(np.asarray(Q, dtype=float))
+        if self.compliance is None:
+            return Q
+        return Q + np.where(self.revolute_mask(), self.compliance.deflection(Q), 0.0)
+
+    def joint_transforms(self, Q) -> np.ndarray:
+        """A_i for every configuration, deflection included: Q (N, n) -> (N, n, 4, 4)."""
+        Q = self.deflected(Q)
         p = self.dh_arrays()
         rev = self.revolute_mask()
         theta = np.where(rev, Q + p["theta"], p["theta"])

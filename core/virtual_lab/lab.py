@@ -26,6 +26,8 @@ from core.marker.description import MarkerDescription
 from core.virtual_lab.renderer import ImageComposer, PlateTexture
 from core.virtual_lab.rig import default_rig, right_from_left
 from core.virtual_lab.robot_errors import RobotErrors, perturb_robot
+from core.virtual_lab.robot_deflection import deflecting_robot
+from core.robot.compliance import check_vertical_arm
 from core.poses.candidates import VisibilityOptions
 from core.poses.visibility import marker_visibility
 
@@ -117,8 +119,12 @@ class VirtualLab:
     @classmethod
     def create(cls, robot: RobotModel | str | None = None, seed: int = 0, noise: float = 0.5,
                board: Board | None = None, marker: MarkerDescription | None = None,
-               rig: StereoRig | None = None) -> "VirtualLab":
+               rig: StereoRig | None = None, deflection: bool = False) -> "VirtualLab":
         """A lab, fully determined by `seed`.
+
+        With `deflection` the true robot also bends under its weight (seeded deflection
+        coefficients, core.virtual_lab.robot_deflection; the robot must be a vertical arm) — what
+        the deflection terms of identification (--compliance) estimate; the nominal robot is rigid.
 
         `robot` is a nominal model (copied; its base is replaced by the placement in front of
         the cameras, its tool is kept), a robot file path, or None for the educational 6R
@@ -130,11 +136,14 @@ class VirtualLab:
         nominal = robot.copy()
         if MARKER_TARGET not in nominal.targets:
             nominal.targets[MARKER_TARGET] = np.array([0.0, 0.0, 25.0])
-        streams = np.random.SeedSequence(int(seed)).spawn(4)
+        streams = np.random.SeedSequence(int(seed)).spawn(5)     # the first four as before a fifth existed
         rig = rig if rig is not None else default_rig(np.random.default_rng(streams[0]))
         nominal.base = base_placement(nominal, rig)
         errors = perturb_robot(nominal, np.random.default_rng(streams[1]))
         true = errors.robot
+        if deflection:
+            check_vertical_arm(nominal, field="deflection")
+            true = deflecting_robot(true, np.random.default_rng(streams[4]))
         rng = np.random.default_rng(streams[2])
         axis = rng.normal(size=3)
         offset = rng.normal(size=3)

@@ -86,3 +86,27 @@ def test_malformed_calibration_sections_for_export(files, tmp_path_factory, data
     if code != 0:
         assert_one_clear_line(code, err, [str(robot)])
         assert not out.exists()
+
+
+def _with_compliance() -> dict:
+    """The fuzz robot with a deflection section as docs/file-formats.md writes it."""
+    data = json.loads(Path(ROBOT).read_text())
+    data["compliance"] = {"format": "robocal.compliance/1", "unit": "deg", "gravity": [0, 0, -1],
+                          "joints": {"J2": {"sin_q2": 0.08, "cos_q2": 0.007, "sin_q23": -0.01, "cos_q23": 0.056},
+                                     "J3": {"sin_q23": 0.02, "cos_q23": 0.052}}}
+    return data
+
+
+COMPLIANCE_FIELDS = [("compliance",) + p for p in robot_paths(_with_compliance()["compliance"])]
+
+
+@FUZZ
+@given(where=st.sampled_from(COMPLIANCE_FIELDS), value=JUNK)
+def test_malformed_compliance_sections_for_evaluate(files, tmp_path_factory, where, value):
+    work = tmp_path_factory.mktemp("compliance")
+    robot = work / "robot.json"
+    robot.write_text(json.dumps(mutate(_with_compliance(), where, value), allow_nan=True))
+    code, err = run(["evaluate", "--robot", str(robot), "--measurements", str(files / "m.csv"), "--register-base"],
+                    work)
+    if code != 0:
+        assert_one_clear_line(code, err, [str(robot)])

@@ -1,6 +1,7 @@
 """The identification's options: validation (hold-out or k-fold), robust Huber weights, a prior
-toward nominal, the measured marker orientations, the parameters kept at nominal; the Identify
-button and the progress row."""
+toward nominal, the measured marker orientations, the arm's deflection under its weight and the
+payload mounted while measuring, the parameters kept at nominal; the Identify button and the
+progress row."""
 from __future__ import annotations
 
 from typing import Callable
@@ -12,9 +13,12 @@ from app.pages.forms import button, double_spin, row, spin
 from core.errors import RoboCalError
 from core.identification.jacobian import all_parameters, resolve_names
 from core.identification.prior import PriorOptions
+from core.robot.compliance import Compliance
 from widgets.progress_row import ProgressRow
 
 VALIDATION_NONE, VALIDATION_HOLDOUT, VALIDATION_KFOLD = range(3)
+#: the deflection choices as shown, and identify()'s value of each
+DEFLECTION_CHOICES = (("Geometry only", "off"), ("Deflection if it helps", "auto"), ("With deflection", "on"))
 
 
 class OptionsPanel(QGroupBox):
@@ -48,6 +52,23 @@ class OptionsPanel(QGroupBox):
             "sits on the flange (marker.rx, .ry, .rz). Fix marker.rz when the marker's turn about the last axis "
             "is known: the last joint's zero is then determined even with the marker on that axis.")
         self.orientation_check.toggled.connect(lambda _: self.rebuild_fix_menu())
+        self.deflection_combo = QComboBox()
+        self.deflection_combo.setObjectName("deflectionCombo")
+        self.deflection_combo.addItems([label for label, _ in DEFLECTION_CHOICES])
+        self.deflection_combo.setToolTip(
+            "An industrial arm bends a little under its own weight and its payload: the shoulder and elbow stand "
+            "at slightly other angles than their encoders say. 'Deflection if it helps' adds six terms that follow "
+            "the weight's torque and keeps them only when they predict poses left out of the fit better; "
+            "'With deflection' always keeps them. For a vertical arm (shoulder and elbow horizontal) only.")
+        self.deflection_combo.currentIndexChanged.connect(lambda _: self.rebuild_fix_menu())
+        self.payload_check = QCheckBox("Payload")
+        self.payload_check.setObjectName("payloadCheck")
+        self.payload_check.setToolTip("The mass mounted on the flange while the poses were measured; it is kept "
+                                      "with the calibration, whose deflection terms hold for this payload.")
+        self.payload_spin = double_spin(0.0, 0.0, 5000.0, step=0.5, suffix=" kg")
+        self.payload_spin.setObjectName("payloadSpin")
+        self.payload_spin.setEnabled(False)
+        self.payload_check.toggled.connect(self.payload_spin.setEnabled)
         self.fix_edit = QLineEdit()
         self.fix_edit.setObjectName("fixEdit")
         self.fix_edit.setPlaceholderText("parameters kept at nominal, e.g. J6.d, marker.z")
@@ -68,11 +89,13 @@ class OptionsPanel(QGroupBox):
                          self.huber_spin, self.prior_check, self.orientation_check)
         validation.insertSpacing(3, 12)
         grid.addLayout(validation, 0, 1, 1, 3)
-        grid.addWidget(QLabel("Fix:"), 1, 0)
-        grid.addWidget(self.fix_edit, 1, 1)
-        grid.addWidget(self.fix_button, 1, 2)
-        grid.addWidget(self.run_button, 1, 3)
-        grid.addWidget(progress, 2, 0, 1, 4)
+        grid.addWidget(QLabel("Deflection:"), 1, 0)
+        grid.addLayout(row(self.deflection_combo, self.payload_check, self.payload_spin), 1, 1, 1, 3)
+        grid.addWidget(QLabel("Fix:"), 2, 0)
+        grid.addWidget(self.fix_edit, 2, 1)
+        grid.addWidget(self.fix_button, 2, 2)
+        grid.addWidget(self.run_button, 2, 3)
+        grid.addWidget(progress, 3, 0, 1, 4)
         grid.setColumnStretch(1, 1)
         self.setSizePolicy(QSizePolicy.Policy.Preferred, QSizePolicy.Policy.Maximum)
         self.fix_edit.textEdited.connect(self._sync_fix_menu)
@@ -86,7 +109,13 @@ class OptionsPanel(QGroupBox):
                 "kfold": self.kfold_spin.value() if mode == VALIDATION_KFOLD else None,
                 "fixed": self.fixed_names(),
                 "prior": PriorOptions() if self.prior_check.isChecked() else None,
-                "orientation": self.orientation_check.isChecked()}
+                "orientation": self.orientation_check.isChecked(),
+                "compliance": self.compliance(),
+                "payload_kg": float(self.payload_spin.value()) if self.payload_check.isChecked() else None}
+
+    def compliance(self) -> str:
+        """identify()'s deflection choice: "off", "auto" or "on"."""
+        return DEFLECTION_CHOICES[self.deflection_combo.currentIndex()][1]
 
     def fixed_names(self) -> list[str]:
         """The canonical names of the parameters typed in the Fix field (RoboCalError if unknown)."""
@@ -97,15 +126,21 @@ class OptionsPanel(QGroupBox):
         return resolve_names(raw, self._parameters(robot), robot)
 
     def _parameters(self, robot) -> list:
-        """Every parameter of `robot`, with the targets' orientations when they are used."""
+        """Every parameter of `robot`, with the targets' orientations and the deflection terms when they
+        are used."""
         targets = list(robot.targets)
-        return all_parameters(robot, targets, targets if self.orientation_check.isChecked() else ())
+        if self.compliance() != "off" and robot.compliance is None:
+            robot = robot.copy()
+            robot.compliance = Compliance.zero(robot.dof)
+        return all_parameters(robot, targets, targets if self.orientation_check.isChecked() else (),
+                              compliance=self.compliance() != "off")
 
     def set_busy(self, busy: bool) -> None:
         for w in (self.validation_combo, self.holdout_spin, self.kfold_spin, self.huber_check, self.prior_check,
-                  self.orientation_check, self.fix_edit, self.fix_button):
+                  self.orientation_check, self.deflection_combo, self.payload_check, self.fix_edit, self.fix_button):
             w.setEnabled(not busy)
         self.huber_spin.setEnabled(not busy and self.huber_check.isChecked())
+        self.payload_spin.setEnabled(not busy and self.payload_check.isChecked())
         self.progress.bar.setVisible(busy)
         self.progress.reset()
 

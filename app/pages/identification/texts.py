@@ -68,6 +68,7 @@ def _fit_part(r) -> list[str]:
              + "</li></ul>"]
     if r.prior is not None:
         parts += _prior_part(r.prior)
+    parts += _deflection_part(r)
     if r.orientation is not None:
         parts += _orientation_part(r.orientation)
     if r.warnings:
@@ -83,8 +84,18 @@ def _orientation_part(o) -> list[str]:
             f"{o.rms_before_deg:.4f}° before, {o.rms_after_deg:.4f}° after{held}.{only}</p>"]
 
 
+def _deflection_part(r) -> list[str]:
+    """The deflection choice in plain words, and the payload the calibration was measured with."""
+    c = r.compliance
+    payload = ("" if r.payload_kg is None else f" Payload during the measurements: {r.payload_kg:g} kg"
+               + (" — the deflection terms hold for this payload." if c is not None and c.kept else "."))
+    if c is None or (c.mode == "off" and not payload):
+        return []
+    return [f"<h3>Deflection under the arm's weight</h3><p>{esc(c.verdict)}{esc(payload)}</p>"]
+
+
 def _prior_part(p) -> list[str]:
-    if p.weights.plain:
+    if not p.weights.geometric:
         return [f"<h3>Prior toward nominal</h3><p>Weight 0 ({esc(p.chosen_by)}): no pull toward the nominal "
                 "values, so the fit is the plain one.</p>"]
     dominated = ", ".join(p.dominated) or "none"

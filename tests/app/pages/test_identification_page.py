@@ -17,6 +17,7 @@ from core.measurement.synthetic import is_synthetic
 from core.identification.identifiability import FIXED_BY_USER
 from core.measurement.file import read_measurements, write_measurements
 from core.robot.file import read_robot
+from core.virtual_lab.robot_deflection import deflecting_robot
 from core.virtual_lab.synthetic import perturbed_model, simulate_measurements
 
 
@@ -193,6 +194,26 @@ def test_options_reach_the_identification(hw_page, qtbot):
         assert result.parameters[r].status == FIXED_BY_USER and page.results.table.is_greyed(r)
     assert page.state.accuracy is None      # no true robot in hardware mode
     assert "3-fold cross validation" in page.results.validation_view.toPlainText()
+
+
+def test_deflection_choice_payload_and_verdict_on_the_page(hw_page, qtbot):
+    page = hw_page
+    true = deflecting_robot(perturbed_model(page.state.robot, 2), 2, range_deg=(0.05, 0.08))
+    write_measurements(simulate_measurements(true, 40, sigma_mm=0.03, rng=3), page.measurements_path())
+    page.on_enter()
+    page.options.deflection_combo.setCurrentIndex(1)           # "Deflection if it helps"
+    assert page.options.compliance() == "auto" and "J2.cos_q2" in page.options.fix_actions
+    page.options.payload_check.setChecked(True)
+    page.options.payload_spin.setValue(1.5)
+    identify(qtbot, page)
+    result = page.result
+    assert result.compliance.mode == "auto" and result.compliance.kept and result.payload_kg == 1.5
+    text = page.results.validation_view.toPlainText()
+    assert "Deflection under the arm's weight" in text and "The arm bends under its weight" in text
+    assert "Payload during the measurements: 1.5 kg" in text
+    assert any(row.name == "J3.sin_q23" and row.identifiable for row in result.parameters)
+    page.options.deflection_combo.setCurrentIndex(0)
+    assert "J2.cos_q2" not in page.options.fix_actions and page.options.options()["compliance"] == "off"
 
 
 def test_fix_menu_and_text_agree(hw_page):

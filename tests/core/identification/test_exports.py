@@ -184,3 +184,20 @@ def test_unknown_export_format(tmp_path):
     nominal = read_robot(robot_path("educational_6r"))
     with pytest.raises(RoboCalError, match="unknown export format"):
         export_model(nominal, "sdf", tmp_path / "x.sdf")
+
+
+def test_exports_say_they_cannot_hold_deflection_terms(tmp_path):
+    from core.robot.compliance import Compliance
+
+    model = read_robot(robot_path("abb_irb120"))
+    assert "deflection" not in dh_table_csv(model) and "deflection" not in urdf_text(model)
+    model.compliance = Compliance.zero(model.dof)
+    model.compliance.set(1, "cos_q2", np.deg2rad(0.05))
+    text = dh_table_csv(model)
+    first, rest = text.split("\r\n", 1)
+    assert first.startswith("# ") and "deflection terms (J2, J3" in first and "robot JSON file" in first
+    rows = list(csv.reader(io.StringIO(rest)))
+    assert rows[0] == CSV_COLUMNS and len(rows) == 7
+    root = ET.fromstring(urdf_text(model).split("\n", 1)[1])          # parses: the note is a comment
+    assert root.tag == "robot"
+    assert "<!-- This model also has deflection terms (J2, J3 bend under the arm's weight)" in urdf_text(model)
