@@ -316,7 +316,7 @@ def solve_ik(model: RobotModel, targets_xyz, targets_R=None, *, tcp: str = "mark
     limited = conv & ~ok                 # reached, but only outside the limits: Q keeps that solution
     todo = np.flatnonzero(~ok)
     rng = np.random.default_rng(0)
-    slo, shi = model.sampling_range()
+    slo, shi = np.where(rev, np.maximum(lo, -2 * np.pi), lo), np.where(rev, np.minimum(hi, 2 * np.pi), hi)
     for attempt in range(RESTARTS + 1):
         if len(todo) == 0:
             break
