@@ -1,4 +1,4 @@
-"""`robocal compensate` on a calibrated virtual-lab robot: targets in the camera, base and a
+"""`robocal compensate` (and `export --format ur-kinematics`) on a calibrated virtual-lab robot: targets in the camera, base and a
 fixture frame, a nominal joint program, corrected Cartesian targets for a nominal controller,
 G-code and move lists read back by parsers written here, bad input refused."""
 from __future__ import annotations
@@ -19,6 +19,8 @@ from core.fixtures.frame import FixtureFrame
 from core.identification.solver import identify, write_calibrated_model
 from core.poses.file import read_pose_list, write_poses
 from core.robot.file import read_robot, write_robot
+from core.robot.model import robot_path
+import yaml
 
 
 @pytest.fixture(scope="module")
@@ -231,3 +233,14 @@ def test_bad_input(cell, tmp_path, capsys):
     assert main(["compensate", "--robot", robot, "--targets", str(good), "--frame", "world",
                  "--out", str(tmp_path / "o.csv")]) == 2
     assert "--frame 'world'" in capsys.readouterr().err
+
+
+def test_export_ur_kinematics(tmp_path, capsys):
+    code = main(["export", "--robot", str(robot_path("ur5")), "--format", "ur-kinematics",
+                 "--out", str(tmp_path / "k.yaml"), "--json"])
+    assert code == 0
+    kin = yaml.safe_load((tmp_path / "k.yaml").read_text())["kinematics"]
+    assert kin["forearm"]["x"] == pytest.approx(-0.425)
+    assert main(["export", "--robot", str(robot_path("puma560")), "--format", "ur-kinematics",
+                 "--out", str(tmp_path / "p.yaml")]) == 1
+    assert "not a Universal Robots arm" in capsys.readouterr().err and not (tmp_path / "p.yaml").exists()
