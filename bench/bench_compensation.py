@@ -130,9 +130,11 @@ def _speed(report, model) -> None:
     dq = np.abs(sol - ours.Q[idx]).max(axis=1)
     worst = int(np.argmax(dq))
     print(f"    joints apart: median {np.rad2deg(np.median(dq)):.1e}°, worst {np.rad2deg(dq[worst]):.2f}° at q = "
-          f"{np.round(np.rad2deg(ours.Q[idx[worst]]), 1)} (ours) / {np.round(np.rad2deg(sol[worst]), 1)} (least_squares)")
+          f"{np.round(np.rad2deg(ours.Q[idx[worst]]), 1)} (ours) / "
+          f"{np.round(np.rad2deg(sol[worst]), 1)} (least_squares)")
     report.add(f"IK speed, {PROGRAM}-point program: solve_ik / least_squares ({SUBSET} points, scaled)",
                rate * t_ls, ">=", 10.0, "×",
                f"{rate:.0f} points/s ({t_ours:.2f} s) vs {1 / t_ls:.0f} points/s ({1e3 * t_ls:.2f} ms per point)")
     report.add("same answers as least_squares: tool point apart, max", gap.max(), "<=", 1e-6, "mm",
-               f"{np.sum(dq < 1e-6)} of {SUBSET} on the same joints (1e-6 rad); the others a solution of the same pose on the other side of a near-stretched elbow")
+               f"{np.sum(dq < 1e-6)} of {SUBSET} on the same joints (1e-6 rad); the others the same pose "
+               "on the other side of a near-stretched elbow")

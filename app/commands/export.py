@@ -30,7 +30,8 @@ def run(args) -> CommandResult:
         path = write_ur_kinematics(robot, args.out, source=str(args.robot))
         off = ur_kinematics(robot).flange_offset[:3, 3]
         text = (f"Wrote {path} (UR kinematics for ur_description, robot '{robot.name}'); the calibrated flange "
-                f"lies {float((off ** 2).sum() ** 0.5):.3f} mm from tool0: add the offset in the file's comment to the TCP.")
+                f"lies {float((off ** 2).sum() ** 0.5):.3f} mm from tool0: add the offset in the file's comment "
+                "to the TCP.")
         return CommandResult(text=text, data={"format": args.format, "out": str(path), "robot": robot.name,
                                               "joints": robot.dof, "calibrated": robot.calibration is not None,
                                               "flange_offset_mm": [float(v) for v in off]})

@@ -52,9 +52,10 @@ def format_controller_program(model: RobotModel, Q, names, kind: str, *, profile
         i = int(np.flatnonzero(~inside)[0])
         raise RoboCalError(f"point '{names[i]}' is outside the joint limits of '{model.name}'",
                            hint="Correct the program again; no controller program is written with it.")
+    protocol = Path(profile.source).stem if profile.source else profile.name
     lines = [f"{comment} RoboCal corrected program for {_safe(model.name)}: {len(Q)} points"
              + (f" from {_safe(source)}" if source else ""),
-             f"{comment} protocol {_safe(Path(profile.source).stem if profile.source else profile.name)}; joint units {joint_map.units}"]
+             f"{comment} protocol {_safe(protocol)}; joint units {joint_map.units}"]
     if kind == "gcode":
         lines.append("G90")
     for name, q in zip(names, Q):

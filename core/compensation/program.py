@@ -168,7 +168,8 @@ def compensate_program(calibrated: RobotModel, nominal: RobotModel, Q_nominal, *
     Q_nominal = np.atleast_2d(np.asarray(Q_nominal, dtype=float))
     if nominal.dof != calibrated.dof:
         raise RoboCalError(f"the nominal robot '{nominal.name}' has {nominal.dof} joints but the calibrated "
-                           f"'{calibrated.name}' has {calibrated.dof}", hint="Give the nominal model of the same robot.")
+                           f"'{calibrated.name}' has {calibrated.dof}",
+                           hint="Give the nominal model of the same robot.")
     if Q_nominal.shape[1] != nominal.dof:
         raise RoboCalError(f"the program has {Q_nominal.shape[1]} joint columns but the robot has {nominal.dof}",
                            hint="Give the program taught for this robot.")

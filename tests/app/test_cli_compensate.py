@@ -1,6 +1,7 @@
-"""`robocal compensate` (and `export --format ur-kinematics`) on a calibrated virtual-lab robot: targets in the camera, base and a
-fixture frame, a nominal joint program, corrected Cartesian targets for a nominal controller,
-G-code and move lists read back by parsers written here, bad input refused."""
+"""`robocal compensate` (and `export --format ur-kinematics`) on a calibrated virtual-lab robot:
+targets in the camera, base and a fixture frame, a nominal joint program, corrected Cartesian
+targets for a nominal controller, G-code and move lists read back by parsers written here, bad
+input refused."""
 from __future__ import annotations
 
 import csv
