@@ -26,8 +26,7 @@ import time
 import numpy as np
 from scipy.optimize import least_squares
 
-from core import transforms as tf
-from core.compensation.ik import _Problem, _length_scale, solve_ik, tcp_in_tool, tcp_poses
+from core.compensation.ik import IKProblem, length_scale, solve_ik, tcp_in_tool, tcp_poses
 from core.compensation.program import compensate_program, compensate_targets
 from core.compensation.targets import TargetList
 from core.identification.solver import identify
@@ -115,7 +114,7 @@ def _speed(report, model) -> None:
     rate = PROGRAM / t_ours
     report.info(f"solve_ik, {PROGRAM} points", f"{t_ours:.2f} s, {int(ours.ok.sum())} ok", "")
 
-    prob = _Problem(model, tcp_in_tool(model, "marker"), T, True, _length_scale(model))
+    prob = IKProblem(model, tcp_in_tool(model, "marker"), T, True, length_scale(model))
     idx = rng.choice(np.flatnonzero(ours.ok), SUBSET, replace=False)
     sol = np.empty((SUBSET, model.dof))
     t0 = time.perf_counter()

@@ -14,7 +14,7 @@ from app.commands import CommandResult, ProgressLine, check_output
 
 HELP = "Correct a program (Cartesian targets or nominal joints) with the calibrated robot model"
 
-INPUTS = ("robot", "targets", "program", "nominal")
+INPUTS = ("robot", "targets", "program", "nominal", "frame")
 OUTPUTS = ("out",)
 
 FORMATS = ("joints", "gcode", "moves")

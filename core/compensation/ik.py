@@ -43,11 +43,10 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from core import transforms as tf
-from core.errors import RoboCalError, UsageError
+from core.errors import UsageError
 from core.robot.model import RobotModel
 
 TOOL_TCP = "tool"
-FRAMES = ("base", "measurement", "camera")
 POLISH = 1e-3           # iterate to this fraction of the tolerance (a step costs little there)
 RESTARTS = 8            # starts tried, spread over the joint range, for a point its hint does not solve
 
@@ -107,8 +106,9 @@ def frame_to_world(model: RobotModel, frame) -> np.ndarray:
     return model.base @ T
 
 
-def _length_scale(model: RobotModel) -> float:
-    """A characteristic length of the robot (mm): its link lengths and offsets summed."""
+def length_scale(model: RobotModel) -> float:
+    """A characteristic length of the robot (mm): its link lengths and offsets summed (turns
+    rotation errors in rad into mm in the residual)."""
     total = sum(abs(j.a) + abs(j.d) for j in model.joints) + float(np.linalg.norm(model.tool[:3, 3]))
     return max(total, 1.0)
 
@@ -118,8 +118,10 @@ def _rotation_error(R_target: np.ndarray, R: np.ndarray) -> np.ndarray:
     return Rotation.from_matrix(R_target @ np.swapaxes(R, 1, 2)).as_rotvec()
 
 
-class _Problem:
-    """The targets of a solve in the measurement frame and the evaluation of residual and Jacobian."""
+class IKProblem:
+    """The residual and Jacobian the solver works on, for targets `world` (N, 4, 4) in the
+    measurement frame and the tool point's pose `tcp_T` in the tool frame (see the module):
+    r = [p* − p; L·log(R*·Rᵀ)] (mm; the rotation rows only with `orientation`), J = −∂r/∂q."""
 
     def __init__(self, model: RobotModel, tcp_T: np.ndarray, world: np.ndarray, orientation: bool,
                  length: float):
@@ -132,7 +134,8 @@ class _Problem:
         self.n = model.dof
 
     def evaluate(self, Q: np.ndarray, idx: np.ndarray, jacobian: bool = True):
-        """Residual r (M, 3|6), position error (M,) mm, rotation error (M,) rad, and J (M, 3|6, n)."""
+        """For the targets `idx` at Q (M, n): residual r (M, 3|6), position error (M,) mm,
+        rotation error (M,) rad, and J (M, 3|6, n) (None when `jacobian` is False)."""
         n = self.n
         F = self.model.frames_many(Q)
         T = F[:, n + 1] @ self.tcp_T
@@ -161,7 +164,7 @@ class _Problem:
         return r, pos, rot, np.swapaxes(J, 1, 2)
 
 
-def _levenberg_marquardt(prob: _Problem, Q0: np.ndarray, idx: np.ndarray, *, tol_mm: float,
+def _levenberg_marquardt(prob: IKProblem, Q0: np.ndarray, idx: np.ndarray, *, tol_mm: float,
                          tol_rad: float, max_iterations: int, max_step: float,
                          bounds: tuple[np.ndarray, np.ndarray] | None = None):
     """Solve the points `idx` from Q0 (M, n): returns Q, converged (M,), pos err, rot err, iterations."""
@@ -271,8 +274,8 @@ def solve_ik(model: RobotModel, targets_xyz, targets_R=None, *, tcp: str = "mark
     frame_name = frame if isinstance(frame, str) else "fixture"
     world = frame_to_world(model, frame) @ world_in
     orientation = targets_R is not None
-    prob = _Problem(model, tcp_in_tool(model, tcp), world, orientation,
-                    float(length_scale_mm) if length_scale_mm else _length_scale(model))
+    prob = IKProblem(model, tcp_in_tool(model, tcp), world, orientation,
+                    float(length_scale_mm) if length_scale_mm else length_scale(model))
     lo, hi = model.limits()
     rev = model.revolute_mask()
     kw = dict(tol_mm=tol_mm, tol_rad=np.deg2rad(tol_deg), max_iterations=max_iterations,

@@ -129,11 +129,10 @@ class CompensatedProgram:
         return rows
 
 
-def _predict(model: RobotModel, Q, tcp: str, ok, probability: float):
+def _predict(model: RobotModel, Q, tcp: str, probability: float):
     if not isinstance(model.calibration, dict) or "covariance" not in model.calibration:
         return None, "no predicted error: the robot file holds no calibration covariance"
-    pred = predicted_error(model, Q, tcp, probability=probability)
-    return pred, ""
+    return predicted_error(model, Q, tcp, probability=probability), ""
 
 
 def compensate_targets(calibrated: RobotModel, targets: TargetList, *, tcp: str = "marker", frame="base",
@@ -153,7 +152,7 @@ def compensate_targets(calibrated: RobotModel, targets: TargetList, *, tcp: str 
     ik = solve_ik(calibrated, targets.xyz, R, tcp=tcp, frame=frame, hint=hint)
     monitor.step(0.8, "predicted error")
     intended = tf.invert(calibrated.base) @ ik.targets_world
-    pred, note = _predict(calibrated, ik.Q, tcp, ik.ok, probability)
+    pred, note = _predict(calibrated, ik.Q, tcp, probability)
     monitor.step(1.0, "done")
     return CompensatedProgram(list(targets.names), ik, calibrated, intended, tcp, nominal, None, pred, note)
 
@@ -179,7 +178,7 @@ def compensate_program(calibrated: RobotModel, nominal: RobotModel, Q_nominal, *
     ik = solve_ik(calibrated, meant[:, :3, 3], meant[:, :3, :3] if use_R else None, tcp=tcp, frame="base",
                   hint=Q_nominal)
     monitor.step(0.8, "predicted error")
-    pred, note = _predict(calibrated, ik.Q, tcp, ik.ok, probability)
+    pred, note = _predict(calibrated, ik.Q, tcp, probability)
     labels = list(names) if names is not None else [str(i) for i in range(len(Q_nominal))]
     monitor.step(1.0, "done")
     return CompensatedProgram(labels, ik, calibrated, meant, tcp, nominal, Q_nominal, pred, note)
