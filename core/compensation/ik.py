@@ -27,11 +27,13 @@ program's joints), so it lands on the branch nearest the hint. Without a hint ea
 the previous point: all points start from the first point's solution (itself from `start`, by
 default zeros moved inside the limits), and a point whose solution lies more than `follow_deg`
 from its predecessor's is solved again from that solution. A revolute solution is then taken
-modulo 360° to the equivalent nearest the hint that lies inside the limits. When the solution is
-outside the limits the point is solved again with the joints kept inside them (projected
-steps); if that also fails the point is not ok, `Q` keeps the unconstrained solution (never
-clipped) and `reason` names the joint and its limits. A target the solver cannot reach within
-tolerance is not ok with the distance it stays away.
+modulo 360° to the equivalent nearest the hint that lies inside the limits. A point not solved
+this way (not converged, or solved only outside the limits) is solved again with the joints kept
+inside the limits (projected steps), from its hint and then from `RESTARTS` seeded starts spread
+over the joint range (such a solution may lie on another branch than the hint's). If none
+succeeds the point is not ok: a point reached only outside the limits keeps that unconstrained
+solution in `Q` (never clipped) and `reason` names the joint and its limits; a target the solver
+cannot reach within tolerance gets the distance it stays away.
 
 Units: mm, rad internally (targets_R are rotation matrices); IKResult.Q internal (rad / mm).
 """
@@ -280,10 +282,9 @@ def solve_ik(model: RobotModel, targets_xyz, targets_R=None, *, tcp: str = "mark
     rev = model.revolute_mask()
     kw = dict(tol_mm=tol_mm, tol_rad=np.deg2rad(tol_deg), max_iterations=max_iterations,
               max_step=np.deg2rad(max_step_deg))
-    empty = IKResult(np.zeros((0, model_n)), np.zeros(0, bool), [], np.zeros(0), np.zeros(0),
-                     np.zeros(0, int), tcp, frame_name, orientation, world)
     if N == 0:
-        return empty
+        return IKResult(np.zeros((0, model_n)), np.zeros(0, bool), [], np.zeros(0), np.zeros(0),
+                        np.zeros(0, int), tcp, frame_name, orientation, world)
     idx_all = np.arange(N)
     if hint is not None:
         H = np.asarray(hint, dtype=float)
@@ -291,9 +292,10 @@ def solve_ik(model: RobotModel, targets_xyz, targets_R=None, *, tcp: str = "mark
             raise UsageError(f"hint must be an ({N}, {model_n}) array of joint values (rad / mm)", field="hint")
         Q, conv, pos, rot, iters = _levenberg_marquardt(prob, H, idx_all, **kw)
     else:
-        s = np.clip(np.zeros(model_n) if start is None else np.asarray(start, dtype=float), lo, hi)
-        if s.shape != (model_n,):
+        s = np.zeros(model_n) if start is None else np.asarray(start, dtype=float)
+        if s.shape != (model_n,) or not np.all(np.isfinite(s)):
             raise UsageError(f"start must hold {model_n} joint values (rad / mm)", field="start")
+        s = np.clip(s, lo, hi)
         q0, c0, p0, o0, i0 = _levenberg_marquardt(prob, s[None], idx_all[:1], **kw)
         q0 = _wrap_near(q0, s[None], rev, lo, hi)
         Q, conv, pos, rot, iters = _levenberg_marquardt(prob, np.repeat(q0, N, axis=0), idx_all, **kw)
