@@ -4,8 +4,8 @@ calibrated model, and the speed of the inverse kinematics.
 The educational 6R arm of the virtual lab (seed 0) calibrated from 50 ideal measurements
 (σ 0.05 mm per axis). 100 targets located by the cameras inside the calibrated workspace: the
 true robot at random poses the cameras see, each stereo pair rendered and the marker located
-with the lab's trained marker through the lab's stereo rig (left camera frame). For each path the true robot's marker error at the joints sent
-(against what was asked) is set beside
+with the lab's trained marker through the lab's stereo rig (left camera frame). For each path
+the true robot's marker error at the joints sent (against what was asked) is set beside
 * the calibrated model's own error against the truth at those joints (goal ≤ 1.2 ×: the
   compensation adds nothing to the model's error), and
 * the error without compensation (the nominal model's joints for the same targets; goal ≥ 50 ×
