@@ -19,7 +19,10 @@ batched forward kinematics, the geometric Jacobian from the joint frames
 and batched solves of (JᵀJ + λ·D)·δq = Jᵀ·r, r = [p* − p; L·log(R*·Rᵀ)] (L = `length_scale_mm`
 turns radians into mm), D = diag(L² for revolute, 1 for prismatic joints); λ per point shrinks
 on a successful step and grows on a failed one; steps are capped at `max_step_deg` (revolute)
-and the same arc at L (prismatic). Position-only targets leave a redundant robot free: the damped
+and the same arc at L (prismatic). A model with joint compliance (core.robot.compliance) stands at
+q + δq(q): its frames come from the model as they are, and the Jacobian with respect to the
+commanded q is J(q + δq)·(I + ∂δq/∂q), so the joint values sent include the deflection.
+Position-only targets leave a redundant robot free: the damped
 steps from the start keep the joints near it.
 
 Branches and limits. Each point starts from its `hint` (N, n internal units, e.g. the taught
@@ -163,7 +166,11 @@ class IKProblem:
             J = np.concatenate([Jp, Jo], axis=2)              # (M, n, 6)
         else:
             J = Jp
-        return r, pos, rot, np.swapaxes(J, 1, 2)
+        J = np.swapaxes(J, 1, 2)
+        if self.model.compliance is not None:     # the frames stand at q + δq(q): chain rule to the commanded q
+            D = np.where(self.rev[None, :, None], self.model.compliance.derivative(Q), 0.0)
+            J = J @ (np.eye(n) + D)
+        return r, pos, rot, J
 
 
 def _levenberg_marquardt(prob: IKProblem, Q0: np.ndarray, idx: np.ndarray, *, tol_mm: float,
