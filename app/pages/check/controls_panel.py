@@ -1,5 +1,5 @@
 """The Check page's controls: the tool mounted (a robot with several tools), the check poses, "Run
-check now", the schedule, and on the virtual lab the change to simulate."""
+check now", the schedule, and on the virtual lab (only) the change to simulate."""
 from __future__ import annotations
 
 import numpy as np
@@ -155,5 +155,6 @@ class CheckControls(QWidget):
     def set_enabled(self, busy: bool, ready: bool, virtual: bool) -> None:
         for w in (self.choose_button, self.run_button, self.count_spin, self.tool_combo):
             w.setEnabled(ready and not busy)
-        self.identify_tool_button.setEnabled(ready and virtual and not busy)
+        self.identify_tool_button.setEnabled(ready and not busy)
         self.change_box.setEnabled(virtual and not busy)
+        self.change_box.setVisible(virtual)        # a real cell changes by itself, never by simulation

@@ -1,9 +1,17 @@
 """Step 8, Check: measure the marker at a few check poses, compare it with the calibrated model's
 prediction against limits from the calibration's own uncertainty, append every point to the
 project's check log (checks.csv), draw the control charts, say in plain words what changed, and
-re-identify it from a few proposed poses (app/jobs/check.py does the work, on the virtual lab).
+re-identify it from a few proposed poses (app/jobs/check.py does the work).
 With several tools, the tool mounted is chosen here, and a newly mounted tool is identified from
-its own few poses (app/jobs/tool.py)."""
+its own few poses (app/jobs/tool.py).
+
+Every check measures on the project's cell and says which: in a virtual-lab project the lab (with
+a change to simulate); in a real-cell project the connected robot is driven to each pose (safety
+as on the Measurement page: limits checked before sending, the first motion confirmed, Esc stops)
+and the marker located in the pairs of the project's cameras (app/jobs/cell_check.py). A real-cell
+project never measures the lab: with no robot or cameras connected the page says so and does
+nothing. A robot fault ends a check (and the schedule) after the points measured, which stay in
+the log."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -11,15 +19,19 @@ from pathlib import Path
 from PySide6.QtCore import QTimer
 from PySide6.QtWidgets import QHBoxLayout, QVBoxLayout
 
+from app.jobs import cell_check
 from app.jobs import check as job
 from app.jobs import fixture as fixture_job
 from app.jobs import tool as tool_job
+from app.jobs.cell_measure import CellMeasure, cell_options, locator
+from app.hardware import is_real
 from app.pages.base import WizardPage
 from app.pages.check.controls_panel import CheckControls
 from app.pages.check.fixture_panel import FixturePanel
 from app.pages.check.results_panel import CheckResults
 from app.pages.measurement_inputs import project_marker, stereo_source
 from app.pages.steps import Step
+from app.safety import motion_refused
 from core.errors import RoboCalError
 from core.monitoring.log import CheckLog, read_check_log
 
@@ -50,6 +62,8 @@ class CheckPage(WizardPage):
         self.tool_update: tool_job.ToolUpdate | None = None
         self.log: CheckLog | None = None
         self._images = None                    # how the last check measured (see `images`)
+        self._where = ""                       # where the running check measures, in words
+        self._measure: CellMeasure | None = None    # the real cell's measure of the running task
 
         self.controls = CheckControls()
         self.controls.setFixedWidth(320)
@@ -80,6 +94,9 @@ class CheckPage(WizardPage):
         layout.addWidget(self.status)
 
         state.projectChanged.connect(lambda *_: self._calibration_changed())
+        state.cellChanged.connect(lambda *_: self._calibration_changed())
+        state.connectionChanged.connect(lambda *_: self.refresh())
+        state.camerasChanged.connect(lambda *_: self.refresh())
         state.robotChanged.connect(lambda *_: self._calibration_changed())
         self.refresh()
 
@@ -101,8 +118,38 @@ class CheckPage(WizardPage):
         return (trained, rect) if trained is not None and rect is not None else None
 
     def _measured_by(self, images) -> str:
-        return ("measured through the cameras' images (trained marker, stereo calibration)" if images is not None
-                else "the virtual lab's ideal measurements (no trained marker or stereo calibration in the project)")
+        return ("measured on the virtual lab, through its cameras' images (trained marker, stereo calibration)"
+                if images is not None else
+                "measured on the virtual lab, ideal measurements (no trained marker or stereo calibration in the "
+                "project)")
+
+    def cell_problem(self) -> str | None:
+        """Why this real cell cannot be measured now (None: it can)."""
+        state = self.state
+        if state.project is not None and state.project.teach_mode:
+            return ("this project's robot is in teach mode: RoboCal cannot drive it to the check poses. Connect a "
+                    "serial robot on the Setup page")
+        driver = state.robot_connection
+        if not is_real(driver) or not driver.connected:
+            return "no robot is connected: connect the cell's robot on the Setup page"
+        lost = getattr(driver, "lost", None)
+        if lost:
+            return f"the connection to the robot is lost ({lost}): connect it again on the Setup page"
+        if state.cameras is None:
+            return "the cell's cameras are not open: open them on the Setup page"
+        if self.images() is None:
+            return "the trained marker or the stereo calibration is missing: run the Stereo and Marker steps"
+        return None
+
+    def cell_words(self) -> str:
+        """Where a real-cell check measures: the robot's port and the cameras."""
+        driver, cameras = self.state.robot_connection, self.state.cameras
+        robot = f"the serial robot on {getattr(driver, 'port', None) or driver.info.name}"
+        choice = cameras.choice
+        folders = choice is not None and all(Path(str(s)).is_dir() for s in (choice.left, choice.right))
+        seen = (f"images from the folders {choice.left} and {choice.right}" if folders
+                else f"the cameras {cameras.describe()}")
+        return f"measured with {robot} and {seen}"
 
     def _ready(self) -> bool:
         path = self.calibrated_path()
@@ -143,16 +190,20 @@ class CheckPage(WizardPage):
         if not self._ready() and not self.busy:
             self._set_status(MISSING if self.state.project is not None else
                              "No project: choose one in the Setup step.", False)
-        elif not self.state.virtual:
-            self._set_status("Checks measure on the virtual lab; this project uses a real robot.", False)
+        elif not self.state.virtual and not self.busy and self.result is None:
+            problem = self.cell_problem()
+            self._set_status(f"This project measures on {self.state.cell}. "
+                             + (f"Nothing can be measured: {problem}." if problem else "Ready to check."),
+                             None if problem is None else False)
         self.on_busy_changed()
         self.notify_complete()
 
     def on_busy_changed(self) -> None:
-        self.controls.set_enabled(self.busy, self._ready() and self.state.virtual, self.state.virtual)
+        self.controls.set_enabled(self.busy, self._ready(), self.state.virtual)
         can = self.diagnosis is not None and self.diagnosis.explained and bool(self.diagnosis.parameters)
         self.results.reidentify_button.setEnabled(can and not self.busy)
         self.fixture.set_enabled(self.busy, self._ready())
+        self.fixture.set_virtual(self.state.virtual)
 
     # -- actions -------------------------------------------------------------------------
     def _cell(self) -> job.CheckSetup | None:
@@ -164,6 +215,10 @@ class CheckPage(WizardPage):
         if not self._can_run():
             return False
         key, path = self._key(), self.calibrated_path()
+        if not self.state.virtual:
+            return self.start(cell_check.setup_cell, path, self._cell_options(), count=key[2], tool=key[3],
+                              on_done=lambda cell: self._take_cell(cell, key),
+                              status="Choosing check poses for the cell's cameras…")
         return self.start_with_lab(self._setup_job, path, self.controls.count_spin.value(), self.controls.tool(),
                                    on_done=lambda cell: self._take_cell(cell, key),
                                    status="Choosing check poses…")
@@ -186,21 +241,69 @@ class CheckPage(WizardPage):
             self._finish_autopilot(False, MISSING)
             return False
         if not self.state.virtual:
-            self._set_status("Checks measure on the virtual lab; this project uses a real robot.", False)
-            self._finish_autopilot(False, "not on the virtual lab")
-            return False
+            problem = self.cell_problem()
+            if problem is not None:
+                self._set_status(f"Nothing measured: {problem}. (This project measures on {self.state.cell}; "
+                                 "never on the virtual lab.)", False)
+                self._finish_autopilot(False, problem)
+                return False
         return True
+
+    def _cell_options(self) -> dict:
+        """How the real cell's poses are chosen: its calibrated cameras and measured depths."""
+        return cell_options(stereo_source(self.state).rect, self.state.project.path("measurements"))
+
+    def _cell_measure(self) -> CellMeasure:
+        trained, rect = self.images()
+        return CellMeasure(self.state.robot_connection, self.state.cameras, locator(trained, rect))
 
     def run_check(self) -> bool:
         """One check at every check pose (the poses are chosen first when needed)."""
         if not self._can_run():
             return False
+        if not self.state.virtual:
+            return self._check_cell()
         key, images = self._key(), self.images()
         self._images = images
+        self._where = self._measured_by(images)
         return self.start_with_lab(job.check_project, self.calibrated_path(), on_done=lambda r: self._checked(r, key),
                                    cell=self._cell(), count=key[2], change=self.controls.change_spec(),
                                    images=images, log=self.log_path(), seed=self._seed(), tool=key[3],
                                    status=f"Checking: {self._measured_by(images)}…")
+
+    def _check_cell(self) -> bool:
+        """A check on the real cell: the check poses first when needed (on a worker), then the
+        robot is driven through them once app.safety allowed it."""
+        key = self._key()
+        cell = self._cell()
+        if cell is None:
+            return self.start(cell_check.setup_cell, self.calibrated_path(), self._cell_options(), count=key[2],
+                              tool=key[3], on_done=lambda c: (self._take_cell(c, key), self._drive_check(key)),
+                              status="Choosing check poses for the cell's cameras…")
+        return self._drive_check(key)
+
+    def _drive_check(self, key: tuple) -> bool:
+        refused = motion_refused(self, self.state, self.cell.Q)
+        if refused:
+            self._set_status(f"Nothing measured: {refused}", False)
+            self._finish_autopilot(False, refused)
+            return False
+        self._where = self.cell_words()
+        measure = self._measure = self._cell_measure()
+        return self.start(cell_check.check_cell, self.cell, measure, log=self.log_path(),
+                          on_done=lambda value: self._checked((self.cell, *value), key),
+                          status=f"Checking: {self._where}… Esc stops the robot.")
+
+    def _fault_words(self) -> str:
+        """The robot fault that ended the last real-cell run, with what became of the schedule."""
+        measure = self._measure
+        if measure is None or measure.fault is None:
+            return ""
+        if self.controls.schedule_check.isChecked():
+            self.controls.schedule_check.setChecked(False)
+            return (f" Robot fault: {measure.fault}. The run stopped there and the scheduled checks are off; the "
+                    "points measured are kept in the log.")
+        return f" Robot fault: {measure.fault}. The run stopped there; the points measured are kept in the log."
 
     def _seed(self) -> int:
         """A new noise seed for every check, also after a restart (the log's length)."""
@@ -213,8 +316,9 @@ class CheckPage(WizardPage):
             self._take_cell(cell, key)
         self._show_result(self.result, self.diagnosis)
         self.refresh()
-        self._set_status(("✓ " if self.result.within else "⚠ ") + short_verdict(self.result) + " Points "
-                         + self._measured_by(self._images) + ".", self.result.within)
+        fault = self._fault_words()
+        self._set_status(("✓ " if self.result.within and not fault else "⚠ ") + short_verdict(self.result)
+                         + " Points " + self._where + "." + fault, self.result.within and not fault)
         self._finish_autopilot(bool(self.result.points), "" if self.result.points else self.result.verdict())
 
     def _show_result(self, result, diagnosis) -> None:
@@ -230,7 +334,19 @@ class CheckPage(WizardPage):
         """Re-identify what the diagnosis found and check the updated robot."""
         if self.diagnosis is None or self.cell is None or not self._can_run():
             return False
+        if not self.state.virtual:
+            refused = motion_refused(self, self.state)
+            if refused:
+                self._set_status(f"Nothing measured: {refused}", False)
+                return False
+            self._where = self.cell_words()
+            measure = self._measure = self._cell_measure()
+            return self.start(cell_check.reidentify_cell, self.cell, self.result, self.diagnosis, measure,
+                              self.calibrated_path(), self._cell_options(), log=self.log_path(),
+                              on_done=self._reidentified,
+                              status=f"Re-identifying from the proposed poses, {self._where}… Esc stops the robot.")
         from app.lab import lab_options
+        self._where = self._measured_by(self.images())
 
         def go(lab):
             return self.start(job.reidentify_on_lab, self.cell, self.result, self.diagnosis, lab,
@@ -249,9 +365,9 @@ class CheckPage(WizardPage):
         self._show_result(update.after, None)
         self.refresh()
         changed = ", ".join(update.reidentification.changed)
-        self._set_status(f"✓ Re-identified {changed} from {len(update.proposed)} proposed poses and the check; "
-                         f"wrote {update.path.name} (the previous one is kept in history/). Check of the updated "
-                         f"robot: {short_verdict(update.after)}", update.after.within)
+        self._set_status(f"✓ Re-identified {changed} from {len(update.proposed)} proposed poses and the check, "
+                         f"{self._where}; wrote {update.path.name} (the previous one is kept in history/). Check "
+                         f"of the updated robot: {short_verdict(update.after)}", update.after.within)
 
     # -- fixture -------------------------------------------------------------------------
     def locate_fixture(self) -> bool:
@@ -293,6 +409,18 @@ class CheckPage(WizardPage):
         tool = self.controls.tool()
         if tool is None or not self._can_run():
             return False
+        if not self.state.virtual:
+            refused = motion_refused(self, self.state)
+            if refused:
+                self._set_status(f"Nothing measured: {refused}", False)
+                return False
+            self._where = self.cell_words()
+            measure = self._measure = self._cell_measure()
+            return self.start(cell_check.identify_tool_cell, self.calibrated_path(), tool, measure,
+                              self._cell_options(), on_done=self._tool_identified,
+                              status=f"Identifying the tool '{tool}' from its proposed poses, {self._where}… Esc "
+                                     "stops the robot.")
+        self._where = self._measured_by(self.images())
         return self.start_with_lab(tool_job.identify_on_lab, self.calibrated_path(), tool,
                                    change=self.controls.change_spec(), images=self.images(), seed=self._seed(),
                                    on_done=self._tool_identified,
@@ -303,8 +431,8 @@ class CheckPage(WizardPage):
         self.cell = self._cell_key = self.result = self.diagnosis = None
         self.tool_update = update
         self.refresh()
-        self._set_status(f"✓ {update.identification.text()} Wrote {update.path.name} (the previous one is kept "
-                         f"in history/).", True)
+        self._set_status(f"✓ {update.identification.text()} Points {self._where}. Wrote {update.path.name} (the "
+                         f"previous one is kept in history/).", True)
 
     # -- schedule ------------------------------------------------------------------------
     def _schedule_changed(self) -> None:

@@ -1,0 +1,157 @@
+"""The Check page on a real cell: `robocal sim-robot` (a subprocess on a real pseudo-terminal) is
+the project's robot, and the virtual lab's cameras watching it, written by the simulator into two
+image folders after every motion, are the project's cameras. The calibration files are made from
+the virtual lab directly (the calibration itself is tested elsewhere); the simulator's robot is
+then changed (`--change`). The check drives the robot, is out of limits, the diagnosis names the
+change, Re-identify drives the proposed poses and the updated robot checks within limits.
+A real-cell project with nothing connected says so and never measures the lab."""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app import messages
+from app.hardware import CameraChoice, LiveCameras, RobotChoice, open_serial_robot
+from app.lab import ideal_lab_measurements, write_ideal_measurements
+from app.pages.check.page import CheckPage
+from app.pages.measurement_inputs import marker_file
+from app.state import WizardState
+from app.worker import TaskRunner
+from core import project as projects
+from core.identification.solver import identify, write_calibrated_model
+from core.monitoring.log import read_check_log
+from core.robot.file import read_robot
+from tests.app.virtual_inputs import lab_marker, make_lab, true_stereo_yaml
+
+ROOT = Path(__file__).resolve().parents[3]
+TIMEOUT = 600_000
+SHOTS = ROOT / "docs" / "screenshots"
+
+
+@pytest.fixture(scope="module")
+def lab():
+    return make_lab()                      # seed 0: the robot `sim-robot --seed 0` serves
+
+
+@pytest.fixture
+def confirmed():
+    """The first-motion question is answered yes (app.messages' non-interactive mode)."""
+    messages.set_non_interactive(True)
+    yield
+    messages.set_non_interactive(False)
+
+
+def calibrated_project(lab, folder: Path, cell: dict) -> WizardState:
+    """A real-cell project of the educational 6R arm with its stereo.yaml (the lab's true rig), its
+    trained marker, its measurements and the calibration identified from them."""
+    state = WizardState(seed=0, noise=0.5)
+    state.new_project(folder, mode=projects.HARDWARE, **cell)
+    state.choose_preset("educational_6r")
+    project = state.project
+    true_stereo_yaml(lab, project.path("stereo"))
+    lab_marker(lab).save(marker_file(project))
+    meas = ideal_lab_measurements(lab, 50, sigma_mm=0.05, seed=4)
+    write_ideal_measurements(meas, project.path("measurements"), sigma_mm=0.05)
+    write_calibrated_model(identify(lab.nominal_robot, meas), project.path("calibrated"))
+    return state
+
+
+def start_sim_robot(folder: Path, cameras: Path, change: str):
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.Popen([sys.executable, "-m", "app.cli", "sim-robot", "--seed", "0", "--time-scale", "0.01",
+                             "--duration", "900", "--cameras", str(cameras), "--change", change],
+                            cwd=folder, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    port = proc.stdout.readline().strip()
+    if not port.startswith("/dev/"):
+        proc.kill()
+        pytest.fail(f"sim-robot printed no device: {port!r} {proc.stderr.read()}")
+    return proc, port
+
+
+def open_page(qtbot, state: WizardState, tasks: TaskRunner) -> CheckPage:
+    page = CheckPage(state, tasks)
+    qtbot.addWidget(page)
+    page.resize(1100, 760)
+    page.show()
+    page.on_enter()
+    return page
+
+
+def wait(page, qtbot) -> None:
+    qtbot.waitUntil(lambda: not page.busy, timeout=TIMEOUT)
+
+
+def test_a_tool_change_on_the_serial_robot_is_found_and_reidentified(lab, qtbot, tmp_path, confirmed):
+    cameras = tmp_path / "cell-cameras"
+    proc, port = start_sim_robot(tmp_path, cameras, "tool:1.5")
+    cell = {"robot_connection": {"kind": "serial", "port": port, "profile": "robocal_v1"},
+            "cameras": {"kind": "sources", "left": str(cameras / "left"), "right": str(cameras / "right")}}
+    state, tasks = calibrated_project(lab, tmp_path / "project", cell), TaskRunner()
+    try:
+        choice = RobotChoice("serial", port, "robocal_v1")
+        state.use_serial_robot(open_serial_robot(state.robot, choice, reply_timeout=10.0), choice)
+        state.set_cameras(LiveCameras.open(CameraChoice("sources", str(cameras / "left"), str(cameras / "right"))))
+        page = open_page(qtbot, state, tasks)
+        assert not page.controls.change_box.isVisible()          # a real cell is never changed by simulation
+        before = page.calibrated_path().read_text()
+
+        assert page.run_check()
+        qtbot.waitUntil(lambda: page.result is not None and not page.busy, timeout=TIMEOUT)
+        driver = state.robot_connection
+        result, diagnosis = page.result, page.diagnosis
+        assert len(page.cell.Q) == 8 and len(result.points) == 8, page.status.text()
+        np.testing.assert_allclose(driver.current_joints(), page.cell.Q[-1], atol=1e-4)    # the robot moved there
+        assert not result.within and diagnosis is not None and diagnosis.kind == "tool", page.status.text()
+        assert diagnosis.text.startswith("The marker moved 1.5 mm") or "1.5" in diagnosis.text, diagnosis.text
+        status = page.status.text()
+        assert f"measured with the serial robot on {port} and images from the folders" in status, status
+        assert "virtual lab" not in status
+        assert page.results.reidentify_button.isEnabled()
+        log = read_check_log(page.log_path())
+        assert len(log.checks) == 1 and len(log.checks[0].points) == 8 and not log.checks[0].within
+
+        assert page.reidentify()
+        qtbot.waitUntil(lambda: page.update is not None and not page.busy, timeout=TIMEOUT)
+        update = page.update
+        assert len(update.proposed) >= 1 and update.after.within, page.status.text()
+        assert page.result.within and "Re-identified marker.x" in page.status.text()
+        assert f"serial robot on {port}" in page.status.text()
+        written = read_robot(page.calibrated_path())
+        assert written.calibration["history"][-1]["changed"] == ["marker.x", "marker.y", "marker.z"]
+        assert any((page.calibrated_path().parent / "history").iterdir())
+        assert page.calibrated_path().read_text() != before
+
+        SHOTS.mkdir(parents=True, exist_ok=True)
+        page.grab().save(str(SHOTS / "check-real-cell.png"))
+    finally:
+        tasks.shutdown()
+        state.close()
+        proc.terminate()
+        proc.wait(timeout=20)
+    assert np.isfinite(update.after.rms_mm)
+
+
+def test_a_real_cell_with_nothing_connected_says_so_and_measures_nothing(lab, qtbot, tmp_path):
+    state = calibrated_project(lab, tmp_path / "project", {
+        "robot_connection": {"kind": "serial", "port": "/dev/ttyUSB0", "profile": "robocal_v1"},
+        "cameras": {"kind": "sources", "left": "0", "right": "2"}})
+    tasks = TaskRunner()
+    try:
+        page = open_page(qtbot, state, tasks)
+        assert state.robot_connection is None and not state.has_lab
+        assert "a real cell: the serial robot on /dev/ttyUSB0" in page.status.text()
+        assert "no robot is connected" in page.status.text()
+        assert not page.run_check()
+        assert "Nothing measured: no robot is connected" in page.status.text()
+        assert "never on the virtual lab" in page.status.text()
+        assert not page.busy and not state.has_lab and page.result is None
+        assert not page.log_path().exists()
+        assert not page.choose_poses() and not page.busy
+    finally:
+        tasks.shutdown()
+        state.close()
