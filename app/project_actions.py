@@ -1,7 +1,9 @@
 """New / Open / Save project, shared by the File menu and the Setup page.
 
 Each action asks for a folder when none is given, shows a RoboCalError as one message box
-line, and returns the project (or None when cancelled or failed)."""
+line, and returns the project (or None when cancelled or failed). New project also asks which
+cell the project measures on (the virtual lab or a real cell, app/pages/setup/cell_dialog.py)
+when it asks for the folder; given a folder and no cell, it makes a virtual-lab project."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -9,19 +11,27 @@ from pathlib import Path
 from PySide6.QtWidgets import QFileDialog, QWidget
 
 from app.messages import show_error
+from app.pages.setup.cell_dialog import ask_cell
 from app.state import WizardState
 from core.errors import RoboCalError
-from core.project import Project
+from core.project import VIRTUAL_LAB, Project
 
 
-def new_project(parent: QWidget | None, state: WizardState, folder: str | Path | None = None) -> Project | None:
+def new_project(parent: QWidget | None, state: WizardState, folder: str | Path | None = None,
+                cell: tuple[str, dict | None, dict | None] | None = None) -> Project | None:
+    """`cell`: (mode, robot_connection, cameras) as CellDialog.cell() gives them."""
     if folder is None:
         folder = QFileDialog.getExistingDirectory(
             parent, "New project: choose or create an empty folder", str(Path.home()))
         if not folder:
             return None
+        if cell is None:
+            cell = ask_cell(parent)
+            if cell is None:
+                return None
+    mode, robot_connection, cameras = cell or (VIRTUAL_LAB, None, None)
     try:
-        return state.new_project(folder)
+        return state.new_project(folder, mode=mode, robot_connection=robot_connection, cameras=cameras)
     except RoboCalError as exc:
         show_error(parent, exc.message, "RoboCal: new project")
         return None
@@ -45,5 +55,24 @@ def save_project(parent: QWidget | None, state: WizardState) -> bool:
         state.save_project()
     except RoboCalError as exc:
         show_error(parent, exc.message, "RoboCal: save project")
+        return False
+    return True
+
+
+def change_cell(parent: QWidget | None, state: WizardState, cell: tuple[str, dict | None, dict | None] | None = None
+                ) -> bool:
+    """Change the project's cell (asked in the cell dialog when `cell` is not given)."""
+    if state.project is None:
+        show_error(parent, "No project: create or open one first.", "RoboCal: cell")
+        return False
+    if cell is None:
+        cell = ask_cell(parent, state.project)
+        if cell is None:
+            return False
+    mode, robot_connection, cameras = cell
+    try:
+        state.set_cell(mode, robot_connection=robot_connection, cameras=cameras)
+    except RoboCalError as exc:
+        show_error(parent, exc.message, "RoboCal: cell")
         return False
     return True
