@@ -155,3 +155,38 @@ def test_a_real_cell_with_nothing_connected_says_so_and_measures_nothing(lab, qt
     finally:
         tasks.shutdown()
         state.close()
+
+
+def test_a_robot_fault_ends_a_scheduled_check_keeping_the_log(lab, qtbot, tmp_path, confirmed):
+    """The controller simulator on a pty (in this process), faulting on its third move; the lab's
+    cameras watch it through two image folders. The scheduled check stops there, the schedule is
+    switched off, and the two points measured stay in the log."""
+    from app.sim_cameras import SimulatedCellCameras
+    from core.robot.controller_sim import ControllerSim
+
+    cameras = SimulatedCellCameras(lab, tmp_path / "cell-cameras")
+    sim = ControllerSim(lab.true_robot, faults="fault@3", time_scale=0.01, on_rest=cameras.on_rest).start()
+    cell = {"robot_connection": {"kind": "serial", "port": sim.port, "profile": "robocal_v1"},
+            "cameras": {"kind": "sources", "left": str(cameras.left), "right": str(cameras.right)}}
+    state, tasks = calibrated_project(lab, tmp_path / "project", cell), TaskRunner()
+    try:
+        choice = RobotChoice("serial", sim.port, "robocal_v1")
+        state.use_serial_robot(open_serial_robot(state.robot, choice, reply_timeout=10.0), choice)
+        state.set_cameras(LiveCameras.open(CameraChoice("sources", str(cameras.left), str(cameras.right))))
+        page = open_page(qtbot, state, tasks)
+        page.controls.schedule_check.setChecked(True)
+        assert page.schedule_timer.isActive()
+        page._scheduled()                           # the timer's tick
+        qtbot.waitUntil(lambda: page.result is not None and not page.busy, timeout=TIMEOUT)
+        assert sim.fired == ["fault@3"] and page.result.cancelled
+        assert len(page.result.points) == 2, page.status.text()
+        assert "Robot fault: " in page.status.text() and "scheduled checks are off" in page.status.text()
+        assert not page.controls.schedule_check.isChecked() and not page.schedule_timer.isActive()
+        assert state.robot_connection.stopped
+        log = read_check_log(page.log_path())
+        assert len(log.checks) == 1 and len(log.checks[0].points) == 2 and not log.checks[0].finished
+        assert not page.run_check() and "stopped" in page.status.text()     # nothing moves before Resume
+    finally:
+        tasks.shutdown()
+        state.close()
+        sim.close()
