@@ -19,7 +19,7 @@ from pathlib import Path
 from PySide6.QtCore import QTimer
 from PySide6.QtWidgets import QHBoxLayout, QVBoxLayout
 
-from app.jobs import cell_check
+from app.jobs import cell_check, cell_teach
 from app.jobs import check as job
 from app.jobs import fixture as fixture_job
 from app.jobs import tool as tool_job
@@ -29,8 +29,10 @@ from app.pages.base import WizardPage
 from app.pages.check.controls_panel import CheckControls
 from app.pages.check.fixture_panel import FixturePanel
 from app.pages.check.results_panel import CheckResults
+from app.pages.check.teach_panel import TeachCheckPanel
 from app.pages.measurement_inputs import project_marker, stereo_source
 from app.pages.steps import Step
+from app.jobs.measurement_hardware import typed_joints
 from app.safety import motion_refused
 from core.errors import RoboCalError
 from core.monitoring.log import CheckLog, read_check_log
@@ -64,6 +66,7 @@ class CheckPage(WizardPage):
         self._images = None                    # how the last check measured (see `images`)
         self._where = ""                       # where the running check measures, in words
         self._measure: CellMeasure | None = None    # the real cell's measure of the running task
+        self.taught: dict[int, cell_teach.TaughtCheckPose] = {}     # teach mode: check pose -> recorded
 
         self.controls = CheckControls()
         self.controls.setFixedWidth(320)
@@ -72,6 +75,10 @@ class CheckPage(WizardPage):
         self.fixture.setFixedWidth(320)
         self.fixture.locate_button.clicked.connect(lambda *_: self.locate_fixture())
         self.fixture_run = None
+        self.teach = TeachCheckPanel()
+        self.teach.setFixedWidth(320)
+        self.teach.record_button.clicked.connect(lambda *_: self.record_pose())
+        self.teach.check_button.clicked.connect(lambda *_: self.run_check())
         self.controls.run_button.clicked.connect(lambda *_: self.run_check())
         self.controls.choose_button.clicked.connect(lambda *_: self.choose_poses())
         self.controls.schedule_check.toggled.connect(lambda *_: self._schedule_changed())
@@ -84,6 +91,7 @@ class CheckPage(WizardPage):
         body = QHBoxLayout()
         left = QVBoxLayout()
         left.addWidget(self.controls, 1)
+        left.addWidget(self.teach)
         left.addWidget(self.fixture)
         body.addLayout(left)
         body.addWidget(self.results, 1)
@@ -126,9 +134,12 @@ class CheckPage(WizardPage):
     def cell_problem(self) -> str | None:
         """Why this real cell cannot be measured now (None: it can)."""
         state = self.state
-        if state.project is not None and state.project.teach_mode:
-            return ("this project's robot is in teach mode: RoboCal cannot drive it to the check poses. Connect a "
-                    "serial robot on the Setup page")
+        if self.teach_mode:
+            if state.cameras is None:
+                return "the cell's cameras are not open: open them on the Setup page"
+            if self.images() is None:
+                return "the trained marker or the stereo calibration is missing: run the Stereo and Marker steps"
+            return None
         driver = state.robot_connection
         if not is_real(driver) or not driver.connected:
             return "no robot is connected: connect the cell's robot on the Setup page"
@@ -141,10 +152,16 @@ class CheckPage(WizardPage):
             return "the trained marker or the stereo calibration is missing: run the Stereo and Marker steps"
         return None
 
+    @property
+    def teach_mode(self) -> bool:
+        """A real cell whose robot the technician brings to each pose (the project's choice)."""
+        return self.state.project is not None and self.state.project.teach_mode
+
     def cell_words(self) -> str:
         """Where a real-cell check measures: the robot's port and the cameras."""
         driver, cameras = self.state.robot_connection, self.state.cameras
-        robot = f"the serial robot on {getattr(driver, 'port', None) or driver.info.name}"
+        robot = ("the robot brought to each pose by hand (teach mode)" if self.teach_mode else
+                 f"the serial robot on {getattr(driver, 'port', None) or driver.info.name}")
         choice = cameras.choice
         folders = choice is not None and all(Path(str(s)).is_dir() for s in (choice.left, choice.right))
         seen = (f"images from the folders {choice.left} and {choice.right}" if folders
@@ -162,6 +179,7 @@ class CheckPage(WizardPage):
     def _calibration_changed(self) -> None:
         self.forget_task()
         self.cell = self._cell_key = self.result = self.diagnosis = self.update = None
+        self.taught = {}
         self.controls.poses_list.clear()
         self.results.show_verdict("No check yet.", None)
         self.results.show_diagnosis("", False)
@@ -204,6 +222,12 @@ class CheckPage(WizardPage):
         self.results.reidentify_button.setEnabled(can and not self.busy)
         self.fixture.set_enabled(self.busy, self._ready())
         self.fixture.set_virtual(self.state.virtual)
+        teach = self.teach_mode
+        self.teach.setVisible(teach)
+        self.controls.schedule_check.setEnabled(not teach and not self.busy)
+        self.controls.identify_tool_button.setEnabled(self.controls.identify_tool_button.isEnabled() and not teach)
+        if teach:
+            self._show_next_pose()
 
     # -- actions -------------------------------------------------------------------------
     def _cell(self) -> job.CheckSetup | None:
@@ -230,10 +254,13 @@ class CheckPage(WizardPage):
                          tool=tool, progress=progress, cancelled=cancelled)
 
     def _take_cell(self, cell: job.CheckSetup, key: tuple) -> None:
+        if cell is not self.cell:
+            self.taught = {}
         self.cell, self._cell_key = cell, key
         self.controls.show_poses(cell.model.q_to_file(cell.Q))
         self._set_status(f"✓ {len(cell.Q)} check poses chosen; limits from the calibration's uncertainty "
                          f"(σ {cell.unc.sigma_mm:.3f} mm, false alarms {100 * cell.limits.alpha:g} %).", True)
+        self.on_busy_changed()
 
     def _can_run(self) -> bool:
         if not self._ready():
@@ -273,9 +300,14 @@ class CheckPage(WizardPage):
 
     def _check_cell(self) -> bool:
         """A check on the real cell: the check poses first when needed (on a worker), then the
-        robot is driven through them once app.safety allowed it."""
+        robot is driven through them once app.safety allowed it (teach mode: the poses recorded by
+        hand are checked once every one is recorded)."""
         key = self._key()
         cell = self._cell()
+        if self.teach_mode:
+            if cell is None:
+                return self.choose_poses()
+            return self._check_taught()
         if cell is None:
             return self.start(cell_check.setup_cell, self.calibrated_path(), self._cell_options(), count=key[2],
                               tool=key[3], on_done=lambda c: (self._take_cell(c, key), self._drive_check(key)),
@@ -293,6 +325,64 @@ class CheckPage(WizardPage):
         return self.start(cell_check.check_cell, self.cell, measure, log=self.log_path(),
                           on_done=lambda value: self._checked((self.cell, *value), key),
                           status=f"Checking: {self._where}… Esc stops the robot.")
+
+    # -- teach mode ----------------------------------------------------------------------
+    def _next_pose(self) -> int | None:
+        if self.cell is None:
+            return None
+        return next((k for k in range(len(self.cell.Q)) if k not in self.taught), None)
+
+    def _show_next_pose(self) -> None:
+        k = self._next_pose()
+        if self.cell is None:
+            self.teach.next_label.setText("Choose the check poses first (Choose check poses).")
+        else:
+            self.teach.show_next(k, self.cell.model.q_to_file(self.cell.Q[k]) if k is not None else None,
+                                 len(self.taught), len(self.cell.Q))
+        self.teach.record_button.setEnabled(k is not None and not self.busy)
+        self.teach.check_button.setEnabled(self.cell is not None and k is None and not self.busy)
+
+    def record_pose(self) -> bool:
+        """Teach mode: record the next check pose where the technician put the robot."""
+        if not self._can_run():
+            return False
+        k = self._next_pose()
+        if k is None:
+            self._set_status("Choose the check poses first, or check the recorded ones.", False)
+            return False
+        try:
+            q_file = typed_joints(self.teach.joints_edit.text(), self.cell.model)
+        except RoboCalError as exc:
+            self._set_status(f"Pose {k} not recorded: {exc.message}. {exc.hint or ''}".strip(), False)
+            return False
+        trained, rect = self.images()
+        self._where = self.cell_words()
+        return self.start(cell_teach.record_check_pose, self.cell, k, self.state.cameras, locator(trained, rect),
+                          q_typed_file=q_file, on_done=self._pose_recorded, status=f"Recording check pose {k}…")
+
+    def _pose_recorded(self, taught: cell_teach.TaughtCheckPose) -> None:
+        self.taught[taught.index] = taught
+        self.teach.joints_edit.clear()
+        found = "marker located" if taught.point is not None else "the marker was NOT found (it will count as missing)"
+        notes = ("; " + "; ".join(taught.warnings)) if taught.warnings else ""
+        self._set_status(f"✓ Pose {taught.index} recorded: {found}{notes}.", taught.point is not None)
+        self.on_busy_changed()
+
+    def _check_taught(self) -> bool:
+        if self._next_pose() is not None:
+            self._set_status(f"Record every check pose first: {len(self.taught)} of {len(self.cell.Q)} recorded.",
+                             False)
+            return False
+        key = self._key()
+        self._where = self.cell_words()
+        self._measure = None
+        return self.start(cell_teach.check_taught, self.cell, list(self.taught.values()), log=self.log_path(),
+                          on_done=lambda value: self._checked_taught(value, key),
+                          status=f"Checking the recorded poses, {self._where}…")
+
+    def _checked_taught(self, value, key: tuple) -> None:
+        self.taught = {}
+        self._checked((self.cell, *value), key)
 
     def _fault_words(self) -> str:
         """The robot fault that ended the last real-cell run, with what became of the schedule."""
@@ -333,6 +423,10 @@ class CheckPage(WizardPage):
     def reidentify(self) -> bool:
         """Re-identify what the diagnosis found and check the updated robot."""
         if self.diagnosis is None or self.cell is None or not self._can_run():
+            return False
+        if self.teach_mode:
+            self._set_status("In teach mode RoboCal cannot drive the proposed poses: measure them with the "
+                             "Measurement step's teach mode, then run robocal reidentify with that file.", False)
             return False
         if not self.state.virtual:
             refused = motion_refused(self, self.state)

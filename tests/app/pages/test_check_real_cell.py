@@ -190,3 +190,43 @@ def test_a_robot_fault_ends_a_scheduled_check_keeping_the_log(lab, qtbot, tmp_pa
         tasks.shutdown()
         state.close()
         sim.close()
+
+
+def test_teach_mode_records_each_check_pose_by_hand(lab, qtbot, tmp_path):
+    """No robot connection: the technician brings the robot to each listed pose (here the lab's
+    cameras are rendered where it was brought) and types the joints; the recorded poses are checked
+    and logged, within limits for the unchanged robot."""
+    from app.sim_cameras import SimulatedCellCameras
+
+    cameras = SimulatedCellCameras(lab, tmp_path / "cell-cameras")
+    cameras.on_rest(np.zeros(6))
+    cell = {"robot_connection": {"kind": "teach"},
+            "cameras": {"kind": "sources", "left": str(cameras.left), "right": str(cameras.right)}}
+    state, tasks = calibrated_project(lab, tmp_path / "project", cell), TaskRunner()
+    try:
+        state.set_cameras(LiveCameras.open(CameraChoice("sources", str(cameras.left), str(cameras.right))))
+        page = open_page(qtbot, state, tasks)
+        assert page.teach.isVisible() and not page.controls.schedule_check.isEnabled()
+        assert page.run_check()                     # the poses are chosen first
+        wait(page, qtbot)
+        assert page.cell is not None and page.controls.poses_list.count() == 8
+        assert "Bring the robot to <b>pose 0</b>" in page.teach.next_label.text()
+        page.teach.joints_edit.setText("1, 2, 3")
+        assert not page.record_pose() and "3 joint values typed, the robot has 6" in page.status.text()
+        for k, q in enumerate(page.cell.Q):
+            q_file = page.cell.model.q_to_file(q) + 0.3          # where the technician brought it
+            cameras.on_rest(q_file)
+            page.teach.joints_edit.setText(" ".join(f"{v:.4f}" for v in q_file))
+            assert page.record_pose(), page.status.text()
+            wait(page, qtbot)
+            assert f"Pose {k} recorded: marker located" in page.status.text()
+        assert page.teach.check_button.isEnabled()
+        assert page.run_check()
+        qtbot.waitUntil(lambda: page.result is not None and not page.busy, timeout=TIMEOUT)
+        assert page.result.within and len(page.result.points) == 8, page.status.text()
+        assert "brought to each pose by hand (teach mode)" in page.status.text()
+        logged = read_check_log(page.log_path()).checks[0].points
+        np.testing.assert_allclose(logged[0].q_file, page.cell.model.q_to_file(page.cell.Q[0]) + 0.3, atol=1e-3)
+    finally:
+        tasks.shutdown()
+        state.close()
