@@ -51,8 +51,12 @@ class CheckControls(QWidget):
         self.schedule_check = QCheckBox("Check every")
         self.schedule_check.setObjectName("scheduleCheck")
         self.minutes_spin = forms.spin(10, 1, 24 * 60, name="scheduleMinutes", suffix=" min")
+        self.cell_label = QLabel()
+        self.cell_label.setObjectName("checkCell")
+        self.cell_label.setWordWrap(True)
         run_box = QGroupBox("Checks")
         rl = QVBoxLayout(run_box)
+        rl.addWidget(self.cell_label)
         rl.addWidget(self.run_button)
         rl.addLayout(forms.row(self.schedule_check, self.minutes_spin))
 
@@ -145,6 +149,10 @@ class CheckControls(QWidget):
             self.mount_combo.setCurrentText(tool)
         self.size_spin.setValue(size)
         self.joint_spin.setValue(joint)
+
+    def show_cell(self, words: str) -> None:
+        """Where the checks measure (the project's cell), in words."""
+        self.cell_label.setText(f"Measures on {words}.")
 
     def show_poses(self, Q_deg) -> None:
         """List the check poses (joint values in degrees / mm)."""

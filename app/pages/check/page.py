@@ -194,6 +194,7 @@ class CheckPage(WizardPage):
 
     def refresh(self) -> None:
         """Read the check log and the calibration's presence, and draw them."""
+        self.controls.show_cell(self.state.cell)
         if self.state.robot is not None:
             self.controls.set_dof(self.state.robot.dof)
             self.controls.set_tools(self.state.robot.tool_names())
@@ -459,7 +460,8 @@ class CheckPage(WizardPage):
         self._show_result(update.after, None)
         self.refresh()
         changed = ", ".join(update.reidentification.changed)
-        self._set_status(f"✓ Re-identified {changed} from {len(update.proposed)} proposed poses and the check, "
+        self._set_status(f"✓ Re-identified {changed} from {len(update.proposed)} proposed "
+                         f"pose{'s' if len(update.proposed) != 1 else ''} and the check, "
                          f"{self._where}; wrote {update.path.name} (the previous one is kept in history/). Check "
                          f"of the updated robot: {short_verdict(update.after)}", update.after.within)
 

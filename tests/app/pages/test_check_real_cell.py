@@ -30,7 +30,6 @@ from tests.app.virtual_inputs import lab_marker, make_lab, true_stereo_yaml
 
 ROOT = Path(__file__).resolve().parents[3]
 TIMEOUT = 600_000
-SHOTS = ROOT / "docs" / "screenshots"
 
 
 @pytest.fixture(scope="module")
@@ -98,6 +97,8 @@ def test_a_tool_change_on_the_serial_robot_is_found_and_reidentified(lab, qtbot,
         state.set_cameras(LiveCameras.open(CameraChoice("sources", str(cameras / "left"), str(cameras / "right"))))
         page = open_page(qtbot, state, tasks)
         assert not page.controls.change_box.isVisible()          # a real cell is never changed by simulation
+        assert page.controls.cell_label.text() == (f"Measures on a real cell: the serial robot on {port} (robocal_v1), "
+                                                   f"cameras {cameras / 'left'} and {cameras / 'right'}.")
         before = page.calibrated_path().read_text()
 
         assert page.run_check()
@@ -126,8 +127,9 @@ def test_a_tool_change_on_the_serial_robot_is_found_and_reidentified(lab, qtbot,
         assert any((page.calibrated_path().parent / "history").iterdir())
         assert page.calibrated_path().read_text() != before
 
-        SHOTS.mkdir(parents=True, exist_ok=True)
-        page.grab().save(str(SHOTS / "check-real-cell.png"))
+        shot = tmp_path / "check-real-cell.png"          # docs/screenshots/check-real-cell.png
+        page.grab().save(str(shot))
+        assert shot.stat().st_size > 10_000
     finally:
         tasks.shutdown()
         state.close()
@@ -227,6 +229,39 @@ def test_teach_mode_records_each_check_pose_by_hand(lab, qtbot, tmp_path):
         assert "brought to each pose by hand (teach mode)" in page.status.text()
         logged = read_check_log(page.log_path()).checks[0].points
         np.testing.assert_allclose(logged[0].q_file, page.cell.model.q_to_file(page.cell.Q[0]) + 0.3, atol=1e-3)
+    finally:
+        tasks.shutdown()
+        state.close()
+
+
+def test_the_fixture_panel_works_in_a_real_cell_project(lab, qtbot, tmp_path):
+    """Nothing connected: the fixture is located from its description and a folder of pairs (the
+    lab's fixture is not offered)."""
+    import cv2
+
+    from app.lab import place_fixture, render_fixture_pairs
+    from core.fixtures.description import write_fixture_description
+
+    state = calibrated_project(lab, tmp_path / "project", {"robot_connection": {"kind": "teach"}})
+    tasks = TaskRunner()
+    try:
+        page = open_page(qtbot, state, tasks)
+        panel = page.fixture
+        assert panel.source == "files" and not panel.source_combo.model().item(0).isEnabled()
+        assert panel.locate_button.isEnabled() and panel.pairs_button.isEnabled()
+        fixture = place_fixture(lab, points=[[0, 0, 0], [200, 0, 0], [60, 150, 0]])
+        write_fixture_description(tmp_path / "fixture.json", fixture.description(with_positions=False))
+        for side in ("left", "right"):
+            (tmp_path / "pairs" / side).mkdir(parents=True)
+        for name, (left, right) in zip(fixture.names, render_fixture_pairs(lab, fixture, 2)):
+            cv2.imwrite(str(tmp_path / "pairs" / "left" / f"{name}.png"), left)
+            cv2.imwrite(str(tmp_path / "pairs" / "right" / f"{name}.png"), right)
+        panel.description_path, panel.pairs_folder = str(tmp_path / "fixture.json"), str(tmp_path / "pairs")
+        assert page.locate_fixture()
+        wait(page, qtbot)
+        frame = page.fixture_run.result.frame
+        assert np.linalg.norm(frame.position - fixture.pose[:3, 3]) < 0.2, page.status.text()
+        assert (state.project.folder / "fixture_pose.json").is_file() and not state.has_lab
     finally:
         tasks.shutdown()
         state.close()
