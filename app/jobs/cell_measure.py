@@ -7,9 +7,10 @@ from the project's cameras once the robot has settled (live cameras, video files
 folders: app.hardware.LiveCameras), and locates the project's trained marker in it → the marker's
 centre (mm, left camera frame) or None when it is not found.
 
-A robot or connection fault, or the Stop key, ends the run: the robot is stopped, the fault is
-kept in `fault`, and `cancelled()` becomes true, so the check ends after the points already
-measured (they stay in the check log) instead of driving on.
+A robot or connection fault ends the run: the robot is stopped, the fault is kept in `fault`,
+and `cancelled()` becomes true, so the check ends after the points already measured (they stay
+in the check log) instead of driving on. The Stop key (the robot stopped) ends it the same way,
+without a fault.
 
 `cell_options(stereo, measurements)`: how the cell's check poses are chosen: candidates that both
 calibrated cameras see, facing them, inside the depth range the calibration measured.
@@ -55,8 +56,9 @@ class CellMeasure:
             self.driver.move_to(q)
             self.reached.append(np.asarray(self.driver.current_joints(), dtype=float))
         except RobotFault as exc:
-            self.fault = exc.message
-            self.driver.stop()                 # never raises; the robot stays stopped until Resume
+            if not self.driver.stopped:        # a fault, not the Stop key (which already stopped it)
+                self.fault = exc.message
+                self.driver.stop()             # never raises; the robot stays stopped until Resume
             raise
         self.moves += 1
         if self.settle_s > 0:

@@ -386,15 +386,22 @@ class CheckPage(WizardPage):
         self._checked((self.cell, *value), key)
 
     def _fault_words(self) -> str:
-        """The robot fault that ended the last real-cell run, with what became of the schedule."""
+        """What ended the last real-cell run early (a robot fault or the Stop key), and what became of
+        the schedule: it is switched off."""
         measure = self._measure
-        if measure is None or measure.fault is None:
+        if measure is None:
             return ""
-        if self.controls.schedule_check.isChecked():
-            self.controls.schedule_check.setChecked(False)
-            return (f" Robot fault: {measure.fault}. The run stopped there and the scheduled checks are off; the "
-                    "points measured are kept in the log.")
-        return f" Robot fault: {measure.fault}. The run stopped there; the points measured are kept in the log."
+        if measure.fault is not None:
+            why = f" Robot fault: {measure.fault}. The run stopped there"
+        elif measure.driver.stopped:
+            why = " The robot was stopped. The run ended there"
+        else:
+            return ""
+        scheduled = self.controls.schedule_check.isChecked()
+        self.controls.schedule_check.setChecked(False)
+        return (why + (" and the scheduled checks are off" if scheduled else "")
+                + "; the points measured are kept in the log. Resume (Robot ▸ Resume after stop) when the way "
+                  "is clear.")
 
     def _seed(self) -> int:
         """A new noise seed for every check, also after a restart (the log's length)."""

@@ -265,3 +265,35 @@ def test_the_fixture_panel_works_in_a_real_cell_project(lab, qtbot, tmp_path):
     finally:
         tasks.shutdown()
         state.close()
+
+
+def test_stop_ends_a_check_on_the_cell(lab, qtbot, tmp_path, confirmed):
+    """The Stop key (the main window's Stop calls state.stop_robot) during a check: the robot halts,
+    the check ends with the points measured kept, nothing moves until Resume."""
+    from app.sim_cameras import SimulatedCellCameras
+    from core.robot.controller_sim import ControllerSim
+
+    cameras = SimulatedCellCameras(lab, tmp_path / "cell-cameras")
+    sim = ControllerSim(lab.true_robot, time_scale=0.05, on_rest=cameras.on_rest).start()
+    cell = {"robot_connection": {"kind": "serial", "port": sim.port, "profile": "robocal_v1"},
+            "cameras": {"kind": "sources", "left": str(cameras.left), "right": str(cameras.right)}}
+    state, tasks = calibrated_project(lab, tmp_path / "project", cell), TaskRunner()
+    try:
+        choice = RobotChoice("serial", sim.port, "robocal_v1")
+        state.use_serial_robot(open_serial_robot(state.robot, choice, reply_timeout=10.0), choice)
+        state.set_cameras(LiveCameras.open(CameraChoice("sources", str(cameras.left), str(cameras.right))))
+        page = open_page(qtbot, state, tasks)
+        assert page.run_check()
+        qtbot.waitUntil(lambda: sim.moves >= 3, timeout=TIMEOUT)
+        assert state.stop_robot()
+        qtbot.waitUntil(lambda: page.result is not None and not page.busy, timeout=TIMEOUT)
+        moves = sim.moves
+        assert page.result.cancelled and 2 <= len(page.result.points) < 8, page.status.text()
+        assert "The robot was stopped. The run ended there" in page.status.text()
+        assert "Robot fault" not in page.status.text()
+        assert len(read_check_log(page.log_path()).checks[0].points) == len(page.result.points)
+        assert not page.run_check() and "The robot is stopped" in page.status.text() and sim.moves == moves
+    finally:
+        tasks.shutdown()
+        state.close()
+        sim.close()
