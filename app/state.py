@@ -135,8 +135,7 @@ class WizardState(QObject):
     @property
     def cell(self) -> str:
         """The project's cell in words (the virtual lab, or the real robot connection and cameras)."""
-        return (self.project.describe_cell() if self.project is not None
-                else projects.Project(Path("."), "").describe_cell())
+        return self.project.describe_cell() if self.project is not None else projects.LAB_WORDS
 
     def new_project(self, folder: str | Path, name: str | None = None, mode: str = projects.VIRTUAL_LAB, *,
                     robot_connection: dict | None = None, cameras: dict | None = None) -> projects.Project:

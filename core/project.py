@@ -41,6 +41,7 @@ MODES = (VIRTUAL_LAB, HARDWARE)
 SERIAL = "serial"           # robot_connection kind: a controller on a serial port
 TEACH = "teach"             # robot_connection kind: no connection, poses brought by hand (teach mode)
 SOURCES = "sources"         # cameras kind: two devices, video files or image folders
+LAB_WORDS = "the virtual lab (simulated robot and cameras)"
 
 #: the step outputs kept beside project.json
 OUTPUT_FILES = {
@@ -93,7 +94,7 @@ class Project:
     def describe_cell(self) -> str:
         """The cell in words: the virtual lab, or the real robot connection and cameras."""
         if not self.real_cell:
-            return "the virtual lab (simulated robot and cameras)"
+            return LAB_WORDS
         robot = self.robot_connection or {}
         if robot.get("kind") == SERIAL:
             where = f"the serial robot on {robot.get('port') or '(no port yet)'} ({robot.get('profile') or 'robocal_v1'})"

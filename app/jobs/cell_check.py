@@ -35,13 +35,12 @@ def check_cell(cell: job.CheckSetup, measure: CellMeasure, *, log=None, progress
 
 def reidentify_cell(cell: job.CheckSetup, result, diagnosis, measure: CellMeasure, calibrated, options: dict, *,
                     log=None, progress=None, cancelled=None) -> job.Update:
-    """Drive the proposed poses on the cell, re-identify what changed and check the updated robot;
-    `calibrated` is replaced only when all of it succeeded (the previous file kept in history/). A
-    fault or Stop on the way writes nothing."""
-    stop = measure.cancelled(cancelled)
-    update = job.reidentify_from_proposed(cell, result, diagnosis, measure, calibrated, lab_options=options,
-                                          log=log, archive=True, progress=progress, cancelled=stop)
-    return update
+    """Drive the proposed poses on the cell, re-identify what changed and check the updated robot,
+    then replace `calibrated` (the previous file kept in history/). A fault or Stop while the
+    proposed poses are measured writes nothing; one during the check of the updated robot ends that
+    check early (`measure.fault` says why)."""
+    return job.reidentify_from_proposed(cell, result, diagnosis, measure, calibrated, lab_options=options, log=log,
+                                        archive=True, progress=progress, cancelled=measure.cancelled(cancelled))
 
 
 def identify_tool_cell(calibrated, tool: str, measure: CellMeasure, options: dict, *, count: int | None = None,

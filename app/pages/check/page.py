@@ -23,16 +23,15 @@ from app.jobs import cell_check, cell_teach
 from app.jobs import check as job
 from app.jobs import fixture as fixture_job
 from app.jobs import tool as tool_job
-from app.jobs.cell_measure import CellMeasure, cell_options, locator
-from app.hardware import is_real
 from app.pages.base import WizardPage
+from app.pages.check.cell import CellMixin
 from app.pages.check.controls_panel import CheckControls
 from app.pages.check.fixture_panel import FixturePanel
 from app.pages.check.results_panel import CheckResults
+from app.pages.check.teach import TeachMixin
 from app.pages.check.teach_panel import TeachCheckPanel
 from app.pages.measurement_inputs import project_marker, stereo_source
 from app.pages.steps import Step
-from app.jobs.measurement_hardware import typed_joints
 from app.safety import motion_refused
 from core.errors import RoboCalError
 from core.monitoring.log import CheckLog, read_check_log
@@ -51,7 +50,7 @@ def short_verdict(result) -> str:
     return text + (f"; {len(result.missing)} not measured." if result.missing else ".")
 
 
-class CheckPage(WizardPage):
+class CheckPage(CellMixin, TeachMixin, WizardPage):
     step = Step.CHECK
 
     def __init__(self, state, tasks, **kwargs):
@@ -65,7 +64,6 @@ class CheckPage(WizardPage):
         self.log: CheckLog | None = None
         self._images = None                    # how the last check measured (see `images`)
         self._where = ""                       # where the running check measures, in words
-        self._measure: CellMeasure | None = None    # the real cell's measure of the running task
         self.taught: dict[int, cell_teach.TaughtCheckPose] = {}     # teach mode: check pose -> recorded
 
         self.controls = CheckControls()
@@ -131,43 +129,6 @@ class CheckPage(WizardPage):
                 "measured on the virtual lab, ideal measurements (no trained marker or stereo calibration in the "
                 "project)")
 
-    def cell_problem(self) -> str | None:
-        """Why this real cell cannot be measured now (None: it can)."""
-        state = self.state
-        if self.teach_mode:
-            if state.cameras is None:
-                return "the cell's cameras are not open: open them on the Setup page"
-            if self.images() is None:
-                return "the trained marker or the stereo calibration is missing: run the Stereo and Marker steps"
-            return None
-        driver = state.robot_connection
-        if not is_real(driver) or not driver.connected:
-            return "no robot is connected: connect the cell's robot on the Setup page"
-        lost = getattr(driver, "lost", None)
-        if lost:
-            return f"the connection to the robot is lost ({lost}): connect it again on the Setup page"
-        if state.cameras is None:
-            return "the cell's cameras are not open: open them on the Setup page"
-        if self.images() is None:
-            return "the trained marker or the stereo calibration is missing: run the Stereo and Marker steps"
-        return None
-
-    @property
-    def teach_mode(self) -> bool:
-        """A real cell whose robot the technician brings to each pose (the project's choice)."""
-        return self.state.project is not None and self.state.project.teach_mode
-
-    def cell_words(self) -> str:
-        """Where a real-cell check measures: the robot's port and the cameras."""
-        driver, cameras = self.state.robot_connection, self.state.cameras
-        robot = ("the robot brought to each pose by hand (teach mode)" if self.teach_mode else
-                 f"the serial robot on {getattr(driver, 'port', None) or driver.info.name}")
-        choice = cameras.choice
-        folders = choice is not None and all(Path(str(s)).is_dir() for s in (choice.left, choice.right))
-        seen = (f"images from the folders {choice.left} and {choice.right}" if folders
-                else f"the cameras {cameras.describe()}")
-        return f"measured with {robot} and {seen}"
-
     def _ready(self) -> bool:
         path = self.calibrated_path()
         return path is not None and path.is_file()
@@ -179,7 +140,7 @@ class CheckPage(WizardPage):
     def _calibration_changed(self) -> None:
         self.forget_task()
         self.cell = self._cell_key = self.result = self.diagnosis = self.update = None
-        self.taught = {}
+        self.taught, self._measure = {}, None
         self.controls.poses_list.clear()
         self.results.show_verdict("No check yet.", None)
         self.results.show_diagnosis("", False)
@@ -277,14 +238,6 @@ class CheckPage(WizardPage):
                 return False
         return True
 
-    def _cell_options(self) -> dict:
-        """How the real cell's poses are chosen: its calibrated cameras and measured depths."""
-        return cell_options(stereo_source(self.state).rect, self.state.project.path("measurements"))
-
-    def _cell_measure(self) -> CellMeasure:
-        trained, rect = self.images()
-        return CellMeasure(self.state.robot_connection, self.state.cameras, locator(trained, rect))
-
     def run_check(self) -> bool:
         """One check at every check pose (the poses are chosen first when needed)."""
         if not self._can_run():
@@ -298,110 +251,6 @@ class CheckPage(WizardPage):
                                    cell=self._cell(), count=key[2], change=self.controls.change_spec(),
                                    images=images, log=self.log_path(), seed=self._seed(), tool=key[3],
                                    status=f"Checking: {self._measured_by(images)}…")
-
-    def _check_cell(self) -> bool:
-        """A check on the real cell: the check poses first when needed (on a worker), then the
-        robot is driven through them once app.safety allowed it (teach mode: the poses recorded by
-        hand are checked once every one is recorded)."""
-        key = self._key()
-        cell = self._cell()
-        if self.teach_mode:
-            if cell is None:
-                return self.choose_poses()
-            return self._check_taught()
-        if cell is None:
-            return self.start(cell_check.setup_cell, self.calibrated_path(), self._cell_options(), count=key[2],
-                              tool=key[3], on_done=lambda c: (self._take_cell(c, key), self._drive_check(key)),
-                              status="Choosing check poses for the cell's cameras…")
-        return self._drive_check(key)
-
-    def _drive_check(self, key: tuple) -> bool:
-        refused = motion_refused(self, self.state, self.cell.Q)
-        if refused:
-            self._set_status(f"Nothing measured: {refused}", False)
-            self._finish_autopilot(False, refused)
-            return False
-        self._where = self.cell_words()
-        measure = self._measure = self._cell_measure()
-        return self.start(cell_check.check_cell, self.cell, measure, log=self.log_path(),
-                          on_done=lambda value: self._checked((self.cell, *value), key),
-                          status=f"Checking: {self._where}… Esc stops the robot.")
-
-    # -- teach mode ----------------------------------------------------------------------
-    def _next_pose(self) -> int | None:
-        if self.cell is None:
-            return None
-        return next((k for k in range(len(self.cell.Q)) if k not in self.taught), None)
-
-    def _show_next_pose(self) -> None:
-        k = self._next_pose()
-        if self.cell is None:
-            self.teach.next_label.setText("Choose the check poses first (Choose check poses).")
-        else:
-            self.teach.show_next(k, self.cell.model.q_to_file(self.cell.Q[k]) if k is not None else None,
-                                 len(self.taught), len(self.cell.Q))
-        self.teach.record_button.setEnabled(k is not None and not self.busy)
-        self.teach.check_button.setEnabled(self.cell is not None and k is None and not self.busy)
-
-    def record_pose(self) -> bool:
-        """Teach mode: record the next check pose where the technician put the robot."""
-        if not self._can_run():
-            return False
-        k = self._next_pose()
-        if k is None:
-            self._set_status("Choose the check poses first, or check the recorded ones.", False)
-            return False
-        try:
-            q_file = typed_joints(self.teach.joints_edit.text(), self.cell.model)
-        except RoboCalError as exc:
-            self._set_status(f"Pose {k} not recorded: {exc.message}. {exc.hint or ''}".strip(), False)
-            return False
-        trained, rect = self.images()
-        self._where = self.cell_words()
-        return self.start(cell_teach.record_check_pose, self.cell, k, self.state.cameras, locator(trained, rect),
-                          q_typed_file=q_file, on_done=self._pose_recorded, status=f"Recording check pose {k}…")
-
-    def _pose_recorded(self, taught: cell_teach.TaughtCheckPose) -> None:
-        self.taught[taught.index] = taught
-        self.teach.joints_edit.clear()
-        found = "marker located" if taught.point is not None else "the marker was NOT found (it will count as missing)"
-        notes = ("; " + "; ".join(taught.warnings)) if taught.warnings else ""
-        self._set_status(f"✓ Pose {taught.index} recorded: {found}{notes}.", taught.point is not None)
-        self.on_busy_changed()
-
-    def _check_taught(self) -> bool:
-        if self._next_pose() is not None:
-            self._set_status(f"Record every check pose first: {len(self.taught)} of {len(self.cell.Q)} recorded.",
-                             False)
-            return False
-        key = self._key()
-        self._where = self.cell_words()
-        self._measure = None
-        return self.start(cell_teach.check_taught, self.cell, list(self.taught.values()), log=self.log_path(),
-                          on_done=lambda value: self._checked_taught(value, key),
-                          status=f"Checking the recorded poses, {self._where}…")
-
-    def _checked_taught(self, value, key: tuple) -> None:
-        self.taught = {}
-        self._checked((self.cell, *value), key)
-
-    def _fault_words(self) -> str:
-        """What ended the last real-cell run early (a robot fault or the Stop key), and what became of
-        the schedule: it is switched off."""
-        measure = self._measure
-        if measure is None:
-            return ""
-        if measure.fault is not None:
-            why = f" Robot fault: {measure.fault}. The run stopped there"
-        elif measure.driver.stopped:
-            why = " The robot was stopped. The run ended there"
-        else:
-            return ""
-        scheduled = self.controls.schedule_check.isChecked()
-        self.controls.schedule_check.setChecked(False)
-        return (why + (" and the scheduled checks are off" if scheduled else "")
-                + "; the points measured are kept in the log. Resume (Robot ▸ Resume after stop) when the way "
-                  "is clear.")
 
     def _seed(self) -> int:
         """A new noise seed for every check, also after a restart (the log's length)."""
@@ -470,7 +319,8 @@ class CheckPage(WizardPage):
         self._set_status(f"✓ Re-identified {changed} from {len(update.proposed)} proposed "
                          f"pose{'s' if len(update.proposed) != 1 else ''} and the check, "
                          f"{self._where}; wrote {update.path.name} (the previous one is kept in history/). Check "
-                         f"of the updated robot: {short_verdict(update.after)}", update.after.within)
+                         f"of the updated robot: {short_verdict(update.after)}" + self._fault_words(),
+                         update.after.within and not update.after.cancelled)
 
     # -- fixture -------------------------------------------------------------------------
     def locate_fixture(self) -> bool:
