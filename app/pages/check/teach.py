@@ -1,5 +1,6 @@
 """Teach mode of the Check page, for a real cell whose robot RoboCal does not drive: the next
-check pose is shown, the technician brings the robot there and types the joints it reached,
+check pose is shown, the technician brings the robot there and types the joints it reached (or,
+with a controller connected that reports them, leaves the field empty and they are read),
 Record pose captures and locates (app.jobs.cell_teach, on a worker), and once every pose is
 recorded the check of the recorded poses is judged and logged.
 
@@ -40,15 +41,27 @@ class TeachMixin:
         if k is None:
             self._set_status("Choose the check poses first, or check the recorded ones.", False)
             return False
-        try:
-            q_file = typed_joints(self.teach.joints_edit.text(), self.cell.model)
-        except RoboCalError as exc:
-            self._set_status(f"Pose {k} not recorded: {exc.message}. {exc.hint or ''}".strip(), False)
-            return False
+        driver = self._joint_reader()
+        q_file = None
+        if driver is None or self.teach.joints_edit.text().strip():
+            try:
+                q_file = typed_joints(self.teach.joints_edit.text(), self.cell.model)
+            except RoboCalError as exc:
+                self._set_status(f"Pose {k} not recorded: {exc.message}. {exc.hint or ''}".strip(), False)
+                return False
+            driver = None
         trained, rect = self.images()
         self._where = self.cell_words()
         return self.start(cell_teach.record_check_pose, self.cell, k, self.state.cameras, locator(trained, rect),
-                          q_typed_file=q_file, on_done=self._pose_recorded, status=f"Recording check pose {k}…")
+                          q_typed_file=q_file, driver=driver, on_done=self._pose_recorded,
+                          status=f"Recording check pose {k}…")
+
+    def _joint_reader(self):
+        """A connected controller whose joints can be read (they are read when none are typed)."""
+        driver = self.state.robot_connection
+        if driver is None or not driver.connected or getattr(driver, "lost", None):
+            return None
+        return driver
 
     def _pose_recorded(self, taught: cell_teach.TaughtCheckPose) -> None:
         self.taught[taught.index] = taught

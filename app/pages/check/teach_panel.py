@@ -18,7 +18,7 @@ class TeachCheckPanel(QGroupBox):
         self.next_label.setWordWrap(True)
         self.joints_edit = QLineEdit()
         self.joints_edit.setObjectName("teachJointsEdit")
-        self.joints_edit.setPlaceholderText("the joints the pendant shows, J1 first (° or mm)")
+        self.joints_edit.setPlaceholderText("the joints the pendant shows, J1 first (° or mm); empty: read them")
         self.record_button = forms.button("Record pose", "teachRecordButton",
                                           tooltip="Capture a pair from the cameras where the robot is now and "
                                                   "locate the marker")

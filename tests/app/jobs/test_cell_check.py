@@ -70,3 +70,28 @@ def test_a_mounted_tool_is_identified_by_driving_its_poses(cell, tmp_path):
         driver.disconnect()
         live.close()
         sim.close()
+
+
+def test_teach_mode_reads_the_joints_a_controller_reports(cell, tmp_path):
+    """A check pose recorded where the robot was brought (2° off the plan on J1): the joints are read
+    from the controller, the difference from the plan is warned about, the marker is located."""
+    from app.jobs.cell_teach import record_check_pose
+
+    lab, folder, rect, trained = cell
+    cameras = SimulatedCellCameras(lab, tmp_path / "cams")
+    sim = ControllerSim(lab.true_robot, time_scale=0.01, on_rest=cameras.on_rest).start()
+    live = LiveCameras.open(CameraChoice("sources", str(cameras.left), str(cameras.right)))
+    driver = open_serial_robot(lab.nominal_robot, RobotChoice("serial", sim.port, "robocal_v1"), reply_timeout=10.0)
+    try:
+        check = setup_cell(folder / "calibrated.json", cell_options(rect, folder / "measurements.csv"), count=5)
+        brought = check.Q[0] + np.deg2rad([2.0, 0, 0, 0, 0, 0])
+        driver.move_to(brought)                                 # the pendant's work
+        taught = record_check_pose(check, 0, live, locator(trained, rect), driver=driver)
+    finally:
+        driver.disconnect()
+        live.close()
+        sim.close()
+    np.testing.assert_allclose(taught.q, brought, atol=1e-4)
+    assert taught.warnings == ["J1 is 2.00° from the planned pose"]
+    expected = lab.true_robot.target_position(brought, lab.target)
+    assert taught.point is not None and np.linalg.norm(taught.point - expected) < 0.2
