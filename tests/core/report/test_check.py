@@ -83,3 +83,17 @@ def test_a_reidentification_is_listed_with_its_history(checked, tmp_path):
     entry = read_robot(project.path("calibrated")).calibration["history"][-1]
     assert entry["reason"] == diagnosis.text and entry["changed"]
     assert ", ".join(entry["changed"]) in html and "calibrated-old.json" in html
+
+
+def test_a_located_fixture_is_listed(checked, tmp_path):
+    from core.fixtures.file import write_fixture_pose
+    from core.fixtures.frame import fit_fixture_frame
+
+    project = checked[0]
+    nominal = np.array([[0.0, 0, 0], [200, 0, 0], [0, 150, 0], [200, 150, 0]])
+    measured = nominal + np.array([400.0, -50.0, 20.0])          # shifted, not turned
+    frame = fit_fixture_frame(measured, nominal, [np.eye(3) * 0.01] * 4, names=list("ABCD"))
+    write_fixture_pose(project.folder / "fixture_pose.json", frame, name="vise")
+    html = render_html(section(project)[0])
+    assert "“vise” located in the robot's base frame" in html
+    assert "400.000 ± " in html and "-50.000 ± " in html and "<td>A, B, C, D</td>" in html
