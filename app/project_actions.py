@@ -14,7 +14,7 @@ from app.messages import show_error
 from app.pages.setup.cell_dialog import ask_cell
 from app.state import WizardState
 from core.errors import RoboCalError
-from core.project import VIRTUAL_LAB, Project
+from core.project import Project
 
 
 def new_project(parent: QWidget | None, state: WizardState, folder: str | Path | None = None,
@@ -29,8 +29,10 @@ def new_project(parent: QWidget | None, state: WizardState, folder: str | Path |
             cell = ask_cell(parent)
             if cell is None:
                 return None
-    mode, robot_connection, cameras = cell or (VIRTUAL_LAB, None, None)
     try:
+        if cell is None:
+            return state.new_project(folder)
+        mode, robot_connection, cameras = cell
         return state.new_project(folder, mode=mode, robot_connection=robot_connection, cameras=cameras)
     except RoboCalError as exc:
         show_error(parent, exc.message, "RoboCal: new project")
@@ -55,24 +57,5 @@ def save_project(parent: QWidget | None, state: WizardState) -> bool:
         state.save_project()
     except RoboCalError as exc:
         show_error(parent, exc.message, "RoboCal: save project")
-        return False
-    return True
-
-
-def change_cell(parent: QWidget | None, state: WizardState, cell: tuple[str, dict | None, dict | None] | None = None
-                ) -> bool:
-    """Change the project's cell (asked in the cell dialog when `cell` is not given)."""
-    if state.project is None:
-        show_error(parent, "No project: create or open one first.", "RoboCal: cell")
-        return False
-    if cell is None:
-        cell = ask_cell(parent, state.project)
-        if cell is None:
-            return False
-    mode, robot_connection, cameras = cell
-    try:
-        state.set_cell(mode, robot_connection=robot_connection, cameras=cameras)
-    except RoboCalError as exc:
-        show_error(parent, exc.message, "RoboCal: cell")
         return False
     return True

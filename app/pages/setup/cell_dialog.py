@@ -3,13 +3,16 @@ the virtual lab (the demo, teaching), or a real cell: its robot connection (a se
 controller's protocol profile, or none: teach mode, the robot brought to each pose by hand) and
 its two cameras (each a device index, a device path, a video file or an image folder).
 
-`CellDialog.cell()` gives (mode, robot_connection, cameras) as core.project stores them."""
+`CellDialog.cell()` gives (mode, robot_connection, cameras) as core.project stores them;
+`change_cell` asks and makes it the project's cell (the Setup page's Change cell…)."""
 from __future__ import annotations
 
 from PySide6.QtWidgets import (QButtonGroup, QComboBox, QDialog, QDialogButtonBox, QGridLayout, QGroupBox, QLabel,
                                QLineEdit, QRadioButton, QVBoxLayout, QWidget)
 
+from app.messages import show_error
 from core import project as projects
+from core.errors import RoboCalError
 from core.robot.profile import builtin_names
 
 
@@ -124,3 +127,22 @@ def ask_cell(parent: QWidget | None, project: projects.Project | None = None):
         return dialog.cell() if dialog.exec() == QDialog.DialogCode.Accepted else None
     finally:
         dialog.deleteLater()
+
+
+def change_cell(parent: QWidget | None, state, cell: tuple[str, dict | None, dict | None] | None = None) -> bool:
+    """Make `cell` (asked in the dialog when not given) the cell of `state`'s project
+    (WizardState.set_cell); a RoboCalError is shown as one message box line."""
+    if state.project is None:
+        show_error(parent, "No project: create or open one first.", "RoboCal: cell")
+        return False
+    if cell is None:
+        cell = ask_cell(parent, state.project)
+        if cell is None:
+            return False
+    mode, robot_connection, cameras = cell
+    try:
+        state.set_cell(mode, robot_connection=robot_connection, cameras=cameras)
+    except RoboCalError as exc:
+        show_error(parent, exc.message, "RoboCal: cell")
+        return False
+    return True

@@ -19,6 +19,7 @@ from app.html import esc
 from app.pages import forms
 from app.pages.base import WizardPage
 from app.pages.setup.cameras_panel import CameraPanel
+from app.pages.setup.cell_dialog import change_cell
 from app.pages.setup.protocol_panel import ProtocolPanel
 from app.pages.setup.robot_panel import RobotPanel
 from app.pages.steps import Step
@@ -156,7 +157,7 @@ class SetupPage(WizardPage):
 
     def change_cell(self, cell=None) -> bool:
         """Change the project's cell: (mode, robot_connection, cameras), asked when not given."""
-        return project_actions.change_cell(self, self.state, cell)
+        return change_cell(self, self.state, cell)
 
     def _cell_changed(self, project) -> None:
         self.robot_panel.restore(project)
