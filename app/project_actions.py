@@ -1,7 +1,9 @@
 """New / Open / Save project, shared by the File menu and the Setup page.
 
 Each action asks for a folder when none is given, shows a RoboCalError as one message box
-line, and returns the project (or None when cancelled or failed)."""
+line, and returns the project (or None when cancelled or failed). New project also asks which
+cell the project measures on (the virtual lab or a real cell, app/pages/setup/cell_dialog.py)
+when it asks for the folder; given a folder and no cell, it makes a virtual-lab project."""
 from __future__ import annotations
 
 import shutil
@@ -10,19 +12,29 @@ from pathlib import Path
 from PySide6.QtWidgets import QFileDialog, QWidget
 
 from app.messages import show_error
+from app.pages.setup.cell_dialog import ask_cell
 from app.state import WizardState
 from core.errors import RoboCalError
 from core.project import PROJECT_FILE, Project
 
 
-def new_project(parent: QWidget | None, state: WizardState, folder: str | Path | None = None) -> Project | None:
+def new_project(parent: QWidget | None, state: WizardState, folder: str | Path | None = None,
+                cell: tuple[str, dict | None, dict | None] | None = None) -> Project | None:
+    """`cell`: (mode, robot_connection, cameras) as CellDialog.cell() gives them."""
     if folder is None:
         folder = QFileDialog.getExistingDirectory(
             parent, "New project: choose or create an empty folder", str(Path.home()))
         if not folder:
             return None
+        if cell is None:
+            cell = ask_cell(parent)
+            if cell is None:
+                return None
     try:
-        return state.new_project(folder)
+        if cell is None:
+            return state.new_project(folder)
+        mode, robot_connection, cameras = cell
+        return state.new_project(folder, mode=mode, robot_connection=robot_connection, cameras=cameras)
     except RoboCalError as exc:
         show_error(parent, exc.message, "RoboCal: new project")
         return None

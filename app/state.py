@@ -57,12 +57,14 @@ class WizardState(QObject):
 
     Signals: `projectChanged(Project | None)`, `robotChanged(RobotModel | None)`,
     `connectionChanged(RobotDriver | None)`, `camerasChanged(LiveCameras | None)`,
-    `stoppedChanged(bool)` (Stop / Resume), `labChanged(VirtualLab | None)`, and one per
+    `stoppedChanged(bool)` (Stop / Resume), `cellChanged(Project)` (the project's cell changed:
+    virtual lab or real cell, `set_cell`), `labChanged(VirtualLab | None)`, and one per
     step result (`stereoChanged`, `markerChanged`, `posesChanged`, `measurementsChanged`,
     `identificationChanged`) with the new value.
     """
 
     projectChanged = Signal(object)
+    cellChanged = Signal(object)
     robotChanged = Signal(object)
     connectionChanged = Signal(object)
     camerasChanged = Signal(object)
@@ -125,11 +127,36 @@ class WizardState(QObject):
             projects.save_robot(project, self.robot, self.robot_source)
         self._update_connection()
 
-    def new_project(self, folder: str | Path, name: str | None = None,
-                    mode: str = projects.VIRTUAL_LAB) -> projects.Project:
-        project = projects.create_project(folder, name=name, mode=mode)
+    @property
+    def real_cell(self) -> bool:
+        """The project measures on a real cell (never on the virtual lab)."""
+        return self.project is not None and self.project.real_cell
+
+    @property
+    def cell(self) -> str:
+        """The project's cell in words (the virtual lab, or the real robot connection and cameras)."""
+        return self.project.describe_cell() if self.project is not None else projects.LAB_WORDS
+
+    def new_project(self, folder: str | Path, name: str | None = None, mode: str = projects.VIRTUAL_LAB, *,
+                    robot_connection: dict | None = None, cameras: dict | None = None) -> projects.Project:
+        project = projects.create_project(folder, name=name, mode=mode, robot_connection=robot_connection,
+                                          cameras=cameras)
         self.set_project(project)
         return project
+
+    def set_cell(self, mode: str, *, robot_connection: dict | None = None, cameras: dict | None = None) -> None:
+        """Change the project's cell (saved in project.json). To the virtual lab: a serial robot is
+        stopped and disconnected. To a real cell: the virtual lab's simulated robot is no longer the
+        robot connection (connect the real one on the Setup page)."""
+        if self.project is None:
+            raise RoboCalError("no project", hint="Create or open a project first.")
+        projects.save_cell(self.project, mode, robot_connection=robot_connection, cameras=cameras)
+        if self.virtual:
+            self.use_virtual_robot()
+        elif not self.real_robot:
+            self.robot_choice = RobotChoice()
+            self._update_connection()
+        self.cellChanged.emit(self.project)
 
     def open_project(self, folder: str | Path) -> projects.Project:
         project = projects.open_project(folder)

@@ -10,11 +10,14 @@ my-robot/
   measurements.csv    measured marker positions (Measurement)
   calibrated.json     identified robot model (Identification)
 ```
-The project file names the robot file (relative to the folder) and the mode: "virtual-lab"
-(simulated robot and cameras) or "hardware". The Setup page records there the serial robot it
-connected (`robot_connection`: kind, port, profile, joint_map, baud, speed %) and the cameras it
-opened (`cameras`: kind, left, right, settings, identity {left, right: {name, bus}}). No Qt here: the wizard and the command line
-share this module.
+The project file names the robot file (relative to the folder) and the mode, which is the
+project's cell: "virtual-lab" (the simulated robot and cameras: the demo, teaching) or "hardware"
+(a real cell). A real cell's robot connection (`robot_connection`: kind "serial" with port,
+profile, joint_map, baud, speed %; or kind "teach": no connection, the technician brings the robot
+to each pose) and its cameras (`cameras`: kind "sources", left, right, settings, identity {left,
+right: {name, bus}}; each source a device, a video file or an image folder) are chosen when the
+project is made and on the Setup page. Files without them (older ones) read as before. No Qt here:
+the wizard and the command line share this module.
 """
 from __future__ import annotations
 
@@ -35,6 +38,10 @@ PROJECT_FILE = "project.json"
 VIRTUAL_LAB = "virtual-lab"
 HARDWARE = "hardware"
 MODES = (VIRTUAL_LAB, HARDWARE)
+SERIAL = "serial"           # robot_connection kind: a controller on a serial port
+TEACH = "teach"             # robot_connection kind: no connection, poses brought by hand (teach mode)
+SOURCES = "sources"         # cameras kind: two devices, video files or image folders
+LAB_WORDS = "the virtual lab (simulated robot and cameras)"
 
 #: the step outputs kept beside project.json
 OUTPUT_FILES = {
@@ -75,6 +82,33 @@ class Project:
     def has(self, output: str) -> bool:
         return self.path(output).is_file()
 
+    @property
+    def real_cell(self) -> bool:
+        return self.mode == HARDWARE
+
+    @property
+    def teach_mode(self) -> bool:
+        """A real cell whose robot RoboCal does not drive (joints typed or read, poses by hand)."""
+        return self.real_cell and (self.robot_connection or {}).get("kind") == TEACH
+
+    def describe_cell(self) -> str:
+        """The cell in words: the virtual lab, or the real robot connection and cameras."""
+        if not self.real_cell:
+            return LAB_WORDS
+        robot = self.robot_connection or {}
+        if robot.get("kind") == SERIAL:
+            where = f"the serial robot on {robot.get('port') or '(no port yet)'} ({robot.get('profile') or 'robocal_v1'})"
+        elif robot.get("kind") == TEACH:
+            where = "the robot in teach mode (brought to each pose by hand)"
+        else:
+            where = "no robot connection chosen yet"
+        cams = self.cameras or {}
+        if cams.get("kind") == SOURCES and (cams.get("left") or cams.get("right")):
+            seen = f"cameras {cams.get('left') or '?'} and {cams.get('right') or '?'}"
+        else:
+            seen = "no cameras chosen yet"
+        return f"a real cell: {where}, {seen}"
+
     def to_dict(self) -> dict:
         data = {"format": FORMAT, "name": self.name, "robot": self.robot,
                 "robot_source": self.robot_source, "mode": self.mode, "created": self.created}
@@ -96,8 +130,10 @@ def _check_mode(mode, source) -> str:
     return mode
 
 
-def create_project(folder: str | Path, *, name: str | None = None, mode: str = VIRTUAL_LAB) -> Project:
-    """Make `folder` (created if needed) a new project; refuses a folder that already is one."""
+def create_project(folder: str | Path, *, name: str | None = None, mode: str = VIRTUAL_LAB,
+                   robot_connection: dict | None = None, cameras: dict | None = None) -> Project:
+    """Make `folder` (created if needed) a new project on its cell (`mode`, and for a real cell its
+    robot connection and cameras, see the module); refuses a folder that already is one."""
     folder = Path(folder)
     if (folder / PROJECT_FILE).exists():
         raise RoboCalError("this folder already holds a project", source=folder / PROJECT_FILE,
@@ -107,7 +143,7 @@ def create_project(folder: str | Path, *, name: str | None = None, mode: str = V
     _check_mode(mode, "<new project>")
     ensure_writable_dir(folder)
     project = Project(folder=folder, name=name or folder.resolve().name or "project", mode=mode,
-                      created=_now())
+                      created=_now(), robot_connection=robot_connection, cameras=cameras)
     save_project(project)
     return project
 
@@ -158,6 +194,14 @@ def save_hardware(project: Project, *, robot_connection: dict | None = None, cam
     if cameras is not None:
         project.cameras = cameras
     return save_project(project)
+
+
+def save_cell(project: Project, mode: str, *, robot_connection: dict | None = None,
+              cameras: dict | None = None) -> Path:
+    """Change the project's cell (project.json, atomically): the virtual lab, or a real cell with
+    its robot connection and cameras (a section not given is kept)."""
+    project.mode = _check_mode(mode, project.file)
+    return save_hardware(project, robot_connection=robot_connection, cameras=cameras)
 
 
 def save_robot(project: Project, model: RobotModel, source: str | None = None) -> Path:

@@ -32,6 +32,14 @@ def add_arguments(parser) -> None:
                         help="motion time factor (default 1: realistic; 0.1: ten times faster)")
     parser.add_argument("--duration", type=DURATION_S, default=0.0,
                         help="serve for this many seconds, then exit (default 0: until Ctrl-C)")
+    parser.add_argument("--cameras", metavar="DIR",
+                        help="after every motion, write what the virtual lab's two cameras see of the robot to "
+                             "DIR/left/frame.png and DIR/right/frame.png (a project can use the two folders as "
+                             "its cameras)")
+    parser.add_argument("--change", metavar="SPEC",
+                        help="change the simulated robot as after a tool swap, a bump or a slip: tool:MM, base:MM, "
+                             "jointK:DEG or linkK:MM (e.g. tool:1.5, joint3:0.3); the controller reports the joints "
+                             "as before, only the cameras (--cameras) see the change")
 
 
 def run(args) -> CommandResult:
@@ -39,16 +47,33 @@ def run(args) -> CommandResult:
     from core.robot.file import read_robot
     from app.lab import build_lab
 
+    from app.jobs.check import CHANGE_SEED          # the same direction of a tool or base change as the Check page's lab
+    from app.lab import apply_change, parse_change
+    from app.sim_cameras import SimulatedCellCameras
+    from core.errors import UsageError
+
     plan = FaultPlan.parse(args.faults)
+    if args.change and not args.cameras:
+        raise UsageError("--change alters what the cameras see, and there are none",
+                         hint="Add --cameras DIR: the project's cameras are then DIR/left and DIR/right.")
     robot = read_robot(args.robot) if args.robot else None
     lab = build_lab(robot, args.seed, 0.5)
+    change = parse_change(args.change, lab.true_robot.dof) if args.change else None
+    if change is not None:
+        if change.kind == "mount":
+            raise UsageError("--change mount:TOOL is not a change of the robot", hint="Use tool, base, jointK or linkK.")
+        apply_change(lab, change, seed=CHANGE_SEED)
+    cameras = SimulatedCellCameras(lab, args.cameras, seed=args.seed) if args.cameras else None
     sim = ControllerSim(lab.true_robot, protocol=args.protocol, faults=plan, seed=args.seed,
-                        time_scale=args.time_scale, link=args.link)
+                        time_scale=args.time_scale, link=args.link,
+                        on_rest=cameras.on_rest if cameras is not None else None)
     sim.start()
     sys.stdout.write(f"{sim.port}\n")
     sys.stdout.flush()
     sys.stderr.write(f"robocal sim-robot: serving {args.protocol} for {lab.true_robot.name} (seed {args.seed}) "
-                     f"on {sim.port}; Ctrl-C ends\n")
+                     f"on {sim.port}" + (f"; {change.describe()}" if change is not None else "")
+                     + (f"; cameras in {cameras.left} and {cameras.right}" if cameras is not None else "")
+                     + "; Ctrl-C ends\n")
     try:
         end = time.monotonic() + args.duration if args.duration > 0 else None
         while end is None or time.monotonic() < end:
@@ -57,5 +82,7 @@ def run(args) -> CommandResult:
         pass
     finally:
         sim.close()
-    data = {"port": sim.port, "protocol": args.protocol, "moves": sim.moves, "faults": sim.fired}
+    data = {"port": sim.port, "protocol": args.protocol, "moves": sim.moves, "faults": sim.fired,
+            "change": str(change) if change is not None else None,
+            "camera_frames": cameras.frames if cameras is not None else 0}
     return CommandResult(text=f"Served {sim.moves} moves; faults: {', '.join(sim.fired) or 'none'}.", data=data)

@@ -15,7 +15,8 @@ import traceback
 from datetime import datetime, timezone
 
 from core.errors import RoboCalError
-from core.project import OUTPUT_FILES, VIRTUAL_LAB, Project, load_robot
+from core.project import OUTPUT_FILES, Project, load_robot
+from core.report.check import check_section
 from core.report.document import Report, Section, esc, num, table, unreadable
 from core.report.identification import identification_section
 from core.report.marker import MARKER_FILE, marker_section
@@ -56,6 +57,7 @@ def build_report(project: Project, *, robot: RobotModel | None = None, identific
         ("Measurements", lambda: measurement_section(project, robot, facts, problems)),
         ("Identification", lambda: identification_section(project, robot, identification, accuracy, facts,
                                                           problems)),
+        ("Check", lambda: check_section(project, facts, problems)),
     ]
     sections = [_files_section(project, robot)]
     for title, build in builders:
@@ -66,9 +68,8 @@ def build_report(project: Project, *, robot: RobotModel | None = None, identific
             message = f"{type(exc).__name__}: {exc} (in {where.name})"
             problems.append(f"{title}: {message}")
             sections.append(Section(title, [unreadable(f"the {title.lower()} step's files", message)], done=False))
-    mode = "virtual lab (simulated robot and cameras)" if project.mode == VIRTUAL_LAB else "hardware"
     header = (f"<p class='note'>{esc(date)} · RoboCal {esc(software_version())} · project folder "
-              f"{esc(project.folder)} · mode: {esc(mode)}</p>")
+              f"{esc(project.folder)} · cell: {esc(project.describe_cell())}</p>")
     report = Report(title=f"RoboCal calibration report: {project.name}", header=header, summary="",
                     sections=sections, footer=FOOTER, problems=problems)
     report.summary = summary_html(report, robot, identification, facts, date)

@@ -16,6 +16,10 @@ Faults (`FaultPlan.parse`, comma separated; N counts the accepted moves from 1):
                 reports done as usual
 `KIND~P[:value]` instead of `@N` applies the fault to each move with probability P
 (generator seeded with `seed`).
+
+`on_rest(q)` (optional) is called with the joints (deg / mm) whenever the robot comes to rest
+(at start, after a move, a fault or a stop), before the done reply is sent: `robocal sim-robot
+--cameras` renders there what the cell's cameras see of the simulated robot.
 """
 from __future__ import annotations
 
@@ -28,6 +32,7 @@ import time
 import tty
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -85,7 +90,8 @@ class ControllerSim:
 
     def __init__(self, model: RobotModel, *, protocol: str = "robocal", faults: str | FaultPlan | None = None,
                  seed: int = 0, time_scale: float = 1.0, joint_speed: float = DEFAULT_JOINT_SPEED,
-                 link: str | Path | None = None, report_done: bool = True, name: str | None = None):
+                 link: str | Path | None = None, report_done: bool = True, name: str | None = None,
+                 on_rest: Callable[[np.ndarray], None] | None = None):
         if protocol not in PROTOCOLS:
             raise UsageError(f"protocol '{protocol}' is not one of {', '.join(PROTOCOLS)}")
         self.model = model
@@ -96,6 +102,7 @@ class ControllerSim:
         self.joint_speed = float(joint_speed)
         self.link = Path(link) if link else None
         self.report_done = report_done
+        self.on_rest = on_rest
         self.robot_name = "_".join((name or model.name or "robot").split())
         lo, hi = model.limits()
         self.lo, self.hi = model.q_to_file(lo), model.q_to_file(hi)
@@ -124,6 +131,7 @@ class ControllerSim:
         return str(self.link) if self.link else self._tty_name
 
     def start(self) -> "ControllerSim":
+        self._rest()
         self._open()
         self._thread = threading.Thread(target=self._serve, name="controller-sim", daemon=True)
         self._thread.start()
@@ -217,6 +225,10 @@ class ControllerSim:
                 pass
 
     # -- motion -----------------------------------------------------------------------------
+    def _rest(self) -> None:
+        if self.on_rest is not None:
+            self.on_rest(self._q.copy())
+
     def _position(self, now: float) -> np.ndarray:
         if self._motion is None:
             return self._q.copy()
@@ -253,6 +265,7 @@ class ControllerSim:
         if "fault" in faults and now >= t0 + duration / 2:
             self._q = self._position(t0 + duration / 2)
             self._motion = None
+            self._rest()
             if self.protocol == "robocal":
                 self._send("ERR FAULT motor driver fault on J1\n", now + delay)
             else:
@@ -263,6 +276,7 @@ class ControllerSim:
             return
         self._q = target.copy()
         self._motion = None
+        self._rest()
         self._state = "Idle"
         if self.protocol == "robocal" and self.report_done and "drop" not in faults:
             self._send("DONE\n", now + delay)
@@ -275,6 +289,7 @@ class ControllerSim:
             return False
         self._q = self._position(now)
         self._motion = None
+        self._rest()
         return True
 
     def _check_limits(self, target: np.ndarray) -> str | None:

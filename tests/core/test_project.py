@@ -107,3 +107,35 @@ def test_missing_robot_file_is_reported(tmp_path, model):
     (tmp_path / "robot.json").unlink()
     with pytest.raises(RoboCalError, match="robot file is missing"):
         proj.load_robot(proj.open_project(tmp_path))
+
+
+def test_a_real_cell_is_saved_read_back_and_described(tmp_path):
+    robot = {"kind": "serial", "port": "/dev/ttyUSB0", "profile": "grbl_joint_arm"}
+    cams = {"kind": "sources", "left": "0", "right": "/data/right"}
+    p = proj.create_project(tmp_path / "cell", mode=proj.HARDWARE, robot_connection=robot, cameras=cams)
+    back = proj.open_project(tmp_path / "cell")
+    assert back.mode == proj.HARDWARE and back.real_cell and not back.teach_mode
+    assert back.robot_connection == robot and back.cameras == cams
+    assert back.describe_cell() == ("a real cell: the serial robot on /dev/ttyUSB0 (grbl_joint_arm), "
+                                    "cameras 0 and /data/right")
+    proj.save_cell(p, proj.VIRTUAL_LAB)
+    lab = proj.open_project(tmp_path / "cell")
+    assert lab.mode == proj.VIRTUAL_LAB and lab.describe_cell() == "the virtual lab (simulated robot and cameras)"
+    assert lab.robot_connection == robot                        # kept for when the cell is real again
+    proj.save_cell(lab, proj.HARDWARE, robot_connection={"kind": "teach"})
+    teach = proj.open_project(tmp_path / "cell")
+    assert teach.teach_mode and "teach mode" in teach.describe_cell()
+
+
+def test_an_older_project_file_without_a_cell_reads_as_the_virtual_lab(tmp_path):
+    (tmp_path / "project.json").write_text('{"format": "robocal.project/1", "name": "old", "robot": null}')
+    p = proj.open_project(tmp_path)
+    assert p.mode == proj.VIRTUAL_LAB and p.robot_connection is None and p.cameras is None and not p.real_cell
+
+
+def test_an_unknown_cell_is_refused_naming_the_field(tmp_path):
+    p = proj.create_project(tmp_path / "p")
+    with pytest.raises(RoboCalError) as err:
+        proj.save_cell(p, "factory")
+    assert err.value.field == "mode" and "unknown mode 'factory'" in err.value.problem
+    assert proj.open_project(tmp_path / "p").mode == proj.VIRTUAL_LAB

@@ -1,5 +1,5 @@
 """The Check page's controls: the tool mounted (a robot with several tools), the check poses, "Run
-check now", the schedule, and on the virtual lab the change to simulate."""
+check now", the schedule, and on the virtual lab (only) the change to simulate."""
 from __future__ import annotations
 
 import numpy as np
@@ -51,8 +51,12 @@ class CheckControls(QWidget):
         self.schedule_check = QCheckBox("Check every")
         self.schedule_check.setObjectName("scheduleCheck")
         self.minutes_spin = forms.spin(10, 1, 24 * 60, name="scheduleMinutes", suffix=" min")
+        self.cell_label = QLabel()
+        self.cell_label.setObjectName("checkCell")
+        self.cell_label.setWordWrap(True)
         run_box = QGroupBox("Checks")
         rl = QVBoxLayout(run_box)
+        rl.addWidget(self.cell_label)
         rl.addWidget(self.run_button)
         rl.addLayout(forms.row(self.schedule_check, self.minutes_spin))
 
@@ -146,6 +150,10 @@ class CheckControls(QWidget):
         self.size_spin.setValue(size)
         self.joint_spin.setValue(joint)
 
+    def show_cell(self, words: str) -> None:
+        """Where the checks measure (the project's cell), in words."""
+        self.cell_label.setText(f"Measures on {words}.")
+
     def show_poses(self, Q_deg) -> None:
         """List the check poses (joint values in degrees / mm)."""
         self.poses_list.clear()
@@ -155,5 +163,6 @@ class CheckControls(QWidget):
     def set_enabled(self, busy: bool, ready: bool, virtual: bool) -> None:
         for w in (self.choose_button, self.run_button, self.count_spin, self.tool_combo):
             w.setEnabled(ready and not busy)
-        self.identify_tool_button.setEnabled(ready and virtual and not busy)
+        self.identify_tool_button.setEnabled(ready and not busy)
         self.change_box.setEnabled(virtual and not busy)
+        self.change_box.setVisible(virtual)        # a real cell changes by itself, never by simulation

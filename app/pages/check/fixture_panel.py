@@ -74,6 +74,13 @@ class FixturePanel(QGroupBox):
             self.pairs_folder = path
             self._show_files()
 
+    def set_virtual(self, virtual: bool) -> None:
+        """A real cell has no lab fixture: only image pairs are offered (and chosen)."""
+        item = self.source_combo.model().item(0)
+        item.setEnabled(virtual)
+        if not virtual and self.source == "lab":
+            self.source_combo.setCurrentIndex(1)
+
     def set_enabled(self, busy: bool, ready: bool) -> None:
         self.locate_button.setEnabled(ready and not busy)
         self.source_combo.setEnabled(not busy)

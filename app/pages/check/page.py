@@ -1,9 +1,17 @@
 """Step 8, Check: measure the marker at a few check poses, compare it with the calibrated model's
 prediction against limits from the calibration's own uncertainty, append every point to the
 project's check log (checks.csv), draw the control charts, say in plain words what changed, and
-re-identify it from a few proposed poses (app/jobs/check.py does the work, on the virtual lab).
+re-identify it from a few proposed poses (app/jobs/check.py does the work).
 With several tools, the tool mounted is chosen here, and a newly mounted tool is identified from
-its own few poses (app/jobs/tool.py)."""
+its own few poses (app/jobs/tool.py).
+
+Every check measures on the project's cell and says which: in a virtual-lab project the lab (with
+a change to simulate); in a real-cell project the connected robot is driven to each pose (safety
+as on the Measurement page: limits checked before sending, the first motion confirmed, Esc stops)
+and the marker located in the pairs of the project's cameras (app/jobs/cell_check.py). A real-cell
+project never measures the lab: with no robot or cameras connected the page says so and does
+nothing. A robot fault ends a check (and the schedule) after the points measured, which stay in
+the log."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -11,15 +19,20 @@ from pathlib import Path
 from PySide6.QtCore import QTimer
 from PySide6.QtWidgets import QHBoxLayout, QVBoxLayout
 
+from app.jobs import cell_check, cell_teach
 from app.jobs import check as job
 from app.jobs import fixture as fixture_job
 from app.jobs import tool as tool_job
 from app.pages.base import WizardPage
+from app.pages.check.cell import CellMixin
 from app.pages.check.controls_panel import CheckControls
 from app.pages.check.fixture_panel import FixturePanel
 from app.pages.check.results_panel import CheckResults
+from app.pages.check.teach import TeachMixin
+from app.pages.check.teach_panel import TeachCheckPanel
 from app.pages.measurement_inputs import project_marker, stereo_source
 from app.pages.steps import Step
+from app.safety import motion_refused
 from core.errors import RoboCalError
 from core.monitoring.log import CheckLog, read_check_log
 
@@ -37,7 +50,7 @@ def short_verdict(result) -> str:
     return text + (f"; {len(result.missing)} not measured." if result.missing else ".")
 
 
-class CheckPage(WizardPage):
+class CheckPage(CellMixin, TeachMixin, WizardPage):
     step = Step.CHECK
 
     def __init__(self, state, tasks, **kwargs):
@@ -50,6 +63,8 @@ class CheckPage(WizardPage):
         self.tool_update: tool_job.ToolUpdate | None = None
         self.log: CheckLog | None = None
         self._images = None                    # how the last check measured (see `images`)
+        self._where = ""                       # where the running check measures, in words
+        self.taught: dict[int, cell_teach.TaughtCheckPose] = {}     # teach mode: check pose -> recorded
 
         self.controls = CheckControls()
         self.controls.setFixedWidth(320)
@@ -58,6 +73,10 @@ class CheckPage(WizardPage):
         self.fixture.setFixedWidth(320)
         self.fixture.locate_button.clicked.connect(lambda *_: self.locate_fixture())
         self.fixture_run = None
+        self.teach = TeachCheckPanel()
+        self.teach.setFixedWidth(320)
+        self.teach.record_button.clicked.connect(lambda *_: self.record_pose())
+        self.teach.check_button.clicked.connect(lambda *_: self.run_check())
         self.controls.run_button.clicked.connect(lambda *_: self.run_check())
         self.controls.choose_button.clicked.connect(lambda *_: self.choose_poses())
         self.controls.schedule_check.toggled.connect(lambda *_: self._schedule_changed())
@@ -70,6 +89,7 @@ class CheckPage(WizardPage):
         body = QHBoxLayout()
         left = QVBoxLayout()
         left.addWidget(self.controls, 1)
+        left.addWidget(self.teach)
         left.addWidget(self.fixture)
         body.addLayout(left)
         body.addWidget(self.results, 1)
@@ -80,6 +100,9 @@ class CheckPage(WizardPage):
         layout.addWidget(self.status)
 
         state.projectChanged.connect(lambda *_: self._calibration_changed())
+        state.cellChanged.connect(lambda *_: self._calibration_changed())
+        state.connectionChanged.connect(lambda *_: self.refresh())
+        state.camerasChanged.connect(lambda *_: self.refresh())
         state.robotChanged.connect(lambda *_: self._calibration_changed())
         self.refresh()
 
@@ -101,8 +124,10 @@ class CheckPage(WizardPage):
         return (trained, rect) if trained is not None and rect is not None else None
 
     def _measured_by(self, images) -> str:
-        return ("measured through the cameras' images (trained marker, stereo calibration)" if images is not None
-                else "the virtual lab's ideal measurements (no trained marker or stereo calibration in the project)")
+        return ("measured on the virtual lab, through its cameras' images (trained marker, stereo calibration)"
+                if images is not None else
+                "measured on the virtual lab, ideal measurements (no trained marker or stereo calibration in the "
+                "project)")
 
     def _ready(self) -> bool:
         path = self.calibrated_path()
@@ -115,6 +140,7 @@ class CheckPage(WizardPage):
     def _calibration_changed(self) -> None:
         self.forget_task()
         self.cell = self._cell_key = self.result = self.diagnosis = self.update = None
+        self.taught, self._measure = {}, None
         self.controls.poses_list.clear()
         self.results.show_verdict("No check yet.", None)
         self.results.show_diagnosis("", False)
@@ -129,6 +155,7 @@ class CheckPage(WizardPage):
 
     def refresh(self) -> None:
         """Read the check log and the calibration's presence, and draw them."""
+        self.controls.show_cell(self.state.cell)
         if self.state.robot is not None:
             self.controls.set_dof(self.state.robot.dof)
             self.controls.set_tools(self.state.robot.tool_names())
@@ -143,16 +170,26 @@ class CheckPage(WizardPage):
         if not self._ready() and not self.busy:
             self._set_status(MISSING if self.state.project is not None else
                              "No project: choose one in the Setup step.", False)
-        elif not self.state.virtual:
-            self._set_status("Checks measure on the virtual lab; this project uses a real robot.", False)
+        elif not self.state.virtual and not self.busy and self.result is None:
+            problem = self.cell_problem()
+            self._set_status(f"This project measures on {self.state.cell}. "
+                             + (f"Nothing can be measured: {problem}." if problem else "Ready to check."),
+                             None if problem is None else False)
         self.on_busy_changed()
         self.notify_complete()
 
     def on_busy_changed(self) -> None:
-        self.controls.set_enabled(self.busy, self._ready() and self.state.virtual, self.state.virtual)
+        self.controls.set_enabled(self.busy, self._ready(), self.state.virtual)
         can = self.diagnosis is not None and self.diagnosis.explained and bool(self.diagnosis.parameters)
         self.results.reidentify_button.setEnabled(can and not self.busy)
         self.fixture.set_enabled(self.busy, self._ready())
+        self.fixture.set_virtual(self.state.virtual)
+        teach = self.teach_mode
+        self.teach.setVisible(teach)
+        self.controls.schedule_check.setEnabled(not teach and not self.busy)
+        self.controls.identify_tool_button.setEnabled(self.controls.identify_tool_button.isEnabled() and not teach)
+        if teach:
+            self._show_next_pose()
 
     # -- actions -------------------------------------------------------------------------
     def _cell(self) -> job.CheckSetup | None:
@@ -164,6 +201,10 @@ class CheckPage(WizardPage):
         if not self._can_run():
             return False
         key, path = self._key(), self.calibrated_path()
+        if not self.state.virtual:
+            return self.start(cell_check.setup_cell, path, self._cell_options(), count=key[2], tool=key[3],
+                              on_done=lambda cell: self._take_cell(cell, key),
+                              status="Choosing check poses for the cell's cameras…")
         return self.start_with_lab(self._setup_job, path, self.controls.count_spin.value(), self.controls.tool(),
                                    on_done=lambda cell: self._take_cell(cell, key),
                                    status="Choosing check poses…")
@@ -175,10 +216,13 @@ class CheckPage(WizardPage):
                          tool=tool, progress=progress, cancelled=cancelled)
 
     def _take_cell(self, cell: job.CheckSetup, key: tuple) -> None:
+        if cell is not self.cell:
+            self.taught = {}
         self.cell, self._cell_key = cell, key
         self.controls.show_poses(cell.model.q_to_file(cell.Q))
         self._set_status(f"✓ {len(cell.Q)} check poses chosen; limits from the calibration's uncertainty "
                          f"(σ {cell.unc.sigma_mm:.3f} mm, false alarms {100 * cell.limits.alpha:g} %).", True)
+        self.on_busy_changed()
 
     def _can_run(self) -> bool:
         if not self._ready():
@@ -186,17 +230,23 @@ class CheckPage(WizardPage):
             self._finish_autopilot(False, MISSING)
             return False
         if not self.state.virtual:
-            self._set_status("Checks measure on the virtual lab; this project uses a real robot.", False)
-            self._finish_autopilot(False, "not on the virtual lab")
-            return False
+            problem = self.cell_problem()
+            if problem is not None:
+                self._set_status(f"Nothing measured: {problem}. (This project measures on {self.state.cell}; "
+                                 "never on the virtual lab.)", False)
+                self._finish_autopilot(False, problem)
+                return False
         return True
 
     def run_check(self) -> bool:
         """One check at every check pose (the poses are chosen first when needed)."""
         if not self._can_run():
             return False
+        if not self.state.virtual:
+            return self._check_cell()
         key, images = self._key(), self.images()
         self._images = images
+        self._where = self._measured_by(images)
         return self.start_with_lab(job.check_project, self.calibrated_path(), on_done=lambda r: self._checked(r, key),
                                    cell=self._cell(), count=key[2], change=self.controls.change_spec(),
                                    images=images, log=self.log_path(), seed=self._seed(), tool=key[3],
@@ -213,8 +263,9 @@ class CheckPage(WizardPage):
             self._take_cell(cell, key)
         self._show_result(self.result, self.diagnosis)
         self.refresh()
-        self._set_status(("✓ " if self.result.within else "⚠ ") + short_verdict(self.result) + " Points "
-                         + self._measured_by(self._images) + ".", self.result.within)
+        fault = self._fault_words()
+        self._set_status(("✓ " if self.result.within and not fault else "⚠ ") + short_verdict(self.result)
+                         + " Points " + self._where + "." + fault, self.result.within and not fault)
         self._finish_autopilot(bool(self.result.points), "" if self.result.points else self.result.verdict())
 
     def _show_result(self, result, diagnosis) -> None:
@@ -230,7 +281,23 @@ class CheckPage(WizardPage):
         """Re-identify what the diagnosis found and check the updated robot."""
         if self.diagnosis is None or self.cell is None or not self._can_run():
             return False
+        if self.teach_mode:
+            self._set_status("In teach mode RoboCal cannot drive the proposed poses: measure them with the "
+                             "Measurement step's teach mode, then run robocal reidentify with that file.", False)
+            return False
+        if not self.state.virtual:
+            refused = motion_refused(self, self.state)
+            if refused:
+                self._set_status(f"Nothing measured: {refused}", False)
+                return False
+            self._where = self.cell_words()
+            measure = self._measure = self._cell_measure()
+            return self.start(cell_check.reidentify_cell, self.cell, self.result, self.diagnosis, measure,
+                              self.calibrated_path(), self._cell_options(), log=self.log_path(),
+                              on_done=self._reidentified,
+                              status=f"Re-identifying from the proposed poses, {self._where}… Esc stops the robot.")
         from app.lab import lab_options
+        self._where = self._measured_by(self.images())
 
         def go(lab):
             return self.start(job.reidentify_on_lab, self.cell, self.result, self.diagnosis, lab,
@@ -249,9 +316,11 @@ class CheckPage(WizardPage):
         self._show_result(update.after, None)
         self.refresh()
         changed = ", ".join(update.reidentification.changed)
-        self._set_status(f"✓ Re-identified {changed} from {len(update.proposed)} proposed poses and the check; "
-                         f"wrote {update.path.name} (the previous one is kept in history/). Check of the updated "
-                         f"robot: {short_verdict(update.after)}", update.after.within)
+        self._set_status(f"✓ Re-identified {changed} from {len(update.proposed)} proposed "
+                         f"pose{'s' if len(update.proposed) != 1 else ''} and the check, "
+                         f"{self._where}; wrote {update.path.name} (the previous one is kept in history/). Check "
+                         f"of the updated robot: {short_verdict(update.after)}" + self._fault_words(),
+                         update.after.within and not update.after.cancelled)
 
     # -- fixture -------------------------------------------------------------------------
     def locate_fixture(self) -> bool:
@@ -293,6 +362,18 @@ class CheckPage(WizardPage):
         tool = self.controls.tool()
         if tool is None or not self._can_run():
             return False
+        if not self.state.virtual:
+            refused = motion_refused(self, self.state)
+            if refused:
+                self._set_status(f"Nothing measured: {refused}", False)
+                return False
+            self._where = self.cell_words()
+            measure = self._measure = self._cell_measure()
+            return self.start(cell_check.identify_tool_cell, self.calibrated_path(), tool, measure,
+                              self._cell_options(), on_done=self._tool_identified,
+                              status=f"Identifying the tool '{tool}' from its proposed poses, {self._where}… Esc "
+                                     "stops the robot.")
+        self._where = self._measured_by(self.images())
         return self.start_with_lab(tool_job.identify_on_lab, self.calibrated_path(), tool,
                                    change=self.controls.change_spec(), images=self.images(), seed=self._seed(),
                                    on_done=self._tool_identified,
@@ -303,8 +384,8 @@ class CheckPage(WizardPage):
         self.cell = self._cell_key = self.result = self.diagnosis = None
         self.tool_update = update
         self.refresh()
-        self._set_status(f"✓ {update.identification.text()} Wrote {update.path.name} (the previous one is kept "
-                         f"in history/).", True)
+        self._set_status(f"✓ {update.identification.text()} Points {self._where}. Wrote {update.path.name} (the "
+                         f"previous one is kept in history/).", True)
 
     # -- schedule ------------------------------------------------------------------------
     def _schedule_changed(self) -> None:

@@ -2,7 +2,9 @@
 
 The robot is the virtual lab's simulated robot or a controller on a serial port, tested here
 (robot_panel.py); the cameras are the virtual lab's or two live cameras, video files or image
-folders, previewed here (cameras_panel.py). A hardware project offers only real hardware."""
+folders, previewed here (cameras_panel.py). The project's cell (the virtual lab or a real cell,
+asked when the project is made) is shown with the project and changed with Change cell…; a
+real-cell project offers only real hardware."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -17,6 +19,7 @@ from app.html import esc
 from app.pages import forms
 from app.pages.base import WizardPage
 from app.pages.setup.cameras_panel import CameraPanel
+from app.pages.setup.cell_dialog import change_cell
 from app.pages.setup.protocol_panel import ProtocolPanel
 from app.pages.setup.robot_panel import RobotPanel
 from app.pages.steps import Step
@@ -89,6 +92,7 @@ class SetupPage(WizardPage):
         layout.addWidget(self.status)
 
         state.projectChanged.connect(self._refresh)
+        state.cellChanged.connect(self._cell_changed)
         state.robotChanged.connect(self._refresh)
         state.connectionChanged.connect(self._refresh)
         self._refresh()
@@ -103,6 +107,9 @@ class SetupPage(WizardPage):
         self.project_details.setWordWrap(True)
         self.new_button = forms.button("New project…", on_click=self.new_project)
         self.open_button = forms.button("Open project…", on_click=self.open_project)
+        self.cell_button = forms.button("Change cell…", "changeCellButton", on_click=self.change_cell,
+                                        tooltip="Measure on the virtual lab, or on a real cell: its robot "
+                                                "connection and cameras")
         project_box = QGroupBox("Project")
         row = QHBoxLayout()
         text_col = QVBoxLayout()
@@ -111,6 +118,7 @@ class SetupPage(WizardPage):
         row.addLayout(text_col, 1)
         row.addWidget(self.new_button)
         row.addWidget(self.open_button)
+        row.addWidget(self.cell_button)
         project_box.setLayout(row)
         return project_box
 
@@ -146,6 +154,15 @@ class SetupPage(WizardPage):
 
     def open_project(self, folder: str | Path | None = None):
         return project_actions.open_project(self, self.state, folder)
+
+    def change_cell(self, cell=None) -> bool:
+        """Change the project's cell: (mode, robot_connection, cameras), asked when not given."""
+        return change_cell(self, self.state, cell)
+
+    def _cell_changed(self, project) -> None:
+        self.robot_panel.restore(project)
+        self.camera_panel.restore(project)
+        self._refresh()
 
     def choose_preset(self, name: str) -> RobotModel | None:
         try:
@@ -224,10 +241,10 @@ class SetupPage(WizardPage):
             if state.is_temporary():
                 where += "  (temporary demo folder, deleted when RoboCal closes)"
             self.project_folder.setText(f"<b>{esc(project.name)}</b> — {esc(where)}")
-            mode = "virtual lab" if project.mode == projects.VIRTUAL_LAB else "hardware"
             created = project.created.replace("T", " ").replace("+00:00", " UTC")
-            self.project_details.setText(f"Mode: {mode} · created {created or 'unknown'} · "
+            self.project_details.setText(f"Cell: {esc(project.describe_cell())} · created {created or 'unknown'} · "
                                          f"format {projects.FORMAT}")
+        self.cell_button.setEnabled(project is not None)
 
         model = state.robot
         self.dh_table.set_robot(model)
