@@ -16,7 +16,7 @@ from PySide6.QtWidgets import QHBoxLayout, QWidget
 from widgets.plot_theme import AFTER, BEFORE, TEXT, colour, legend, readable_axes, style_plot
 
 TARGET = "#5f6368"
-ARROW_SHARE = 0.12           # the longest arrow is this share of the map's extent
+ARROW_SHARE = 0.3           # the longest arrow is this share of the map's extent
 BINS_PER_DECADE = 5
 
 
@@ -73,6 +73,8 @@ class AccuracyMapPlot(QWidget):
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.vectors, 3)
         layout.addWidget(self.histogram, 2)
+        for plot in (self.vectors, self.histogram):
+            plot.setMinimumWidth(240)
         self.magnification = 1.0
         self.set_map(None)
 
@@ -117,8 +119,8 @@ class AccuracyMapPlot(QWidget):
         counts_a, _ = np.histogram(ea, edges)
         self.before_hist.setData(edges, counts_b)
         self.after_hist.setData(edges, counts_a)
-        self.hist_legend.addItem(self.before_hist, f"nominal model: RMS {amap.rms_before_mm:.2f} mm")
-        self.hist_legend.addItem(self.after_hist, f"calibrated model: RMS {amap.rms_after_mm:.3f} mm")
-        hist.setTitle(f"Error lengths ({int(both.sum())} targets, {amap.measured_by})", color=TEXT, size="9.5pt")
+        self.hist_legend.addItem(self.before_hist, f"nominal: RMS {amap.rms_before_mm:.2f} mm")
+        self.hist_legend.addItem(self.after_hist, f"calibrated: RMS {amap.rms_after_mm:.3f} mm")
+        hist.setTitle(f"Error lengths, {int(both.sum())} targets", color=TEXT, size="9.5pt")
         hist.setYRange(0, max(counts_b.max(), counts_a.max()) * 1.45, padding=0)
         hist.setXRange(lo, hi, padding=0.02)

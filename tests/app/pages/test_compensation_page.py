@@ -1,0 +1,127 @@
+"""The Compensation page on the virtual lab: a typed point gets nominal and corrected joints and a
+predicted error, Go to point lands within a few predicted errors of it (measured through the
+rendered images), a fixture-relative point needs a located fixture, a program taught with the
+nominal model is corrected and written, an unreachable point is named and never written, and the
+accuracy map is measured, saved, drawn and read back by a new page."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.lab import ideal_lab_measurements, write_ideal_measurements
+from app.pages.compensation.page import MISSING, CompensationPage
+from app.worker import TaskRunner
+from core.compensation.accuracy_map_file import read_accuracy_map
+from core.identification.solver import identify, write_calibrated_model
+from core.poses.file import read_poses, write_poses
+from tests.app.virtual_inputs import lab_marker, lab_state, make_lab
+
+TIMEOUT = 240_000
+
+
+@pytest.fixture(scope="module")
+def lab():
+    return make_lab()
+
+
+@pytest.fixture
+def state(lab, qtbot):
+    s = lab_state(lab)
+    s.set_marker(lab_marker(lab))
+    yield s
+    s.close()
+
+
+@pytest.fixture
+def tasks():
+    t = TaskRunner()
+    yield t
+    t.shutdown()
+
+
+def calibrate(state, lab):
+    meas = ideal_lab_measurements(lab, 50, sigma_mm=0.05, seed=4)
+    write_ideal_measurements(meas, state.project.path("measurements"), sigma_mm=0.05)
+    write_calibrated_model(identify(lab.nominal_robot, meas), state.project.path("calibrated"))
+    return meas
+
+
+def open_page(qtbot, state, tasks) -> CompensationPage:
+    p = CompensationPage(state, tasks)
+    qtbot.addWidget(p)
+    p.resize(1300, 860)
+    p.show()
+    p.on_enter()
+    return p
+
+
+def wait(page, qtbot):
+    qtbot.waitUntil(lambda: not page.busy, timeout=TIMEOUT)
+
+
+def test_missing_calibration_is_said_plainly(state, tasks, qtbot):
+    page = open_page(qtbot, state, tasks)
+    assert page.status.text() == MISSING
+    assert not page.add_point((0, 0, 600)) and not page.measure_map()
+    assert not page.panel.add_button.isEnabled() and not page.map_panel.measure_button.isEnabled()
+
+
+def test_typed_point_go_to_point_and_program(state, lab, tasks, qtbot, tmp_path):
+    meas = calibrate(state, lab)
+    page = open_page(qtbot, state, tasks)
+    target = lab.true_robot.target_position(meas.Q[3], "marker")          # a point the cameras saw
+    assert page.add_point(target, "camera")
+    wait(page, qtbot)
+    p = page.points[0]
+    assert p.reachable and 0 < p.predicted_mm < 0.5, page.status.text()
+    assert not np.allclose(p.q_nominal, p.q_corrected)        # the calibration changes the joints
+    assert page.table.rowCount() == 1 and page.table.item(0, 4).text() == f"{p.predicted_mm:.3f}"
+    assert page.go_to_point(0)
+    wait(page, qtbot)
+    landed = page.points[0]
+    assert landed.landed is not None and "rendered camera images" in landed.measured_by, page.status.text()
+    assert landed.landed_error_mm < 0.5 and "landed" in page.status.text()
+    # the nominal joints miss by millimetres: the true robot at them
+    assert np.linalg.norm(lab.marker_position(p.q_nominal) - p.target) > 1.0
+
+    # a point on the fixture needs a located fixture
+    assert not page.add_point((0, 0, 0), "fixture") and "Locate the fixture" in page.status.text()
+
+    # a program taught with the nominal model, corrected and written
+    taught = tmp_path / "taught.csv"
+    write_poses(taught, lab.nominal_robot.q_to_file(meas.Q[:5]))
+    assert page.load_program(taught)
+    wait(page, qtbot)
+    assert len(page.points) == 5 and all(q.reachable for q in page.points)
+    out = page.write_program(tmp_path / "corrected.csv")
+    back = read_poses(out, lab.nominal_robot)
+    np.testing.assert_allclose(back.q_file, lab.nominal_robot.q_to_file(np.array([q.q_corrected for q in page.points])),
+                               atol=1e-3)
+    # the true robot at the corrected joints lands where the nominal model meant the taught joints
+    meant = page.cell.nominal.target_positions(meas.Q[:5], "marker")
+    assert np.max(np.linalg.norm(lab.true_robot.target_positions(back.Q, "marker") - meant, axis=1)) < 0.3
+
+    # an unreachable point is named and the program is not written over
+    assert page.add_point((5000, 0, 0), "base")
+    wait(page, qtbot)
+    assert not page.points[-1].reachable and "out of reach" in page.points[-1].note
+    before = out.read_bytes()
+    assert page.write_program(out) is None and "cannot be reached" in page.status.text()
+    assert out.read_bytes() == before
+
+
+def test_accuracy_map_measured_saved_and_drawn(state, lab, tasks, qtbot):
+    calibrate(state, lab)
+    page = open_page(qtbot, state, tasks)
+    page.map_panel.count_spin.setValue(6)
+    assert page.measure_map()
+    wait(page, qtbot)
+    amap = page.amap
+    assert amap is not None and page.is_complete(), page.status.text()
+    assert amap.both.sum() >= 5 and "rendered camera images" in amap.measured_by
+    assert amap.rms_before_mm > 1.0 and amap.rms_after_mm < 0.3 and amap.improvement > 10
+    saved = read_accuracy_map(state.project.folder / "accuracy_map.json")
+    np.testing.assert_allclose(saved.before[amap.both], amap.before[amap.both])
+    assert page.map_panel.plot.magnification > 1 and "more accurate" in page.map_panel.summary.text()
+    again = open_page(qtbot, state, tasks)            # a new session reads the saved map
+    assert again.amap is not None and again.is_complete()
