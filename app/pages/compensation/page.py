@@ -24,6 +24,7 @@ from app.safety import motion_refused
 from core.compensation.accuracy_map_file import NAME as MAP_NAME, read_accuracy_map
 from core.errors import RoboCalError
 
+AUTOPILOT_TARGETS = 8
 MISSING = "No calibrated robot in the project (calibrated.json). Run the Identification step first."
 
 
@@ -326,6 +327,8 @@ class CompensationPage(WizardPage):
         self._finish_autopilot(ok, "" if ok else run.amap.summary())
 
     def autopilot(self, done) -> None:
+        """The classroom run: a small accuracy map (each target is rendered and located twice)."""
         self._autopilot_done = done
+        self.map_panel.count_spin.setValue(AUTOPILOT_TARGETS)
         if not self.measure_map():
             self._finish_autopilot(False, self.status.text())
