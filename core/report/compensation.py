@@ -75,7 +75,7 @@ def compensation_section(project: Project, robot: RobotModel | None, facts: dict
                    "y in the robot base frame (mm)",
                    [series("target", xy[:, 0], xy[:, 1], color=6),
                     series(f"nominal model, error ×{m:g}", *_arrows(xy, vb, m), color=1, symbol="", line=True),
-                    series(f"calibrated model, error ×{m:g}", *_arrows(xy, va, m), color=0, symbol="none",
+                    series(f"calibrated model, error ×{m:g}", *_arrows(xy, va, m), color=0, symbol="",
                            line=True)], equal_aspect=True),
              panel("histogram", "error lengths", "position error (mm)", "targets",
                    [series("nominal model", values=amap.errors_before, color=1),
