@@ -14,7 +14,7 @@ Joint values: internal (rad / mm) unless named `_file` (deg / mm). Points: mm, m
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -82,7 +82,8 @@ class CompensatedPoint:
     """One point: its target (measurement frame), the nominal and the corrected joints (NaN when
     that model cannot reach it, `note` says why), the predicted error of the corrected landing
     (mm, 1σ of the 3D position from the calibration's covariance; NaN without one) and, after Go
-    to point, where the marker landed and how that was measured."""
+    to point, where the marker landed with the corrected joints (`landed`) and with the nominal
+    ones (`landed_nominal`), and how that was measured."""
 
     name: str
     target: np.ndarray
@@ -91,16 +92,21 @@ class CompensatedPoint:
     predicted_mm: float
     note: str = ""
     landed: np.ndarray | None = None
+    landed_nominal: np.ndarray | None = None
     measured_by: str = ""
 
     @property
     def reachable(self) -> bool:
         return bool(np.all(np.isfinite(self.q_corrected)))
 
-    @property
-    def landed_error_mm(self) -> float:
-        """|landed − target| (mm); NaN before Go to point or when the marker was not found."""
-        return float(np.linalg.norm(self.landed - self.target)) if self.landed is not None else float("nan")
+    def joints(self, nominal: bool = False) -> np.ndarray:
+        return self.q_nominal if nominal else self.q_corrected
+
+    def error_mm(self, nominal: bool = False) -> float:
+        """|landed − target| (mm) with the corrected (or the nominal) joints; NaN before Go to point
+        or when the marker was not found."""
+        landed = self.landed_nominal if nominal else self.landed
+        return float(np.linalg.norm(landed - self.target)) if landed is not None else float("nan")
 
 
 def frame_of(choice: str, fixture_path=None):
@@ -223,19 +229,23 @@ def robot_measure(driver, source, images, *, stop=None):
     return measure, f"{driver.info.name}, located in the camera images"
 
 
-def go_to_point(point: CompensatedPoint, measure, measured_by: str, *, progress=None,
+def go_to_point(point: CompensatedPoint, measure, measured_by: str, *, nominal: bool = False, progress=None,
                 cancelled=None) -> CompensatedPoint:
-    """Move to the point's corrected joints and measure where the marker landed."""
+    """Move to the point's corrected joints (or, `nominal`, to the joints the nominal model
+    computes: what the controller alone would do) and measure where the marker landed."""
     monitor = Monitor(progress, cancelled)
-    if not point.reachable:
-        raise RoboCalError(f"point {point.name} cannot be reached with the calibrated model",
+    q = point.joints(nominal)
+    model = "nominal" if nominal else "calibrated"
+    if not np.all(np.isfinite(q)):
+        raise RoboCalError(f"point {point.name} cannot be reached with the {model} model",
                            hint=point.note or "Choose a point inside the workspace.")
-    monitor.step(0.1, f"moving to point {point.name}")
-    landed = measure(point.q_corrected)
+    monitor.step(0.1, f"moving to point {point.name} with the {model} model")
+    landed = measure(q)
     monitor.step(1.0, "measured")
-    return CompensatedPoint(point.name, point.target, point.q_nominal, point.q_corrected, point.predicted_mm,
-                            point.note if landed is not None else "marker not found by the cameras",
-                            None if landed is None else np.asarray(landed, dtype=float), measured_by)
+    landed = None if landed is None else np.asarray(landed, dtype=float)
+    return replace(point, measured_by=measured_by,
+                   note=point.note if landed is not None else f"marker not found by the cameras ({model} model)",
+                   **{"landed_nominal" if nominal else "landed": landed})
 
 
 @dataclass

@@ -274,32 +274,39 @@ class CompensationPage(WizardPage):
             return go(measure, where, lab)
         return self.with_lab(on_robot) if state.cameras is None else on_robot(None)
 
-    def go_to_point(self, row: int | None = None) -> bool:
-        """Move to the selected point with the calibrated model and measure the marker."""
+    def go_to_point(self, row: int | None = None, *, nominal: bool | None = None) -> bool:
+        """Move to the selected point with the calibrated model (or, `nominal` / the check box,
+        with the nominal one) and measure the marker."""
         row = self.table.currentRow() if row is None else row
+        nominal = self.panel.nominal_check.isChecked() if nominal is None else nominal
         if not 0 <= row < len(self.points):
             self._set_status("Select a point in the table first.", False)
             return False
         point = self.points[row]
-        if not point.reachable:
-            self._set_status(f"✗ {point.name} cannot be reached with the calibrated model: {point.note}", False)
+        q = point.joints(nominal)
+        model = "nominal" if nominal else "calibrated"
+        if not np.all(np.isfinite(q)):
+            self._set_status(f"✗ {point.name} cannot be reached with the {model} model: {point.note}", False)
             return False
 
         def go(measure, where, lab):
-            return self.start(job.go_to_point, point, measure, where, on_done=lambda p: self._landed(row, p),
-                              status=f"Moving to {point.name} with the calibrated model… Esc stops the robot.")
-        return self._with_measure(point.q_corrected[None, :], go)
+            return self.start(job.go_to_point, point, measure, where, nominal=nominal,
+                              on_done=lambda p: self._landed(row, p, nominal),
+                              status=f"Moving to {point.name} with the {model} model… Esc stops the robot.")
+        return self._with_measure(q[None, :], go)
 
-    def _landed(self, row: int, point: job.CompensatedPoint) -> None:
+    def _landed(self, row: int, point: job.CompensatedPoint, nominal: bool) -> None:
         self.points[row] = point
         self._show_points()
         self.table.selectRow(row)
-        if point.landed is None:
+        model = "nominal" if nominal else "calibrated"
+        if not np.isfinite(point.error_mm(nominal)):
             self._set_status(f"⚠ {point.name}: the robot moved but the cameras did not find the marker "
                              f"({point.measured_by}).", False)
             return
-        self._set_status(f"✓ {point.name}: the marker landed {point.landed_error_mm:.3f} mm from the target "
-                         f"(predicted {point.predicted_mm:.3f} mm, 1σ); measured: {point.measured_by}.", True)
+        predicted = "" if nominal else f" (predicted {point.predicted_mm:.3f} mm, 1σ)"
+        self._set_status(f"✓ {point.name}, {model} model: the marker landed {point.error_mm(nominal):.3f} mm from "
+                         f"the target{predicted}; measured: {point.measured_by}.", True)
 
     def measure_map(self) -> bool:
         """The before/after accuracy map on the project's robot, written to accuracy_map.json."""

@@ -3,7 +3,7 @@ fixture located on the Check page) or load a joint program taught with the nomin
 point and writing the corrected program act on what is listed in the table."""
 from __future__ import annotations
 
-from PySide6.QtWidgets import QComboBox, QGroupBox, QLabel, QVBoxLayout
+from PySide6.QtWidgets import QCheckBox, QComboBox, QGroupBox, QLabel, QVBoxLayout
 
 from app.pages import forms
 
@@ -33,6 +33,10 @@ class PointsPanel(QGroupBox):
         self.go_button = forms.button("Go to point", "goToPointButton",
                                       tooltip="Move the robot to the selected point with the calibrated model "
                                               "and measure where the marker is with the cameras")
+        self.nominal_check = QCheckBox("with the nominal model (what the controller alone does)")
+        self.nominal_check.setObjectName("goNominal")
+        self.nominal_check.setToolTip("Go to point with the joints the robot's own nominal model computes, to "
+                                      "compare with the corrected joints")
         self.write_button = forms.button("Write corrected program…", "writeProgramButton",
                                          tooltip="The corrected joints as a joints file the Measurement page, "
                                                  "sim-robot and the robot drivers read")
@@ -43,6 +47,7 @@ class PointsPanel(QGroupBox):
         layout.addLayout(forms.row(self.add_button, self.clear_button))
         layout.addLayout(forms.row(self.load_button))
         layout.addLayout(forms.row(self.go_button, self.write_button))
+        layout.addWidget(self.nominal_check)
         layout.addStretch(1)
 
     @property

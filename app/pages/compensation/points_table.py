@@ -6,7 +6,7 @@ import numpy as np
 from PySide6.QtWidgets import QAbstractItemView, QHeaderView, QTableWidget, QTableWidgetItem
 
 COLUMNS = ["point", "target x, y, z (mm, camera frame)", "nominal joints (°)", "corrected joints (°)",
-           "predicted error (mm)", "measured error (mm)", "note"]
+           "predicted error (mm)", "measured error, corrected (mm)", "measured error, nominal (mm)", "note"]
 
 
 def _joints(q_file) -> str:
@@ -31,11 +31,11 @@ class PointsTable(QTableWidget):
         """One row per app.jobs.compensation.CompensatedPoint (joints through `q_to_file`: deg / mm)."""
         self.setRowCount(len(points))
         for r, p in enumerate(points):
-            measured = "" if p.landed is None else f"{p.landed_error_mm:.3f}"
-            note = p.note if p.landed is None else f"measured: {p.measured_by}"
+            measured = ["" if not np.isfinite(p.error_mm(n)) else f"{p.error_mm(n):.3f}" for n in (False, True)]
+            note = f"measured: {p.measured_by}" if p.measured_by and not p.note else p.note
             cells = [p.name, "  ".join(f"{v:.2f}" for v in p.target), _joints(q_to_file(p.q_nominal)),
                      _joints(q_to_file(p.q_corrected)),
-                     "" if not np.isfinite(p.predicted_mm) else f"{p.predicted_mm:.3f}", measured, note]
+                     "" if not np.isfinite(p.predicted_mm) else f"{p.predicted_mm:.3f}", *measured, note]
             for c, text in enumerate(cells):
                 self.setItem(r, c, QTableWidgetItem(text))
         if points and self.currentRow() < 0:

@@ -80,9 +80,15 @@ def test_typed_point_go_to_point_and_program(state, lab, tasks, qtbot, tmp_path)
     wait(page, qtbot)
     landed = page.points[0]
     assert landed.landed is not None and "rendered camera images" in landed.measured_by, page.status.text()
-    assert landed.landed_error_mm < 0.5 and "landed" in page.status.text()
-    # the nominal joints miss by millimetres: the true robot at them
-    assert np.linalg.norm(lab.marker_position(p.q_nominal) - p.target) > 1.0
+    assert landed.error_mm() < 0.5 and "calibrated model: the marker landed" in page.status.text()
+    # the same point with the nominal joints (what the controller alone does) misses by millimetres
+    page.panel.nominal_check.setChecked(True)
+    assert page.go_to_point(0)
+    wait(page, qtbot)
+    both = page.points[0]
+    assert both.error_mm(nominal=True) > 1.0 and both.error_mm() == landed.error_mm()
+    assert page.table.item(0, 6).text() == f"{both.error_mm(nominal=True):.3f}"
+    np.testing.assert_allclose(both.landed_nominal, lab.marker_position(p.q_nominal), atol=0.3)
 
     # a point on the fixture needs a located fixture
     assert not page.add_point((0, 0, 0), "fixture") and "Locate the fixture" in page.status.text()
