@@ -209,11 +209,11 @@ def lab_measure(lab, images, *, seed: int = 0):
     return ideal_measure(lab, sigma_mm=0.0, seed=seed), "virtual lab, the true marker position (no trained marker)"
 
 
-def robot_measure(driver, source, images, *, stop=None):
+def robot_measure(driver, source, images, *, rendered: bool = False, stop=None):
     """(measure, where) over a connected robot: move it (`driver.move_to`, limits checked by the
-    driver), capture from `source` (the cameras, or the lab's renderer at the joints the robot
-    reports) and locate the marker (images = (trained marker, stereo rectification)). A Stop
-    raises before the next motion."""
+    driver), capture from `source` (the cameras, or, `rendered`, the virtual lab's cameras
+    rendering the joints the robot reports) and locate the marker (images = (trained marker,
+    stereo rectification)). A Stop raises before the next motion."""
     from core.marker.location import MarkerLocator
 
     locator = MarkerLocator(*images)
@@ -226,7 +226,9 @@ def robot_measure(driver, source, images, *, stop=None):
         frames = source.capture()
         loc = locator.locate(frames.left, frames.right)
         return loc.point if loc.ok else None
-    return measure, f"{driver.info.name}, located in the camera images"
+    cameras = ("the virtual lab's cameras rendering the joints it reports" if rendered
+               else "located in the camera images")
+    return measure, f"robot {driver.info.name} ({getattr(driver, 'port', '') or driver.name}), {cameras}"
 
 
 def go_to_point(point: CompensatedPoint, measure, measured_by: str, *, nominal: bool = False, progress=None,

@@ -270,7 +270,7 @@ class CompensationPage(WizardPage):
             except RoboCalError as exc:
                 self._set_status(f"✗ {exc.message}", False)
                 return False
-            measure, where = job.robot_measure(driver, source, images)
+            measure, where = job.robot_measure(driver, source, images, rendered=state.cameras is None)
             return go(measure, where, lab)
         return self.with_lab(on_robot) if state.cameras is None else on_robot(None)
 

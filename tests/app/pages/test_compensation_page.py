@@ -131,3 +131,45 @@ def test_accuracy_map_measured_saved_and_drawn(state, lab, tasks, qtbot):
     assert page.map_panel.plot.magnification > 1 and "more accurate" in page.map_panel.summary.text()
     again = open_page(qtbot, state, tasks)            # a new session reads the saved map
     assert again.amap is not None and again.is_complete()
+
+
+@pytest.fixture
+def nobody_at_the_screen():
+    """The first-motion question is answered yes (app.messages' non-interactive mode)."""
+    from app import messages
+    messages.set_non_interactive(True)
+    yield
+    messages.set_non_interactive(False)
+
+
+def test_over_sim_robot_on_a_pty(state, lab, tasks, qtbot, nobody_at_the_screen):
+    """The project's robot is a serial controller (the controller simulator serving the lab's true
+    robot on a pty): Go to point and the accuracy map move it, and the lab's cameras render where
+    the controller reports its joints."""
+    from app.hardware import RobotChoice, open_serial_robot
+    from core.robot.controller_sim import ControllerSim
+
+    meas = calibrate(state, lab)
+    page = open_page(qtbot, state, tasks)
+    with ControllerSim(lab.true_robot, time_scale=0.01) as sim:
+        choice = RobotChoice("serial", sim.port)
+        state.use_serial_robot(open_serial_robot(state.robot, choice), choice)
+        assert page.on_hardware
+        assert page.add_point(lab.true_robot.target_position(meas.Q[7], "marker"), "camera")
+        wait(page, qtbot)
+        assert page.go_to_point(0)
+        wait(page, qtbot)
+        point = page.points[0]
+        assert point.error_mm() < 0.5, page.status.text()
+        assert sim.port in point.measured_by and "rendering the joints it reports" in point.measured_by
+        np.testing.assert_allclose(sim.joints(), np.rad2deg(point.q_corrected), atol=2e-3)      # it moved there (deg)
+        assert state.motion_confirmed
+        page.map_panel.count_spin.setValue(4)
+        assert page.measure_map()
+        wait(page, qtbot)
+        moves = sum(line.startswith("MOVE") for line in sim.received)
+        state.use_virtual_robot()
+    amap = page.amap
+    assert amap is not None and amap.both.sum() >= 3, page.status.text()
+    assert moves == 1 + 2 * amap.both.sum() and sim.port in amap.measured_by
+    assert amap.rms_after_mm < 0.3 and amap.improvement > 10
