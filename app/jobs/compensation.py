@@ -22,10 +22,10 @@ import numpy as np
 from core.compensation.accuracy_map import AccuracyMap, nominal_in_cell, run_accuracy_map
 from core.compensation.accuracy_map_file import NAME as MAP_NAME, write_accuracy_map
 from core.compensation.ik import frame_to_world, solve_ik
+from core.compensation.prediction import point_covariances
 from core.compensation.workspace_grid import workspace_grid
 from core.errors import RoboCalError
 from core.fixtures.file import read_fixture_pose
-from core.identification.jacobian import calibration_jacobian
 from core.measurement.file import read_measurements
 from core.monitoring.uncertainty import CalibrationUncertainty, calibration_uncertainty
 from core.poses.file import read_poses, write_poses
@@ -124,15 +124,15 @@ def frame_of(choice: str, fixture_path=None):
 
 def predicted_errors_mm(cell: Cell, Q) -> np.ndarray:
     """1σ of the 3D position of the marker at each row of Q (n, dof) from the calibration's
-    parameter covariance (mm); NaN for rows with NaN joints or without a covariance."""
+    parameter covariance (mm, √trace of core.compensation.prediction's covariance); NaN for rows
+    with NaN joints or without a covariance."""
     Q = np.atleast_2d(np.asarray(Q, dtype=float))
     out = np.full(len(Q), np.nan)
     ok = np.all(np.isfinite(Q), axis=1)
     if cell.unc is None or not ok.any():
         return out
-    J = calibration_jacobian(cell.calibrated, Q[ok], [cell.target] * int(ok.sum()), cell.unc.parameters)
-    J = J.reshape(int(ok.sum()), 3, -1)
-    out[ok] = np.sqrt(np.einsum("nip,pq,niq->n", J, cell.unc.covariance, J))
+    S = point_covariances(cell.calibrated, cell.unc, Q[ok], cell.target)
+    out[ok] = np.sqrt(np.clip(np.trace(S, axis1=1, axis2=2), 0.0, None))
     return out
 
 
