@@ -13,7 +13,7 @@ from bench.report import Report
 
 # The wizard's order: the virtual lab (renderer accuracy, simulate speed) first.
 ORDER = ["virtual_lab", "stereo_calibration", "marker", "robustness", "orientation", "pose_selection", "hardware",
-         "identification", "real_robot", "end_to_end", "monitoring", "tools", "fixtures", "teaching"]
+         "identification", "real_robot", "end_to_end", "monitoring", "tools", "fixtures", "teaching", "compensation_map"]
 
 
 def _rank(name: str) -> tuple[int, str]:
