@@ -50,7 +50,7 @@ class CompensationPage(WizardPage):
         self.map_panel.measure_button.clicked.connect(lambda *_: self.measure_map())
 
         right = QVBoxLayout()
-        right.addWidget(self.table, 2)
+        right.addWidget(self.table, 1)
         right.addWidget(self.map_panel, 3)
         body = QHBoxLayout()
         body.addWidget(self.panel)

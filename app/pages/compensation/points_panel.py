@@ -33,7 +33,7 @@ class PointsPanel(QGroupBox):
         self.go_button = forms.button("Go to point", "goToPointButton",
                                       tooltip="Move the robot to the selected point with the calibrated model "
                                               "and measure where the marker is with the cameras")
-        self.nominal_check = QCheckBox("with the nominal model (what the controller alone does)")
+        self.nominal_check = QCheckBox("Go with the nominal model (no compensation)")
         self.nominal_check.setObjectName("goNominal")
         self.nominal_check.setToolTip("Go to point with the joints the robot's own nominal model computes, to "
                                       "compare with the corrected joints")
