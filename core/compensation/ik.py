@@ -27,11 +27,13 @@ program's joints), so it lands on the branch nearest the hint. Without a hint ea
 the previous point: all points start from the first point's solution (itself from `start`, by
 default zeros moved inside the limits), and a point whose solution lies more than `follow_deg`
 from its predecessor's is solved again from that solution. A revolute solution is then taken
-modulo 360° to the equivalent nearest the hint that lies inside the limits. When the solution is
-outside the limits the point is solved again with the joints kept inside them (projected
-steps); if that also fails the point is not ok, `Q` keeps the unconstrained solution (never
-clipped) and `reason` names the joint and its limits. A target the solver cannot reach within
-tolerance is not ok with the distance it stays away.
+modulo 360° to the equivalent nearest the hint that lies inside the limits. A point not solved
+this way (not converged, or solved only outside the limits) is solved again with the joints kept
+inside the limits (projected steps), from its hint and then from `RESTARTS` seeded starts spread
+over the joint range (such a solution may lie on another branch than the hint's). If none
+succeeds the point is not ok: a point reached only outside the limits keeps that unconstrained
+solution in `Q` (never clipped) and `reason` names the joint and its limits; a target the solver
+cannot reach within tolerance gets the distance it stays away.
 
 Units: mm, rad internally (targets_R are rotation matrices); IKResult.Q internal (rad / mm).
 """
@@ -43,11 +45,10 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from core import transforms as tf
-from core.errors import RoboCalError, UsageError
+from core.errors import UsageError
 from core.robot.model import RobotModel
 
 TOOL_TCP = "tool"
-FRAMES = ("base", "measurement", "camera")
 POLISH = 1e-3           # iterate to this fraction of the tolerance (a step costs little there)
 RESTARTS = 8            # starts tried, spread over the joint range, for a point its hint does not solve
 
@@ -107,8 +108,9 @@ def frame_to_world(model: RobotModel, frame) -> np.ndarray:
     return model.base @ T
 
 
-def _length_scale(model: RobotModel) -> float:
-    """A characteristic length of the robot (mm): its link lengths and offsets summed."""
+def length_scale(model: RobotModel) -> float:
+    """A characteristic length of the robot (mm): its link lengths and offsets summed (turns
+    rotation errors in rad into mm in the residual)."""
     total = sum(abs(j.a) + abs(j.d) for j in model.joints) + float(np.linalg.norm(model.tool[:3, 3]))
     return max(total, 1.0)
 
@@ -118,8 +120,10 @@ def _rotation_error(R_target: np.ndarray, R: np.ndarray) -> np.ndarray:
     return Rotation.from_matrix(R_target @ np.swapaxes(R, 1, 2)).as_rotvec()
 
 
-class _Problem:
-    """The targets of a solve in the measurement frame and the evaluation of residual and Jacobian."""
+class IKProblem:
+    """The residual and Jacobian the solver works on, for targets `world` (N, 4, 4) in the
+    measurement frame and the tool point's pose `tcp_T` in the tool frame (see the module):
+    r = [p* − p; L·log(R*·Rᵀ)] (mm; the rotation rows only with `orientation`), J = −∂r/∂q."""
 
     def __init__(self, model: RobotModel, tcp_T: np.ndarray, world: np.ndarray, orientation: bool,
                  length: float):
@@ -132,7 +136,8 @@ class _Problem:
         self.n = model.dof
 
     def evaluate(self, Q: np.ndarray, idx: np.ndarray, jacobian: bool = True):
-        """Residual r (M, 3|6), position error (M,) mm, rotation error (M,) rad, and J (M, 3|6, n)."""
+        """For the targets `idx` at Q (M, n): residual r (M, 3|6), position error (M,) mm,
+        rotation error (M,) rad, and J (M, 3|6, n) (None when `jacobian` is False)."""
         n = self.n
         F = self.model.frames_many(Q)
         T = F[:, n + 1] @ self.tcp_T
@@ -161,7 +166,7 @@ class _Problem:
         return r, pos, rot, np.swapaxes(J, 1, 2)
 
 
-def _levenberg_marquardt(prob: _Problem, Q0: np.ndarray, idx: np.ndarray, *, tol_mm: float,
+def _levenberg_marquardt(prob: IKProblem, Q0: np.ndarray, idx: np.ndarray, *, tol_mm: float,
                          tol_rad: float, max_iterations: int, max_step: float,
                          bounds: tuple[np.ndarray, np.ndarray] | None = None):
     """Solve the points `idx` from Q0 (M, n): returns Q, converged (M,), pos err, rot err, iterations."""
@@ -271,16 +276,15 @@ def solve_ik(model: RobotModel, targets_xyz, targets_R=None, *, tcp: str = "mark
     frame_name = frame if isinstance(frame, str) else "fixture"
     world = frame_to_world(model, frame) @ world_in
     orientation = targets_R is not None
-    prob = _Problem(model, tcp_in_tool(model, tcp), world, orientation,
-                    float(length_scale_mm) if length_scale_mm else _length_scale(model))
+    prob = IKProblem(model, tcp_in_tool(model, tcp), world, orientation,
+                    float(length_scale_mm) if length_scale_mm else length_scale(model))
     lo, hi = model.limits()
     rev = model.revolute_mask()
     kw = dict(tol_mm=tol_mm, tol_rad=np.deg2rad(tol_deg), max_iterations=max_iterations,
               max_step=np.deg2rad(max_step_deg))
-    empty = IKResult(np.zeros((0, model_n)), np.zeros(0, bool), [], np.zeros(0), np.zeros(0),
-                     np.zeros(0, int), tcp, frame_name, orientation, world)
     if N == 0:
-        return empty
+        return IKResult(np.zeros((0, model_n)), np.zeros(0, bool), [], np.zeros(0), np.zeros(0),
+                        np.zeros(0, int), tcp, frame_name, orientation, world)
     idx_all = np.arange(N)
     if hint is not None:
         H = np.asarray(hint, dtype=float)
@@ -288,9 +292,10 @@ def solve_ik(model: RobotModel, targets_xyz, targets_R=None, *, tcp: str = "mark
             raise UsageError(f"hint must be an ({N}, {model_n}) array of joint values (rad / mm)", field="hint")
         Q, conv, pos, rot, iters = _levenberg_marquardt(prob, H, idx_all, **kw)
     else:
-        s = np.clip(np.zeros(model_n) if start is None else np.asarray(start, dtype=float), lo, hi)
-        if s.shape != (model_n,):
+        s = np.zeros(model_n) if start is None else np.asarray(start, dtype=float)
+        if s.shape != (model_n,) or not np.all(np.isfinite(s)):
             raise UsageError(f"start must hold {model_n} joint values (rad / mm)", field="start")
+        s = np.clip(s, lo, hi)
         q0, c0, p0, o0, i0 = _levenberg_marquardt(prob, s[None], idx_all[:1], **kw)
         q0 = _wrap_near(q0, s[None], rev, lo, hi)
         Q, conv, pos, rot, iters = _levenberg_marquardt(prob, np.repeat(q0, N, axis=0), idx_all, **kw)
@@ -316,7 +321,7 @@ def solve_ik(model: RobotModel, targets_xyz, targets_R=None, *, tcp: str = "mark
     limited = conv & ~ok                 # reached, but only outside the limits: Q keeps that solution
     todo = np.flatnonzero(~ok)
     rng = np.random.default_rng(0)
-    slo, shi = model.sampling_range()
+    slo, shi = np.where(rev, np.maximum(lo, -2 * np.pi), lo), np.where(rev, np.minimum(hi, 2 * np.pi), hi)
     for attempt in range(RESTARTS + 1):
         if len(todo) == 0:
             break

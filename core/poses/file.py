@@ -38,17 +38,19 @@ class PoseList:
         return len(self.q_file)
 
 
-def format_poses(q_file) -> str:
-    """The text of poses.csv for joint values (N, n) in file units."""
+def format_poses(q_file, decimals: int = 3) -> str:
+    """The text of poses.csv for joint values (N, n) in file units (`decimals` after the point:
+    3 for selected poses, 6 for corrected programs whose joints matter to the micro-degree)."""
     q = np.atleast_2d(np.asarray(q_file, dtype=float))
     header = "pose," + ",".join(f"q{j + 1}" for j in range(q.shape[1]))
-    rows = [f"{i}," + ",".join(f"{0.0 if v == 0 else v:.3f}" for v in row) for i, row in enumerate(q)]
+    rows = [f"{i}," + ",".join(f"{0.0 if v == 0 else v:.{decimals}f}" for v in row)
+            for i, row in enumerate(q)]
     return "\n".join([header] + rows) + "\n"
 
 
-def write_poses(path: str | Path, q_file) -> Path:
+def write_poses(path: str | Path, q_file, decimals: int = 3) -> Path:
     """Write poses.csv atomically (joint values (N, n) in deg / mm)."""
-    return atomic_write_text(path, format_poses(q_file))
+    return atomic_write_text(path, format_poses(q_file, decimals))
 
 
 def read_poses(path: str | Path, robot: RobotModel | None = None) -> PoseList:
