@@ -23,8 +23,10 @@ from core.compensation.accuracy_map import AccuracyMap, nominal_in_cell, run_acc
 from core.compensation.accuracy_map_file import NAME as MAP_NAME, write_accuracy_map
 from core.compensation.ik import frame_to_world, solve_ik
 from core.compensation.prediction import point_covariances
+from core.compensation.targets import read_targets
 from core.compensation.workspace_grid import workspace_grid
 from core.errors import RoboCalError
+from core.files import read_text
 from core.fixtures.file import read_fixture_pose
 from core.measurement.file import read_measurements
 from core.monitoring.uncertainty import CalibrationUncertainty, calibration_uncertainty
@@ -136,22 +138,24 @@ def predicted_errors_mm(cell: Cell, Q) -> np.ndarray:
     return out
 
 
-def compensate_points(cell: Cell, names, points, frame="measurement", *, hints=None, progress=None,
+def compensate_points(cell: Cell, names, points, frame="measurement", *, rotations=None, hints=None, progress=None,
                       cancelled=None) -> list[CompensatedPoint]:
     """Reach `points` (n, 3) mm in `frame` ("base", "measurement", or a fixture's 4x4 pose in the
-    base frame) with the calibrated model (from `hints` (n, dof), else from the nearest
-    calibration pose, else each from the previous point) and with the nominal one (from the
-    corrected joints: the same branch)."""
+    base frame), with the marker frame's orientations `rotations` (n, 3, 3) in that frame when
+    given (else positions only), with the calibrated model (from `hints` (n, dof), else from the
+    nearest calibration pose, else each from the previous point) and with the nominal one (from
+    the corrected joints: the same branch)."""
     monitor = Monitor(progress, cancelled)
     points = np.atleast_2d(np.asarray(points, dtype=float))
     if hints is None:
         T = frame_to_world(cell.calibrated, frame)
         hints = cell.nearest_measured(points @ T[:3, :3].T + T[:3, 3])
     monitor.step(0.1, f"joints of {len(points)} points with the calibrated model")
-    after = solve_ik(cell.calibrated, points, tcp=cell.target, frame=frame, hint=hints)
+    after = solve_ik(cell.calibrated, points, rotations, tcp=cell.target, frame=frame, hint=hints)
     world = after.targets_world[:, :3, 3]
     monitor.step(0.6, "the same points with the nominal model")
-    before = solve_ik(cell.nominal, world, tcp=cell.target, frame="measurement",
+    before = solve_ik(cell.nominal, world, None if rotations is None else after.targets_world[:, :3, :3],
+                      tcp=cell.target, frame="measurement",
                       hint=np.where(after.ok[:, None], after.Q, after.Q if hints is None else hints))
     q_after = np.where(after.ok[:, None], after.Q, np.nan)
     q_before = np.where(before.ok[:, None], before.Q, np.nan)
@@ -174,8 +178,25 @@ def program_points(cell: Cell, path) -> tuple[list[str], np.ndarray, np.ndarray]
     return [str(int(p)) for p in poses.pose], meant, poses.Q
 
 
-def compensate_program(cell: Cell, path, *, progress=None, cancelled=None) -> list[CompensatedPoint]:
-    """`program_points` of the joint program at `path`, each reached with both models."""
+def is_targets_file(path) -> bool:
+    """True when the file's header names Cartesian targets (name,x,y,z…), not joints (pose,q1…)."""
+    for line in read_text(path, "a program (targets or joints CSV)").splitlines():
+        line = line.strip()
+        if line and not line.startswith("#"):
+            return {"x", "y", "z"} <= {c.strip() for c in line.split(",")}
+    return False
+
+
+def compensate_program(cell: Cell, path, frame="measurement", *, progress=None, cancelled=None) -> list[CompensatedPoint]:
+    """A program file corrected: Cartesian targets (core.compensation.targets: name,x,y,z
+    [,roll,pitch,yaw][,q1..qn], in `frame`) or a joint program taught with the nominal model
+    (`program_points`), each point reached with both models."""
+    if is_targets_file(path):
+        targets = read_targets(path, cell.calibrated.dof)
+        hints = None if targets.hint_file is None else cell.calibrated.q_from_file(targets.hint_file)
+        rotations = targets.rotations if cell.calibrated.dof >= 6 else None
+        return compensate_points(cell, targets.names, targets.xyz, frame, rotations=rotations, hints=hints,
+                                 progress=progress, cancelled=cancelled)
     names, meant, taught = program_points(cell, path)
     return compensate_points(cell, names, meant, "measurement", hints=taught, progress=progress,
                              cancelled=cancelled)

@@ -196,19 +196,25 @@ class CompensationPage(WizardPage):
                              + (f"; {len(bad)} cannot be reached with the calibrated model (see the notes)."
                                 if bad else "."), not bad)
 
-    def load_program(self, path) -> bool:
-        """A joints file taught with the nominal model: the points it meant, corrected."""
+    def load_program(self, path, frame: str | None = None) -> bool:
+        """A program file: Cartesian targets (name,x,y,z…, in `frame` or the frame chosen above)
+        or a joints file taught with the nominal model; its points, corrected."""
         cell = self._cell_or_say()
         if cell is None:
             return False
+        try:
+            where = job.frame_of(frame or self.panel.frame, self._file(job.FIXTURE_NAME))
+        except RoboCalError as exc:
+            self._set_status(f"✗ {exc.message}. {exc.hint or ''}".strip(), False)
+            return False
         self.points = []
-        return self.start(job.compensate_program, cell, path, on_done=self._points_added,
+        return self.start(job.compensate_program, cell, path, where, on_done=self._points_added,
                           status=f"Correcting the program {Path(path).name}…")
 
     def _choose_program(self) -> None:
         folder = str(self.state.project.folder) if self.state.project is not None else ""
-        path, _ = QFileDialog.getOpenFileName(self, "Joint program (nominal model)", folder,
-                                              "Joint files (*.csv);;All files (*)")
+        path, _ = QFileDialog.getOpenFileName(self, "Program: targets (name,x,y,z…) or joints (pose,q1…)", folder,
+                                              "CSV files (*.csv);;All files (*)")
         if path:
             self.load_program(path)
 

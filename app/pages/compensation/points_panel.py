@@ -14,8 +14,8 @@ FRAMES = [("robot base frame", "base"), ("camera frame (left camera)", "camera")
 class PointsPanel(QGroupBox):
     def __init__(self, parent=None):
         super().__init__("Points", parent)
-        note = QLabel("Type a point where the marker should go, or load a joint program taught with the "
-                      "nominal model: RoboCal computes the joints that put the calibrated robot there.")
+        note = QLabel("Type a point where the marker should go, or load a program (targets, or joints taught "
+                      "with the nominal model): RoboCal computes the joints that put the calibrated robot there.")
         note.setWordWrap(True)
         self.x_spin = forms.double_spin(0.0, -5000.0, 5000.0, decimals=2, step=1.0, name="pointX", suffix=" mm")
         self.y_spin = forms.double_spin(0.0, -5000.0, 5000.0, decimals=2, step=1.0, name="pointY", suffix=" mm")
@@ -26,9 +26,10 @@ class PointsPanel(QGroupBox):
             self.frame_combo.addItem(label)
         self.add_button = forms.button("Add point", "addPointButton",
                                        tooltip="Compute the nominal and the corrected joints of this point")
-        self.load_button = forms.button("Load joint program…", "loadProgramButton",
-                                        tooltip="A joints file (pose,q1..qn; degrees / mm) taught or generated "
-                                                "with the nominal model")
+        self.load_button = forms.button("Load program…", "loadProgramButton",
+                                        tooltip="Cartesian targets (name,x,y,z[,roll,pitch,yaw]; mm, degrees) in "
+                                                "the frame chosen above, or a joints file (pose,q1..qn; degrees / "
+                                                "mm) taught with the nominal model")
         self.clear_button = forms.button("Clear", "clearPointsButton")
         self.go_button = forms.button("Go to point", "goToPointButton",
                                       tooltip="Move the robot to the selected point with the calibrated model "

@@ -1,7 +1,7 @@
 """The Compensation page on the virtual lab: a typed point gets nominal and corrected joints and a
 predicted error, Go to point lands within a few predicted errors of it (measured through the
 rendered images), a fixture-relative point needs a located fixture, a program taught with the
-nominal model is corrected and written, an unreachable point is named and never written, and the
+nominal model and a targets file are corrected and written, an unreachable point is named and never written, and the
 accuracy map is measured, saved, drawn and read back by a new page."""
 from __future__ import annotations
 
@@ -106,6 +106,19 @@ def test_typed_point_go_to_point_and_program(state, lab, tasks, qtbot, tmp_path)
     # the true robot at the corrected joints lands where the nominal model meant the taught joints
     meant = page.cell.nominal.target_positions(meas.Q[:5], "marker")
     assert np.max(np.linalg.norm(lab.true_robot.target_positions(back.Q, "marker") - meant, axis=1)) < 0.3
+
+    # Cartesian targets in the robot base frame, with hint joints, from a targets file
+    from core.compensation.targets import write_targets
+    base_inv = np.linalg.inv(page.cell.calibrated.base)
+    in_base = meant[:3] @ base_inv[:3, :3].T + base_inv[:3, 3]
+    targets = write_targets(tmp_path / "targets.csv", ["a", "b", "c"], in_base,
+                            hint_file=lab.nominal_robot.q_to_file(meas.Q[:3]))
+    assert page.load_program(targets, "base")
+    wait(page, qtbot)
+    assert [q.name for q in page.points] == ["a", "b", "c"] and all(q.reachable for q in page.points)
+    np.testing.assert_allclose([q.target for q in page.points], meant[:3], atol=1e-6)
+    landed = lab.true_robot.target_positions(np.array([q.q_corrected for q in page.points]), "marker")
+    assert np.max(np.linalg.norm(landed - meant[:3], axis=1)) < 0.3
 
     # an unreachable point is named and the program is not written over
     assert page.add_point((5000, 0, 0), "base")
