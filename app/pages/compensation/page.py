@@ -118,7 +118,7 @@ class CompensationPage(WizardPage):
         self.refresh()
 
     def is_complete(self) -> bool:
-        return self.amap is not None and bool(self.amap.both.any())
+        return self.amap is not None and bool(self.amap.both.any()) and not self.amap.cancelled
 
     def refresh(self) -> None:
         if not self._ready():

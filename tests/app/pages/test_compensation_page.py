@@ -13,7 +13,10 @@ from app.pages.compensation.page import MISSING, CompensationPage
 from app.worker import TaskRunner
 from core.compensation.accuracy_map_file import read_accuracy_map
 from core.identification.solver import identify, write_calibrated_model
+from core.fixtures.file import write_fixture_pose
+from core.fixtures.frame import FixtureFrame
 from core.poses.file import read_poses, write_poses
+from core.transforms import make_transform, rot_axis
 from tests.app.virtual_inputs import lab_marker, lab_state, make_lab
 
 TIMEOUT = 240_000
@@ -92,6 +95,22 @@ def test_typed_point_go_to_point_and_program(state, lab, tasks, qtbot, tmp_path)
 
     # a point on the fixture needs a located fixture
     assert not page.add_point((0, 0, 0), "fixture") and "Locate the fixture" in page.status.text()
+    # a fixture located in the robot base frame: a point typed on it lands where it is meant
+    T = make_transform(rot_axis(np.array([0.2, -0.3, 1.0]) / np.linalg.norm([0.2, -0.3, 1.0]), 0.7),
+                       [40.0, -25.0, 60.0])
+    write_fixture_pose(state.project.folder / "fixture_pose.json",
+                       FixtureFrame(T, np.eye(6) * 1e-4, "three points", [], np.zeros((0, 3)), np.zeros((0, 3)),
+                                    np.zeros((0, 3))))
+    world = lab.true_robot.target_position(meas.Q[9], "marker")
+    base = page.cell.calibrated.base
+    on_fixture = np.linalg.inv(base @ T) @ np.append(world, 1.0)
+    assert page.add_point(on_fixture[:3], "fixture")
+    wait(page, qtbot)
+    fixed = page.points[-1]
+    np.testing.assert_allclose(fixed.target, world, atol=1e-6)
+    assert page.go_to_point(len(page.points) - 1, nominal=False)
+    wait(page, qtbot)
+    assert page.points[-1].error_mm() < max(0.3, 5 * fixed.predicted_mm), page.status.text()
 
     # a program taught with the nominal model, corrected and written
     taught = tmp_path / "taught.csv"
@@ -133,6 +152,12 @@ def test_accuracy_map_measured_saved_and_drawn(state, lab, tasks, qtbot):
     calibrate(state, lab)
     page = open_page(qtbot, state, tasks)
     page.map_panel.count_spin.setValue(6)
+    # cancelled at the first target: nothing is written
+    assert page.measure_map()
+    qtbot.waitUntil(lambda: page._task is not None, timeout=TIMEOUT)
+    page.cancel()
+    wait(page, qtbot)
+    assert not (state.project.folder / "accuracy_map.json").exists() and not page.is_complete()
     assert page.measure_map()
     wait(page, qtbot)
     amap = page.amap
