@@ -55,15 +55,8 @@ class PointsPanel(QGroupBox):
     def frame(self) -> str:
         return FRAMES[self.frame_combo.currentIndex()][1]
 
-    def set_frame(self, frame: str) -> None:
-        self.frame_combo.setCurrentIndex([f for _, f in FRAMES].index(frame))
-
     def point(self) -> tuple[float, float, float]:
         return (self.x_spin.value(), self.y_spin.value(), self.z_spin.value())
-
-    def set_point(self, xyz) -> None:
-        for s, v in zip((self.x_spin, self.y_spin, self.z_spin), xyz):
-            s.setValue(float(v))
 
     def set_enabled(self, busy: bool, ready: bool, has_points: bool, can_move: bool) -> None:
         for b in (self.add_button, self.load_button):

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from PySide6.QtCore import Qt
 
 from app.lab import ideal_lab_measurements, write_ideal_measurements
 from app.pages.compensation.page import MISSING, CompensationPage
@@ -73,9 +74,14 @@ def test_typed_point_go_to_point_and_program(state, lab, tasks, qtbot, tmp_path)
     meas = calibrate(state, lab)
     page = open_page(qtbot, state, tasks)
     target = lab.true_robot.target_position(meas.Q[3], "marker")          # a point the cameras saw
-    assert page.add_point(target, "camera")
+    for spin, value in zip((page.panel.x_spin, page.panel.y_spin, page.panel.z_spin), target):
+        spin.setValue(value)
+    page.panel.frame_combo.setCurrentIndex(1)                  # the camera frame
+    assert page.panel.frame == "camera"
+    qtbot.mouseClick(page.panel.add_button, Qt.MouseButton.LeftButton)
     wait(page, qtbot)
     p = page.points[0]
+    np.testing.assert_allclose(p.target, target, atol=0.006)    # the spin boxes keep 0.01 mm
     assert p.reachable and 0 < p.predicted_mm < 0.5, page.status.text()
     assert not np.allclose(p.q_nominal, p.q_corrected)        # the calibration changes the joints
     assert page.table.rowCount() == 1 and page.table.item(0, 4).text() == f"{p.predicted_mm:.3f}"
