@@ -103,6 +103,9 @@ class CompensationPage(WizardPage):
         meas = self.measurements_path()
         key = (str(path), path.stat().st_mtime_ns, id(self.state.robot), meas.is_file() and meas.stat().st_mtime_ns)
         if key != self._cell_key:
+            if self.points:             # joints computed with another calibration: compute them again
+                self.points = []
+                self._show_points()
             self.cell, self._cell_key = job.load_cell(path, self.state.robot, meas), key
         return self.cell
 
