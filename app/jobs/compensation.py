@@ -299,5 +299,5 @@ def measure_accuracy_map(cell: Cell, measurements_path, measure, measured_by: st
                             robot=Path(cell.source).name, progress=monitor.sub(0.05, 1.0), cancelled=cancelled)
     path = None
     if not amap.cancelled and amap.both.any():
-        path = write_accuracy_map(Path(out_folder) / MAP_NAME, amap, q_to_file=cell.calibrated.q_to_file)
+        path = write_accuracy_map(Path(out_folder) / MAP_NAME, amap, cell.calibrated)
     return MapRun(amap, path)

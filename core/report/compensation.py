@@ -32,10 +32,9 @@ def compensation_section(project: Project, robot: RobotModel | None, facts: dict
     if not path.is_file():
         return Section(TITLE, [not_done(f"no {MAP_NAME}: measure the accuracy map on the Compensation step")],
                        done=False)
-    q_from_file = robot.q_from_file if robot is not None else np.deg2rad
     q_to_file = robot.q_to_file if robot is not None else np.rad2deg
     try:
-        amap = read_accuracy_map(path, q_from_file=q_from_file)
+        amap = read_accuracy_map(path, robot)
     except RoboCalError as exc:
         problems.append(f"{MAP_NAME}: {exc.message}")
         return Section(TITLE, [unreadable(MAP_NAME, exc.message)], done=False)

@@ -137,7 +137,7 @@ class CompensationPage(WizardPage):
             saved = self._file(MAP_NAME)
             if cell is not None and self.amap is None and saved is not None and saved.is_file():
                 try:
-                    self.amap = read_accuracy_map(saved, q_from_file=cell.calibrated.q_from_file)
+                    self.amap = read_accuracy_map(saved, cell.calibrated)
                     self.map_panel.show_map(self.amap, saved)
                 except RoboCalError as exc:
                     self._set_status(f"✗ {exc.message}", False)

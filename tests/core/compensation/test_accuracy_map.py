@@ -77,8 +77,8 @@ def test_on_the_lab_the_calibrated_model_lands_where_its_own_error_says(lab, cal
     np.testing.assert_allclose(nominal_marker.target_positions(amap.q_before[both], "marker"),
                                amap.targets[both], atol=1e-4)
     assert amap.rms_before_mm > 2.0 and amap.rms_after_mm < 0.1 and amap.improvement > 30
-    path = write_accuracy_map(tmp_path / "accuracy_map.json", amap, q_to_file=model.q_to_file)
-    back = read_accuracy_map(path, q_from_file=model.q_from_file)
+    path = write_accuracy_map(tmp_path / "accuracy_map.json", amap, model)
+    back = read_accuracy_map(path, model)
     assert back.measured_by == amap.measured_by and back.n == amap.n
     np.testing.assert_allclose(back.errors_before, amap.errors_before, atol=1e-9)
     np.testing.assert_allclose(back.q_after[both], amap.q_after[both], atol=1e-9)

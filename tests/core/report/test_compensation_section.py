@@ -37,7 +37,7 @@ def section(report):
 def test_section_from_the_saved_map(measured, tmp_path):
     lab, model, amap = measured
     project = create_project(tmp_path / "p")
-    write_accuracy_map(project.folder / "accuracy_map.json", amap, q_to_file=model.q_to_file)
+    write_accuracy_map(project.folder / "accuracy_map.json", amap, model)
     (project.folder / "corrected_program.csv").write_text("pose,q1,q2,q3,q4,q5,q6\n0,0,0,0,0,0,0\n")
     sec = section(build_report(project, robot=lab.nominal_robot))
     assert sec.done
@@ -60,7 +60,7 @@ def test_missing_and_broken_maps(tmp_path, measured):
     project = create_project(tmp_path / "p")
     sec = section(build_report(project, robot=lab.nominal_robot))
     assert not sec.done and "no accuracy_map.json" in sec.blocks[0]
-    path = write_accuracy_map(project.folder / "accuracy_map.json", amap, q_to_file=model.q_to_file)
+    path = write_accuracy_map(project.folder / "accuracy_map.json", amap, model)
     data = json.loads(path.read_text())
     data["points"][0]["target_mm"] = [1, 2]
     path.write_text(json.dumps(data))
