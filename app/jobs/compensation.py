@@ -25,7 +25,7 @@ from core.compensation.ik import frame_to_world, solve_ik
 from core.compensation.prediction import point_covariances
 from core.compensation.targets import read_targets
 from core.compensation.workspace_grid import workspace_grid
-from core.errors import RoboCalError
+from core.errors import RoboCalError, UsageError
 from core.files import read_text
 from core.fixtures.file import read_fixture_pose
 from core.measurement.file import read_measurements
@@ -147,6 +147,9 @@ def compensate_points(cell: Cell, names, points, frame="measurement", *, rotatio
     the corrected joints: the same branch)."""
     monitor = Monitor(progress, cancelled)
     points = np.atleast_2d(np.asarray(points, dtype=float))
+    names = list(names)
+    if len(names) != len(points):
+        raise UsageError(f"{len(names)} names for {len(points)} points")
     if hints is None:
         T = frame_to_world(cell.calibrated, frame)
         hints = cell.nearest_measured(points @ T[:3, :3].T + T[:3, 3])
