@@ -118,7 +118,9 @@ def run(args) -> CommandResult:
         path = write_controller_program(args.out, calibrated, result.Q, result.names, args.format,
                                         source=str(source))
         what = {"gcode": "G-code program for a GRBL joint arm", "moves": "RoboCal-protocol move list"}[args.format]
-    text = f"{result.summary()} Targets in the {frame_text} frame. Wrote {path}: {what}."
+    where = (f"Targets in the {frame_text} frame." if args.targets
+             else "The poses the nominal program meant, in the robot's base frame.")
+    text = f"{result.summary()} {where} Wrote {path}: {what}."
     data = {"robot": str(args.robot), "calibrated": calibrated.name, "nominal": str(args.nominal or ""),
             "source": str(source), "frame": frame_text, "tcp": args.tcp, "out": str(path),
             "format": "cartesian" if args.for_controller else args.format,

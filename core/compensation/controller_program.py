@@ -30,8 +30,10 @@ _NEGATIVE_ZERO = re.compile(r"(?<![\d.])-(0(?:\.0+)?)(?![\d.])")      # "-0.000"
 FORMATS = {"gcode": ("grbl_joint_arm", ";"), "moves": ("robocal_v1", "#")}
 
 
-def _safe(text: str) -> str:
-    return "".join(c if c.isprintable() and c not in "()" else "_" for c in str(text))
+def _safe(text: str, kind: str) -> str:
+    """`text` for a comment: printable, and without the parentheses G-code reads as comments."""
+    banned = "()" if kind == "gcode" else ""
+    return "".join(c if c.isprintable() and c not in banned else "_" for c in str(text))
 
 
 def format_controller_program(model: RobotModel, Q, names, kind: str, *, profile: ProtocolProfile | None = None,
@@ -53,18 +55,18 @@ def format_controller_program(model: RobotModel, Q, names, kind: str, *, profile
         raise RoboCalError(f"point '{names[i]}' is outside the joint limits of '{model.name}'",
                            hint="Correct the program again; no controller program is written with it.")
     protocol = Path(profile.source).stem if profile.source else profile.name
-    lines = [f"{comment} RoboCal corrected program for {_safe(model.name)}: {len(Q)} points"
-             + (f" from {_safe(source)}" if source else ""),
-             f"{comment} protocol {_safe(protocol)}; joint units {joint_map.units}"]
+    lines = [f"{comment} RoboCal corrected program for {_safe(model.name, kind)}: {len(Q)} points"
+             + (f" from {_safe(source, kind)}" if source else ""),
+             f"{comment} protocol {_safe(protocol, kind)}; joint units {joint_map.units}"]
     if kind == "gcode":
         lines.append("G90")
     for name, q in zip(names, Q):
         move = _NEGATIVE_ZERO.sub(r"\1", profile.format_move(joint_map.to_controller(q)))
         if kind == "gcode":
             move = move.replace("G90 ", "", 1)
-            lines.append(f"{move} ; {_safe(name)}")
+            lines.append(f"{move} ; {_safe(name, kind)}")
         else:
-            lines.append(f"{comment} {_safe(name)}")
+            lines.append(f"{comment} {_safe(name, kind)}")
             lines.append(move)
     if kind == "gcode":
         lines.append("M2")
