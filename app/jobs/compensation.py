@@ -1,7 +1,8 @@
 """The Compensation step's work on a worker (plain Python: the page only draws what comes back).
 
 Points typed by the technician (robot base frame, camera frame, or a fixture located by the Check
-step: fixture_pose.json) or read from a joint program taught with the nominal model are reached
+step: fixture_pose.json) or read from a program (Cartesian targets, core.compensation.targets, or
+a joint program taught with the nominal model) are reached
 with the calibrated model (core.compensation.ik) and with the nominal one (what the controller
 would do: `nominal_in_cell`), with the predicted error of the calibrated landing from the
 calibration's covariance. Go to point and the accuracy map move the project's robot — the
