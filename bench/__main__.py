@@ -13,8 +13,8 @@ from bench.report import Report
 
 # The wizard's order: the virtual lab (renderer accuracy, simulate speed) first.
 ORDER = ["virtual_lab", "stereo_calibration", "marker", "robustness", "orientation", "pose_selection", "hardware",
-         "identification", "real_robot", "compliance", "end_to_end", "monitoring", "compensation", "tools", "fixtures",
-         "teaching"]
+         "identification", "real_robot", "compliance", "end_to_end", "monitoring", "compensation", "compensation_map",
+         "tools", "fixtures", "teaching"]
 
 
 def _rank(name: str) -> tuple[int, str]:

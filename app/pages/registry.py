@@ -10,6 +10,7 @@ import traceback
 
 from app.pages.base import WizardPage
 from app.pages.check.page import CheckPage
+from app.pages.compensation.page import CompensationPage
 from app.pages.export.page import ExportPage
 from app.pages.identification.page import IdentificationPage
 from app.pages.load_error_page import PageLoadErrorPage
@@ -32,6 +33,7 @@ PAGES: dict[Step, type[WizardPage]] = {
     Step.IDENTIFICATION: IdentificationPage,
     Step.EXPORT: ExportPage,
     Step.CHECK: CheckPage,
+    Step.COMPENSATION: CompensationPage,
 }
 
 

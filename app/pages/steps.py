@@ -1,4 +1,4 @@
-"""The eight steps of the wizard (DESIGN.md), in order, with what the shell shows for each."""
+"""The nine steps of the wizard (DESIGN.md), in order, with what the shell shows for each."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -14,6 +14,7 @@ class Step(IntEnum):
     IDENTIFICATION = 5
     EXPORT = 6
     CHECK = 7
+    COMPENSATION = 8
 
     @property
     def number(self) -> int:
@@ -89,4 +90,13 @@ STEP_INFO: dict[Step, StepInfo] = {
         "limits, RoboCal says what most likely changed (the tool, the robot base or the cameras, "
         "one joint's zero, or several things) and re-estimates only that from a few proposed "
         "poses, writing a new calibrated.json."),
+    Step.COMPENSATION: StepInfo(
+        "Compensation", "Make the robot accurate: corrected joints, Go to point, accuracy before/after.",
+        "The robot's controller still computes with its nominal model, so a calibration alone does not make "
+        "the robot more accurate. Here the calibrated model computes the joints that put the marker where "
+        "you ask: type a point (in the robot base frame, the camera frame or on a located fixture) or load a "
+        "joint program taught with the nominal model, compare the nominal and the corrected joints and the "
+        "predicted error, write the corrected program, and send the robot to a point while the cameras "
+        "measure where the marker really is. The accuracy map reaches a grid of targets with both models "
+        "and shows how many times more accurate the robot became."),
 }

@@ -15,8 +15,9 @@ import traceback
 from datetime import datetime, timezone
 
 from core.errors import RoboCalError
-from core.project import OUTPUT_FILES, Project, load_robot
+from core.project import OUTPUT_FILES, VIRTUAL_LAB, Project, load_robot
 from core.report.check import check_section
+from core.report.compensation import compensation_section
 from core.report.document import Report, Section, esc, num, table, unreadable
 from core.report.identification import identification_section
 from core.report.marker import MARKER_FILE, marker_section
@@ -58,6 +59,7 @@ def build_report(project: Project, *, robot: RobotModel | None = None, identific
         ("Identification", lambda: identification_section(project, robot, identification, accuracy, facts,
                                                           problems)),
         ("Check", lambda: check_section(project, facts, problems)),
+        ("Compensation", lambda: compensation_section(project, robot, facts, problems)),
     ]
     sections = [_files_section(project, robot)]
     for title, build in builders:

@@ -87,7 +87,7 @@ def test_autopilot_in_process_finishes_with_zero(quiet_window, qtbot, tmp_path):
     with qtbot.waitSignal(pilot.finished, timeout=180000) as blocker:
         pilot.start()
     assert blocker.args == [0]
-    assert len(pilot.saved) == 8 and quiet_window.current_step is Step.CHECK
+    assert len(pilot.saved) == 9 and quiet_window.current_step is Step.COMPENSATION
     assert quiet_window.state.project is not None and quiet_window.state.robot is not None
 
 

@@ -17,7 +17,7 @@ from widgets.step_list import StepState
 HELP_PHRASES = {
     Step.SETUP: "Rz(θ", Step.STEREO: "k1r²", Step.MARKER: "SSD(d)", Step.POSES: "κ = σ1 / σm",
     Step.MEASUREMENT: "Z = f · b / d", Step.IDENTIFICATION: "Δg = (ΦTΦ)−1 ΦT ΔX",
-    Step.EXPORT: "URDF", Step.CHECK: "Ce(q) = J(q)",
+    Step.EXPORT: "URDF", Step.CHECK: "Ce(q) = J(q)", Step.COMPENSATION: "Δx = Jg · Δg",
 }
 
 
@@ -46,11 +46,11 @@ def image_stats(image: QImage) -> tuple[int, float]:
     return len(np.unique(data.reshape(-1, 4)[::7], axis=0)), float(data.std())
 
 
-def test_eight_steps_in_order(window):
+def test_nine_steps_in_order(window):
     assert [p.step for p in window.pages] == list(Step)
-    assert [window.step_list.item(i).text().split("\n")[0] for i in range(8)] == [
+    assert [window.step_list.item(i).text().split("\n")[0] for i in range(9)] == [
         "1. Setup", "2. Stereo calibration", "3. Marker", "4. Pose sequence", "5. Measurement",
-        "6. Identification", "7. Export", "8. Check"]
+        "6. Identification", "7. Export", "8. Check", "9. Compensation"]
     assert all(isinstance(p, WizardPage) and p.load_error is None for p in window.pages)
     assert window.current_step is Step.SETUP and window.page(Step.SETUP).load_error is None
 

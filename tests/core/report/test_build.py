@@ -13,7 +13,7 @@ from core.stereo.file import read_stereo_yaml
 from core.report import build_report, calibration_report, render_html
 from tests.core.report.sample_project import COVERAGE, CROSS_VALIDATION, THRESHOLD_PX, make_project
 
-STEPS = ["Stereo calibration", "Marker", "Pose sequence", "Measurements", "Identification", "Check"]
+STEPS = ["Stereo calibration", "Marker", "Pose sequence", "Measurements", "Identification", "Check", "Compensation"]
 DRAWN = ["stereo_pairs", "stereo_residuals", "stereo_coverage", "stereo_cross_validation", "poses_joints", "poses_index", "poses_views", "measurement_points",
          "identification_per_pose", "identification_histograms", "identification_convergence",
          "identification_correlation"]
@@ -32,7 +32,7 @@ def test_a_full_project_has_every_section_and_figure(sample):
     project, result = sample
     report = build_report(open_project(project.folder))
     assert [s.title for s in report.sections] == ["Project files"] + STEPS
-    assert report.not_done() == ["Marker", "Check"] and report.problems == []
+    assert report.not_done() == ["Marker", "Check", "Compensation"] and report.problems == []
     figs = figures(report)
     for key in DRAWN:
         assert key in figs and figs[key].unavailable is None and figs[key].panels, key
@@ -102,7 +102,7 @@ def test_an_unreadable_file_is_named_and_the_rest_is_reported(sample, tmp_path, 
     assert any(p.startswith(needle) for p in report.problems), report.problems
     assert needle in report.summary and "could not be read" in report.summary
     assert f"{needle} cannot be read" in render_html(report)
-    assert len(report.sections) == 7
+    assert len(report.sections) == 1 + len(STEPS)
 
 
 def test_calibration_report_is_html_naming_undrawn_figures(sample):

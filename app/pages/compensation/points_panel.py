@@ -1,0 +1,66 @@
+"""The Compensation page's Points panel: type a point (robot base frame, camera frame, or the
+fixture located on the Check page) or load a joint program taught with the nominal model; Go to
+point and writing the corrected program act on what is listed in the table."""
+from __future__ import annotations
+
+from PySide6.QtWidgets import QCheckBox, QComboBox, QGroupBox, QLabel, QVBoxLayout
+
+from app.pages import forms
+
+FRAMES = [("robot base frame", "base"), ("camera frame (left camera)", "camera"),
+          ("located fixture (fixture_pose.json)", "fixture")]
+
+
+class PointsPanel(QGroupBox):
+    def __init__(self, parent=None):
+        super().__init__("Points", parent)
+        note = QLabel("Type a point where the marker should go, or load a program (targets, or joints taught "
+                      "with the nominal model): RoboCal computes the joints that put the calibrated robot there.")
+        note.setWordWrap(True)
+        self.x_spin = forms.double_spin(0.0, -5000.0, 5000.0, decimals=2, step=1.0, name="pointX", suffix=" mm")
+        self.y_spin = forms.double_spin(0.0, -5000.0, 5000.0, decimals=2, step=1.0, name="pointY", suffix=" mm")
+        self.z_spin = forms.double_spin(0.0, -5000.0, 5000.0, decimals=2, step=1.0, name="pointZ", suffix=" mm")
+        self.frame_combo = QComboBox()
+        self.frame_combo.setObjectName("pointFrame")
+        for label, _ in FRAMES:
+            self.frame_combo.addItem(label)
+        self.add_button = forms.button("Add point", "addPointButton",
+                                       tooltip="Compute the nominal and the corrected joints of this point")
+        self.load_button = forms.button("Load program…", "loadProgramButton",
+                                        tooltip="Cartesian targets (name,x,y,z[,roll,pitch,yaw]; mm, degrees) in "
+                                                "the frame chosen above, or a joints file (pose,q1..qn; degrees / "
+                                                "mm) taught with the nominal model")
+        self.clear_button = forms.button("Clear", "clearPointsButton")
+        self.go_button = forms.button("Go to point", "goToPointButton",
+                                      tooltip="Move the robot to the selected point with the calibrated model "
+                                              "and measure where the marker is with the cameras")
+        self.nominal_check = QCheckBox("Go with the nominal model (no compensation)")
+        self.nominal_check.setObjectName("goNominal")
+        self.nominal_check.setToolTip("Go to point with the joints the robot's own nominal model computes, to "
+                                      "compare with the corrected joints")
+        self.write_button = forms.button("Write corrected program…", "writeProgramButton",
+                                         tooltip="The corrected joints as a joints file the Measurement page, "
+                                                 "sim-robot and the robot drivers read")
+        layout = QVBoxLayout(self)
+        layout.addWidget(note)
+        layout.addLayout(forms.row("x", self.x_spin, "y", self.y_spin))
+        layout.addLayout(forms.row("z", self.z_spin, "in", self.frame_combo))
+        layout.addLayout(forms.row(self.add_button, self.clear_button))
+        layout.addLayout(forms.row(self.load_button))
+        layout.addLayout(forms.row(self.go_button, self.write_button))
+        layout.addWidget(self.nominal_check)
+        layout.addStretch(1)
+
+    @property
+    def frame(self) -> str:
+        return FRAMES[self.frame_combo.currentIndex()][1]
+
+    def point(self) -> tuple[float, float, float]:
+        return (self.x_spin.value(), self.y_spin.value(), self.z_spin.value())
+
+    def set_enabled(self, busy: bool, ready: bool, has_points: bool, can_move: bool) -> None:
+        for b in (self.add_button, self.load_button):
+            b.setEnabled(ready and not busy)
+        self.clear_button.setEnabled(has_points and not busy)
+        self.write_button.setEnabled(ready and has_points and not busy)
+        self.go_button.setEnabled(ready and has_points and can_move and not busy)
