@@ -15,7 +15,8 @@ fsynced per row).
 Resumable: the poses already in the measurements file (same target) or in the rejects file
 are skipped (their joint values must match, else the file belongs to another pose list).
 Faults: when the robot or its connection fails (core.robot.driver.RobotFault: timeout,
-garbage, disconnect, a controller error, a robot that ended away from its target) the run
+garbage, disconnect, a controller error, a robot that ended away from its target; a move
+the driver's watchdog stopped, RobotTimeout, is a fault too, not a Stop) the run
 stops the robot, keeps every measurement taken, and returns with `fault` (one line); the
 pose under way is not written. Reconnect and run again with `resume`: it starts at the first
 unmeasured pose. Nothing captured while the robot moved or after a stop is written.
@@ -37,7 +38,7 @@ import numpy as np
 
 from core.errors import RoboCalError
 from core.files import drop_partial_last_line, require_regular_file
-from core.robot.driver import RobotFault
+from core.robot.driver import RobotFault, RobotTimeout
 from core.robot.model import RobotModel
 from core.measurement.appended_file import AppendedFile
 from core.measurement.file import MeasurementWriter, orientation_cells
@@ -374,7 +375,8 @@ def run_measurements(poses: PoseList, out: str | Path, *, locate: Callable, capt
                 rej_writer.append(pid, target, q_file, reason)
                 outcome.reason = reason
             except RobotFault as exc:
-                stop_key = driver is not None and driver.stopped     # stopped on purpose during the move
+                # stopped on purpose during the move; the watchdog's stop is a fault the user must read
+                stop_key = driver is not None and driver.stopped and not isinstance(exc, RobotTimeout)
                 if driver is not None:
                     driver.stop()              # never raises; the robot stays stopped until resumed
                 if stop_key:
