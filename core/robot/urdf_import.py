@@ -73,9 +73,11 @@ def _floats(text: str | None, n: int, source, where: str) -> np.ndarray:
     try:
         values = np.array([float(v) for v in text.split()])
     except ValueError:
-        raise RoboCalError(f"expected {n} numbers, got {text!r}", source=source, field=where) from None
+        raise RoboCalError(f"expected {n} number{'s' if n > 1 else ''}, got {text!r:.60}", source=source,
+                           field=where) from None
     if values.shape != (n,) or not np.all(np.isfinite(values)):
-        raise RoboCalError(f"expected {n} finite numbers, got {text!r}", source=source, field=where)
+        raise RoboCalError(f"expected {n} finite number{'s' if n > 1 else ''}, got {text!r:.60}", source=source,
+                           field=where)
     return values
 
 
@@ -118,8 +120,8 @@ def _read(path: Path) -> tuple[str, dict[str, _UrdfJoint]]:
         lower = upper = None
         if limit is not None and jtype != "continuous":
             scale = M_TO_MM if jtype == "prismatic" else 1.0
-            lower = float(limit.get("lower", "0")) * scale
-            upper = float(limit.get("upper", "0")) * scale
+            lower = _floats(limit.get("lower", "0"), 1, path, f"{where} limit lower")[0] * scale
+            upper = _floats(limit.get("upper", "0"), 1, path, f"{where} limit upper")[0] * scale
         child_link = child.get("link", "")
         if child_link in {j.child for j in joints.values()}:
             raise RoboCalError(f"link '{child_link}' has two parent joints: the URDF is not a tree (a closed chain)",
