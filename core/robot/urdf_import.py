@@ -41,7 +41,6 @@ M_TO_MM = 1000.0
 _EPS = 1e-9
 LONGEST_CHAIN_M = 20.0        # a chain longer than this (the sum of its joint offsets, m) is not an arm
                               # in metres: the largest industrial arms reach about 4 m
-XACRO_NS = "{http://www.ros.org/wiki/xacro}"
 
 
 @dataclass
@@ -135,9 +134,11 @@ def _read(path: Path) -> tuple[str, dict[str, _UrdfJoint]]:
 
 
 def _is_xacro(path: Path, root) -> bool:
-    """Elements of the xacro namespace, or ${...} expressions in attributes."""
+    """Elements of a xacro namespace (…/wiki/xacro, under any host), or ${...} expressions in
+    attributes. An expanded file may still declare the namespace: only its use counts."""
     for el in root.iter():
-        if isinstance(el.tag, str) and (el.tag.startswith(XACRO_NS) or el.tag.startswith("xacro:")):
+        if isinstance(el.tag, str) and (el.tag.startswith("{") and el.tag.split("}")[0].endswith("/xacro")
+                                        or el.tag.startswith("xacro:")):
             return True
         if any("${" in v or "$(" in v for v in el.attrib.values()):
             return True

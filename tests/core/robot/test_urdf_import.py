@@ -148,7 +148,7 @@ def _ur5_in_mm() -> str:
 
 
 XACRO = """<?xml version="1.0"?>
-<robot xmlns:xacro="http://www.ros.org/wiki/xacro" name="arm">
+<robot xmlns:xacro="http://ros.org/wiki/xacro" name="arm">
   <xacro:property name="d1" value="0.089159"/>
   <xacro:macro name="arm" params="prefix">
     <link name="${prefix}base_link"/>
@@ -176,7 +176,7 @@ GRIPPER = UR5.replace("</robot>", """
 @pytest.mark.parametrize("text, kwargs, says, field", [
     (_ur5_in_mm(), {}, "these look like millimetres", "joint origin xyz"),
     (XACRO, {}, "unexpanded xacro file", None),
-    (XACRO.replace(' xmlns:xacro="http://www.ros.org/wiki/xacro"', ""), {}, "unexpanded xacro file", None),
+    (XACRO.replace(' xmlns:xacro="http://ros.org/wiki/xacro"', ""), {}, "unexpanded xacro file", None),
     (LOOP, {}, "a kinematic loop between the links 'a', 'c', 'b'", "joint 'j3'"),
     (UR5, {"tip": "base_link"}, "is the base link", "--tip"),
     (GRIPPER, {"tip": "finger_right"}, "mimic joint", "joint 'finger_right_joint'"),
