@@ -43,11 +43,8 @@ def require_regular_file(path: str | Path) -> Path:
     path = Path(path)
     try:
         mode = os.stat(path).st_mode
-    except FileNotFoundError:
+    except OSError:             # nothing there, or a path that cannot be: the write names the problem
         return path
-    except OSError as exc:
-        raise RoboCalError(f"cannot look at the output ({exc.strerror}); nothing was written", source=path,
-                           hint="Check the path and its permissions.") from exc
     if stat.S_ISREG(mode):
         return path
     kind = next((name for test, name in _KINDS if test(mode)), "not a regular file")
