@@ -5,6 +5,7 @@ import contextlib
 import json
 import os
 import shutil
+import stat
 import tempfile
 from pathlib import Path
 
@@ -30,9 +31,30 @@ def ensure_writable_dir(folder: str | Path) -> Path:
     return folder
 
 
+_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISCHR, "a device"), (stat.S_ISBLK, "a device"),
+          (stat.S_ISFIFO, "a pipe (FIFO)"), (stat.S_ISSOCK, "a socket"))
+
+
+def require_regular_file(path: str | Path) -> Path:
+    """`path`, if it does not exist or is a regular file (a link to one counts); else one
+    RoboCalError saying what is there, before anything reads, repairs or replaces it. Every
+    writer calls this first: a rename would put a regular file in place of a device, a pipe
+    would block a reader, and a folder cannot be appended to."""
+    path = Path(path)
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:             # nothing there, or a path that cannot be: the write names the problem
+        return path
+    if stat.S_ISREG(mode):
+        return path
+    kind = next((name for test, name in _KINDS if test(mode)), "not a regular file")
+    raise RoboCalError(f"this is {kind}, not a regular file; nothing was written to it", source=path,
+                       hint="Give the path of a file to write (a new name, or a file RoboCal wrote).")
+
+
 def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
     """Write `data` to `path` through a temporary file in the same folder and a rename."""
-    path = Path(path)
+    path = require_regular_file(path)
     folder = ensure_writable_dir(path.parent if str(path.parent) else Path("."))
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
     try:
@@ -66,6 +88,7 @@ def atomic_write_many(files: dict[str | Path, bytes | str]) -> list[Path]:
         if path.is_dir():
             raise RoboCalError("a folder is in the way of this output file; no output was changed", source=path,
                                hint="Remove or rename that folder, or write elsewhere.")
+        require_regular_file(path)
     temps: list[tuple[str, Path]] = []
     try:
         for path, data in zip(targets, files.values()):
@@ -174,8 +197,10 @@ def atomic_write_json(path: str | Path, data) -> Path:
 
 def drop_partial_last_line(path: str | Path) -> bool:
     """Cut a partly written last line (a run killed mid-write) off an append-only text file,
-    so that appending goes on after the last complete line. True if there was one."""
-    path = Path(path)
+    so that appending goes on after the last complete line. True if there was one. Call it
+    only once the file is known to be the writer's own kind (its tag and header read): a file
+    that is refused must come back unchanged."""
+    path = require_regular_file(path)
     try:
         if not path.exists():
             return False

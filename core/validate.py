@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -68,4 +69,21 @@ def vector(value: Any, length: int, source, field: str, unit: str = "") -> list[
 def text(value: Any, source, field: str) -> str:
     if not isinstance(value, str):
         raise RoboCalError(f"expected text, got {value!r}", source=source, field=field)
+    return value
+
+
+NAME_MAX = 64
+_NAME = re.compile(r"[^\W_][\w .+-]*")
+
+
+def name_text(value: Any, source, field: str) -> str:
+    """A name that may become a file name or a URDF link name (a fixture point, a target): a
+    letter or digit first, then letters, digits, spaces and _ . + -, at most NAME_MAX characters,
+    never '..' (no path, no wildcard, no markup)."""
+    value = text(value, source, field)
+    if not _NAME.fullmatch(value) or value != value.rstrip() or ".." in value or len(value) > NAME_MAX:
+        shown = value if len(value) <= 40 else value[:40] + "…"
+        raise RoboCalError(f"the name {shown!r} cannot be used: it becomes a file or link name", source=source,
+                           field=field, hint=f"Use letters, digits, spaces and _ . + - (a letter or digit first, "
+                                             f"at most {NAME_MAX} characters), e.g. 'A' or 'corner_1'.")
     return value

@@ -8,6 +8,9 @@ written ``"dest=LABEL"`` (positional arguments). ``OUTPUTS`` entries may also be
 - An output that is the same file as an input, or as another output, is a usage error (exit 2):
   a run must never overwrite what it reads.
 - An output that is an existing image inside an input folder is refused the same way.
+- An output that exists and is a device, a pipe or a socket is refused (exit 1) before any work:
+  a rename would replace it with a regular file (core.files.require_regular_file; a folder is
+  left to the command, as some outputs are folders).
 - While the command runs, every output is held by an advisory lock (core.locks), so a second
   run writing the same file is refused with the number of the process that holds it.
 """
@@ -18,6 +21,7 @@ from pathlib import Path
 from typing import Iterable
 
 from core.errors import UsageError
+from core.files import require_regular_file
 from core.images import IMAGE_SUFFIXES
 
 
@@ -59,6 +63,8 @@ def check_overlaps(args, module) -> list[Path]:
     inputs = declared(args, getattr(module, "INPUTS", ()))
     outputs = declared(args, getattr(module, "OUTPUTS", ()))
     for i, (o_name, o_path) in enumerate(outputs):
+        if not o_path.is_dir():
+            require_regular_file(o_path)
         for o2_name, o2_path in outputs[i + 1:]:
             if same_file(o_path, o2_path):
                 raise UsageError(f"{o_name} and {o2_name} name the same file ({o_path}); give two different files")

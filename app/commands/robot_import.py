@@ -20,9 +20,10 @@ def add_arguments(parser) -> None:
 
 def run(args) -> CommandResult:
     from core.bounds import LENGTH_MM
-    from core.errors import UsageError
+    from core.errors import RoboCalError, UsageError
     from core.robot.file import write_robot
     from core.robot.urdf_import import import_urdf
+    from core.validate import name_text
 
     check_output(args.out, "--out")
     imported = import_urdf(args.urdf, base=args.base, tip=args.tip)
@@ -33,6 +34,10 @@ def run(args) -> CommandResult:
             values = [LENGTH_MM.check(float(v), field="--target") for v in xyz]
         except ValueError:
             raise UsageError(f"--target needs NAME X Y Z with numbers in mm, got {' '.join(args.target)}") from None
+        try:
+            name_text(name, None, "--target")
+        except RoboCalError as exc:
+            raise UsageError(exc.message) from None
         model.targets[name] = values
     path = write_robot(model, args.out)
     lines = [f"Wrote {path}: '{model.name}', {model.dof} joints from '{imported.base_link}' to "

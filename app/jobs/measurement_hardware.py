@@ -5,7 +5,8 @@ calls; plain Python, no widgets are touched).
 (any RobotDriver: the virtual lab's simulated robot or a SerialRobot) and a capture source
 (`capture_source(...)`: the two chosen cameras, app.hardware.LiveCameras, or the virtual
 lab's cameras rendering the marker at the joints the robot reports). Pause, cancel and the
-robot's Stop end it between poses; a robot or connection fault stops the robot, keeps every
+robot's Stop end it between poses; a robot or connection fault (a move the driver's watchdog
+stopped included: RobotTimeout, never taken for the Stop key) stops the robot, keeps every
 measurement and comes back in `result.fault`; running it again resumes at the first pose not
 measured.
 

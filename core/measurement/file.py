@@ -38,7 +38,7 @@ import numpy as np
 
 from core.bounds import ANGLE_DEG, LENGTH_MM, POINT_COUNT, POSE_ID, SIGMA_MM, Bound
 from core.errors import RoboCalError
-from core.files import atomic_write_text, drop_partial_last_line, read_text
+from core.files import atomic_write_text, drop_partial_last_line, read_text, require_regular_file
 from core.measurement.appended_file import AppendedFile
 from core.robot.model import RobotModel
 
@@ -476,9 +476,13 @@ class MeasurementWriter(AppendedFile):
     _write_failed: bool = field(default=False, init=False, repr=False)
 
     def __post_init__(self):
-        self.path = Path(self.path)
+        self.path = require_regular_file(self.path)
         header = ",".join(header_columns(self.dof, self.sigmas, self.orientation))
         existing = self._existing_header()
+        if existing is not None and existing[0] is not None and existing[0] != header:
+            raise RoboCalError(f"the file's columns ({existing[0]}) differ from the ones to write "
+                               f"({header})", source=self.path,
+                               hint="Write to a new file, or use the robot the file was started with.")
         if existing is not None and existing[0] is not None and not existing[1]:
             # an interrupted write left a partial row: it is no measurement, cut it off
             drop_partial_last_line(self.path)
@@ -489,12 +493,6 @@ class MeasurementWriter(AppendedFile):
                 self._write(tag_line(self.orientation) + "\n" + header + "\n")
             elif existing[0] is None:   # a tag line but no header yet
                 self._write(("" if existing[1] else "\n") + header + "\n")
-            else:
-                if existing[0] != header:
-                    self.close()
-                    raise RoboCalError(f"the file's columns ({existing[0]}) differ from the ones to write "
-                                       f"({header})", source=self.path,
-                                       hint="Write to a new file, or use the robot the file was started with.")
         except OSError as exc:
             raise RoboCalError(f"cannot open the file for writing ({exc.strerror})", source=self.path,
                                hint="Check the disk space and permissions.") from exc

@@ -12,8 +12,9 @@ Columns are recognised by name in any order (case, spaces and dashes do not matt
 
 A unit suffix on a column (``q1_deg``, ``q1_rad``, ``x_mm``, ``x_m``) says its unit; otherwise the
 units given by the caller apply (mm and degrees by default). A suffix that contradicts the
-caller's unit is refused rather than guessed about. Comma, semicolon and tab separated files
-are read; ``#`` lines are comments.
+caller's unit is refused rather than guessed about. Positions read as mm because nothing said
+otherwise that look like metres (spanning under 20 mm over three or more poses) are refused
+with the unit to give. Comma, semicolon and tab separated files are read; ``#`` lines are comments.
 """
 from __future__ import annotations
 
@@ -33,6 +34,7 @@ from core.measurement.file import Measurements
 from core.robot.model import RobotModel
 
 LENGTH_UNITS = {"mm": 1.0, "m": 1000.0}
+MIN_SPAN_MM = 20.0              # positions read as mm spanning less than this over 3+ poses: metres, not mm
 ANGLE_UNITS = {"deg": 1.0, "rad": 180.0 / np.pi}
 
 _POSE = re.compile(r"^(pose|pose_?id|id|config|configuration|sample)$")
@@ -144,6 +146,7 @@ def import_measurements(paths: Sequence[str | Path], *, length_unit: str | None 
     sources = [Path(p) for p in paths]
     dof = None
     used_ids: dict[int, Path] = {}
+    said_length = True                  # every position column's unit given (by the caller or its suffix)
     for path in sources:
         header, rows = _rows(path)
         layout = _layout(path, header)
@@ -168,6 +171,7 @@ def import_measurements(paths: Sequence[str | Path], *, length_unit: str | None 
                 scale[k - 1] = LENGTH_UNITS[unit]
         xyz_scale = {a: LENGTH_UNITS[_unit(path, header[c], s, length_unit, "mm", "length")]
                      for a, (c, s) in layout["xyz"].items()}
+        said_length = said_length and (length_unit is not None or all(s for _, s in layout["xyz"].values()))
         if layout["pose"] is None:
             notes.append(f"{path.name}: no pose column; consecutive rows with the same joint values are one pose")
         if layout["target"] is None:
@@ -227,4 +231,21 @@ def import_measurements(paths: Sequence[str | Path], *, length_unit: str | None 
         seen[key] = lines[i]
     meas = Measurements(pose=np.array(poses), target=targets, q_file=np.array(q_rows), xyz=np.array(xyz_rows),
                         line=np.array(lines), source=", ".join(str(p) for p in sources))
+    if not said_length:
+        _check_millimetres(meas, sources)
     return ImportedMeasurements(meas, sources, notes)
+
+
+def _extent(P: np.ndarray) -> float:
+    """The largest side of the box around points P (N, 3)."""
+    return float(np.max(P.max(axis=0) - P.min(axis=0))) if len(P) else 0.0
+
+
+def _check_millimetres(meas: Measurements, sources: list[Path]) -> None:
+    """Positions read as mm (no unit said) that span under MIN_SPAN_MM over three or more poses
+    are metres: a robot's measured points span hundreds of millimetres."""
+    span = _extent(meas.xyz)
+    if meas.n_poses >= 3 and span < MIN_SPAN_MM:
+        raise RoboCalError(f"the positions span only {span:.4g} (read as mm) over {meas.n_poses} poses: "
+                           "they look like metres", source=sources[0] if len(sources) == 1 else None,
+                           field="x, y, z", hint="Give --length-unit m, or name the columns x_m, y_m, z_m.")

@@ -15,7 +15,8 @@ fsynced per row).
 Resumable: the poses already in the measurements file (same target) or in the rejects file
 are skipped (their joint values must match, else the file belongs to another pose list).
 Faults: when the robot or its connection fails (core.robot.driver.RobotFault: timeout,
-garbage, disconnect, a controller error, a robot that ended away from its target) the run
+garbage, disconnect, a controller error, a robot that ended away from its target; a move
+the driver's watchdog stopped, RobotTimeout, is a fault too, not a Stop) the run
 stops the robot, keeps every measurement taken, and returns with `fault` (one line); the
 pose under way is not written. Reconnect and run again with `resume`: it starts at the first
 unmeasured pose. Nothing captured while the robot moved or after a stop is written.
@@ -36,8 +37,8 @@ from typing import Callable, Sequence
 import numpy as np
 
 from core.errors import RoboCalError
-from core.files import drop_partial_last_line
-from core.robot.driver import RobotFault
+from core.files import drop_partial_last_line, require_regular_file
+from core.robot.driver import RobotFault, RobotTimeout
 from core.robot.model import RobotModel
 from core.measurement.appended_file import AppendedFile
 from core.measurement.file import MeasurementWriter, orientation_cells
@@ -80,7 +81,7 @@ def _internal(poses: PoseList, driver) -> np.ndarray | None:
 
 def read_rejects(path: str | Path) -> dict[int, tuple[str, np.ndarray, str]]:
     """pose id -> (target, q_file, reason) of a rejects file (empty if it does not exist)."""
-    path = Path(path)
+    path = require_regular_file(path)
     if not path.exists():
         return {}
     text = path.read_text(encoding="utf-8", errors="replace")
@@ -121,11 +122,23 @@ class RejectsWriter(AppendedFile):
     _write_failed: bool = field(default=False, init=False, repr=False)
 
     def __post_init__(self):
-        self.path = Path(self.path)
+        self.path = require_regular_file(self.path)
         header = ",".join(["pose", "target"] + [f"q{i + 1}" for i in range(self.dof)] + ["reason"])
-        drop_partial_last_line(self.path)
         try:
             existing = self.path.read_bytes() if self.path.exists() else b""
+        except OSError as exc:
+            raise RoboCalError(f"cannot read the file ({exc.strerror})", source=self.path) from exc
+        found = None
+        if existing.strip():            # checked before anything is repaired or written: a refused file stays as it was
+            complete = existing[:existing.rfind(b"\n") + 1] if not existing.endswith(b"\n") else existing
+            lines = [ln for ln in existing.decode("utf-8", "replace").splitlines() if ln.strip()]
+            found = next((ln for ln in complete.decode("utf-8", "replace").splitlines()
+                          if ln.strip() and not ln.startswith("#")), None)
+            if REJECTS_FAMILY not in lines[0] or (found is not None and found.replace(" ", "") != header):
+                raise RoboCalError("the rejects file belongs to another run (other columns or no format tag)",
+                                   source=self.path, hint="Write to a new file.")
+            drop_partial_last_line(self.path)
+        try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._handle = open(self.path, "a", encoding="utf-8", newline="")
         except OSError as exc:
@@ -133,14 +146,8 @@ class RejectsWriter(AppendedFile):
         try:
             if not existing.strip():
                 self._append(REJECTS_TAG + "\n" + header + "\n")
-            else:
-                lines = [ln for ln in existing.decode("utf-8", "replace").splitlines() if ln.strip()]
-                found = next((ln for ln in lines if not ln.startswith("#")), None)
-                if REJECTS_FAMILY not in lines[0] or (found is not None and found.replace(" ", "") != header):
-                    raise RoboCalError("the rejects file belongs to another run (other columns or no format tag)",
-                                       source=self.path, hint="Write to a new file.")
-                if found is None:
-                    self._append(header + "\n")
+            elif found is None:
+                self._append(header + "\n")
         except BaseException:
             self._write_failed = True           # the error on its way is the one to read
             self.close()
@@ -166,7 +173,7 @@ def _existing_measurements(path: Path, target: str) -> tuple[dict[int, np.ndarra
     and ended by the writer."""
     from core.measurement.file import read_measurements
 
-    if not path.exists() or not path.read_bytes().strip():
+    if not require_regular_file(path).exists() or not path.read_bytes().strip():
         return {}, None
     text = path.read_text(encoding="utf-8", errors="replace")
     complete = text if text.endswith("\n") else text[:text.rfind("\n") + 1]
@@ -285,9 +292,6 @@ def run_measurements(poses: PoseList, out: str | Path, *, locate: Callable, capt
         if i is not None and (len(q) != dof or np.max(np.abs(q - q_files[i])) > JOINT_TOLERANCE):
             raise RoboCalError(f"pose {pid} in the file has other joint values than in the pose list", source=out,
                                hint="This file belongs to another pose list: write to a new file.")
-    if resume:                           # a partial row is no measurement: that pose is measured again
-        drop_partial_last_line(out)
-        drop_partial_last_line(rejects)
     # a new file has sigmas and orientation columns; an existing one keeps its own
     writer = MeasurementWriter(out, dof, sigmas=columns is None or "sx" in columns,
                                orientation=columns is None or "rx" in columns)
@@ -371,7 +375,8 @@ def run_measurements(poses: PoseList, out: str | Path, *, locate: Callable, capt
                 rej_writer.append(pid, target, q_file, reason)
                 outcome.reason = reason
             except RobotFault as exc:
-                stop_key = driver is not None and driver.stopped     # stopped on purpose during the move
+                # stopped on purpose during the move; the watchdog's stop is a fault the user must read
+                stop_key = driver is not None and driver.stopped and not isinstance(exc, RobotTimeout)
                 if driver is not None:
                     driver.stop()              # never raises; the robot stays stopped until resumed
                 if stop_key:

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from core.errors import RoboCalError
-from core.files import drop_partial_last_line, ensure_writable_dir, read_text
+from core.files import drop_partial_last_line, ensure_writable_dir, read_text, require_regular_file
 
 FAMILY = "robocal.checks"
 FORMAT = f"{FAMILY}/1"
@@ -90,16 +90,17 @@ class CheckLogWriter:
     def __init__(self, path: str | Path, dof: int):
         self.path = Path(path)
         self.dof = int(dof)
+        require_regular_file(self.path)
         ensure_writable_dir(self.path.parent if str(self.path.parent) else Path("."))
         new = not self.path.exists() or self.path.stat().st_size == 0
         self.tool_column = True
         if not new:
-            drop_partial_last_line(self.path)
-            existing = read_check_log(self.path)
+            existing = read_check_log(self.path)        # refused here, the file is left as it was
             if existing.dof != self.dof:
                 raise RoboCalError(f"the log holds checks of a robot with {existing.dof} joints, not {self.dof}",
                                    source=self.path, field="header", hint="Give another check log file.")
             self.tool_column = existing.tool_column
+            drop_partial_last_line(self.path)           # only a check log's own cut-off row
         try:
             self._handle = open(self.path, "a", encoding="utf-8", newline="")
         except OSError as exc:

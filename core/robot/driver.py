@@ -36,6 +36,11 @@ class RobotFault(RoboCalError):
     controller error, a move that ended away from its target). The message is one line."""
 
 
+class RobotTimeout(RobotFault):
+    """A move did not finish in time and the driver's watchdog stopped the robot: a fault, not
+    the Stop key, though the robot is stopped afterwards just the same."""
+
+
 @dataclass(frozen=True)
 class DriverInfo:
     """What a connected robot says about itself."""

@@ -17,7 +17,7 @@ from core.robot.compliance import FORMAT_FAMILY as COMPLIANCE_FAMILY
 from core.robot.compliance import FORMAT_MAJOR as COMPLIANCE_MAJOR
 from core.robot.compliance import SHAPES, Compliance, check_vertical_arm
 from core.robot.model import PRISMATIC, REVOLUTE, Joint, RobotModel
-from core.validate import check_format, number, require, text, vector
+from core.validate import check_format, name_text, number, require, text, vector
 
 FORMAT_FAMILY = "robocal.robot"
 FORMAT_MAJOR = 1
@@ -86,7 +86,8 @@ def robot_from_dict(data: dict, source: str | Path = "<robot>") -> RobotModel:
     targets_data = data.get("targets", {})
     if not isinstance(targets_data, dict):
         raise RoboCalError("expected an object of name: [x, y, z]", source=source, field="targets")
-    targets = {str(k): np.array(vector(v, 3, source, f"targets.{k}", "mm")) for k, v in targets_data.items()}
+    targets = {name_text(k, source, f"targets.{k}"): np.array(vector(v, 3, source, f"targets.{k}", "mm"))
+               for k, v in targets_data.items()}            # a target becomes a link of the exported URDF
     calibration = _calibration_from_dict(data.get("calibration"), source)
     model = RobotModel(name=name, joints=joints, base=_pose_from_dict(data.get("base"), source, "base"),
                        tool=_pose_from_dict(data.get("tool"), source, "tool"), targets=targets,

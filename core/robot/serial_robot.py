@@ -4,7 +4,8 @@
 Safety, in this order for every move: the target is checked against the joint limits before
 anything is written (RobotDriver.move_to); the move waits for the controller's done (reply
 or status poll) or for the joints to stay still (the profile's settle rule), within
-`move_timeout` seconds — past it a watchdog stops the robot and raises RobotFault; then the
+`move_timeout` seconds — past it a watchdog stops the robot and raises RobotTimeout (a fault,
+not a Stop); then the
 joints are read back and a robot that ended more than `readback_tolerance` (deg / mm) from
 the target raises RobotFault (such a pose is never measured).
 
@@ -22,7 +23,7 @@ from contextlib import contextmanager
 import numpy as np
 
 from core.errors import RoboCalError
-from core.robot.driver import DriverInfo, RobotDriver, RobotFault
+from core.robot.driver import DriverInfo, RobotDriver, RobotFault, RobotTimeout
 from core.robot.joint_map import JointMap
 from core.robot.model import RobotModel
 from core.robot.profile import Exchange, ProtocolProfile, builtin_profile
@@ -32,7 +33,7 @@ DEFAULT_SPEED = 25.0          # percent, for a real robot
 
 
 class RobotStopped(RobotFault):
-    """The robot was stopped (Stop key, or the watchdog) while it moved."""
+    """The robot was stopped (the Stop key) while it moved; the watchdog raises RobotTimeout."""
 
 
 class SerialRobot(RobotDriver):
@@ -340,5 +341,5 @@ class SerialRobot(RobotDriver):
 
     def _watchdog(self, what: str):
         self.stop()
-        raise RobotFault(f"no {what} within {self.move_timeout:g} s; the robot was stopped", source=self.name,
+        raise RobotTimeout(f"no {what} within {self.move_timeout:g} s; the robot was stopped", source=self.name,
                          hint="Check the robot and the move timeout, then resume.")

@@ -17,6 +17,11 @@ forward kinematics of both agree for every joint configuration:
   the fixed joints after it, becomes the tool transform; the base link to the first DH frame
   becomes the base transform.
 
+Refused with what to do: an unexpanded xacro file (run xacro first), a kinematic loop (named
+by its links), a mimic joint on the chain imported (elsewhere, e.g. a gripper finger, it is
+ignored), a tip that is the base link, and a chain longer than LONGEST_CHAIN_M (20 m): lengths
+written in millimetres where URDF has metres.
+
 URDF joints are read with the standard library's ElementTree (the format is a few elements).
 """
 from __future__ import annotations
@@ -34,6 +39,8 @@ from core.robot.model import PARALLEL_DEG, PRISMATIC, REVOLUTE, Joint, RobotMode
 
 M_TO_MM = 1000.0
 _EPS = 1e-9
+LONGEST_CHAIN_M = 20.0        # a chain longer than this (the sum of its joint offsets, m) is not an arm
+                              # in metres: the largest industrial arms reach about 4 m
 
 
 @dataclass
@@ -46,6 +53,7 @@ class _UrdfJoint:
     axis: np.ndarray            # unit vector in the joint frame
     lower: float | None         # rad or mm
     upper: float | None
+    mimic: bool = False         # coupled to another joint (refused only on the chain imported)
 
 
 @dataclass
@@ -64,9 +72,11 @@ def _floats(text: str | None, n: int, source, where: str) -> np.ndarray:
     try:
         values = np.array([float(v) for v in text.split()])
     except ValueError:
-        raise RoboCalError(f"expected {n} numbers, got {text!r}", source=source, field=where) from None
+        raise RoboCalError(f"expected {n} number{'s' if n > 1 else ''}, got {text!r:.60}", source=source,
+                           field=where) from None
     if values.shape != (n,) or not np.all(np.isfinite(values)):
-        raise RoboCalError(f"expected {n} finite numbers, got {text!r}", source=source, field=where)
+        raise RoboCalError(f"expected {n} finite number{'s' if n > 1 else ''}, got {text!r:.60}", source=source,
+                           field=where)
     return values
 
 
@@ -76,9 +86,17 @@ def _read(path: Path) -> tuple[str, dict[str, _UrdfJoint]]:
     except FileNotFoundError:
         raise RoboCalError("file not found", source=path, hint="Check the path of the URDF file.") from None
     except (ET.ParseError, OSError) as exc:
+        if isinstance(exc, ET.ParseError) and "xacro:" in path.read_text(encoding="utf-8", errors="replace"):
+            raise RoboCalError(f"an unexpanded xacro file, not a URDF ({exc})", source=path,
+                               hint=f"Expand it first: xacro {path.name} > robot.urdf, then import robot.urdf.") from None
         raise RoboCalError(f"not a readable URDF (XML) file ({exc})", source=path) from None
     if root.tag != "robot":
         raise RoboCalError(f"the root element is <{root.tag}>, not <robot>", source=path, hint="Give a URDF file.")
+    if _is_xacro(path, root):
+        raise RoboCalError("this is an unexpanded xacro file (xacro macros, properties or ${...} expressions), "
+                           "not a URDF", source=path,
+                           hint=f"Expand it first: xacro {path.name} > robot.urdf (ROS's xacro tool, also on PyPI), "
+                                "then import robot.urdf.")
     joints: dict[str, _UrdfJoint] = {}
     for el in root.findall("joint"):
         name = el.get("name", "")
@@ -87,9 +105,6 @@ def _read(path: Path) -> tuple[str, dict[str, _UrdfJoint]]:
         parent, child = el.find("parent"), el.find("child")
         if parent is None or child is None:
             raise RoboCalError("a joint without <parent> or <child>", source=path, field=where)
-        if el.find("mimic") is not None:
-            raise RoboCalError("a mimic joint (coupled to another joint) cannot be part of a DH chain",
-                               source=path, field=where, hint="Choose a tip link before it.")
         origin = el.find("origin")
         xyz = _floats(origin.get("xyz") if origin is not None else None, 3, path, f"{where} origin xyz")
         rpy = _floats(origin.get("rpy") if origin is not None else None, 3, path, f"{where} origin rpy")
@@ -104,21 +119,53 @@ def _read(path: Path) -> tuple[str, dict[str, _UrdfJoint]]:
         lower = upper = None
         if limit is not None and jtype != "continuous":
             scale = M_TO_MM if jtype == "prismatic" else 1.0
-            lower = float(limit.get("lower", "0")) * scale
-            upper = float(limit.get("upper", "0")) * scale
+            lower = _floats(limit.get("lower", "0"), 1, path, f"{where} limit lower")[0] * scale
+            upper = _floats(limit.get("upper", "0"), 1, path, f"{where} limit upper")[0] * scale
         child_link = child.get("link", "")
         if child_link in {j.child for j in joints.values()}:
             raise RoboCalError(f"link '{child_link}' has two parent joints: the URDF is not a tree (a closed chain)",
                                source=path, field=where, hint="RoboCal models serial arms.")
         joints[name] = _UrdfJoint(name, jtype, parent.get("link", ""), child_link,
-                                  tf.make_transform(tf.rpy_to_matrix(rpy), xyz * M_TO_MM), axis, lower, upper)
+                                  tf.make_transform(tf.rpy_to_matrix(rpy), xyz * M_TO_MM), axis, lower, upper,
+                                  el.find("mimic") is not None)
+    if not joints:
+        raise RoboCalError("the URDF has no joints", source=path, hint="Give the URDF of a robot arm.")
     return root.get("name", path.stem), joints
+
+
+def _is_xacro(path: Path, root) -> bool:
+    """Elements of a xacro namespace (…/wiki/xacro, under any host), or ${...} expressions in
+    attributes. An expanded file may still declare the namespace: only its use counts."""
+    for el in root.iter():
+        if isinstance(el.tag, str) and (el.tag.startswith("{") and el.tag.split("}")[0].endswith("/xacro")
+                                        or el.tag.startswith("xacro:")):
+            return True
+        if any("${" in v or "$(" in v for v in el.attrib.values()):
+            return True
+    return False
+
+
+def _loop(by_child: dict[str, _UrdfJoint]) -> list[str]:
+    """The links of a kinematic loop (each the child of the next one's joint), or []."""
+    for start in sorted(by_child):
+        seen, link = [], start
+        while link in by_child and link not in seen:
+            seen.append(link)
+            link = by_child[link].parent
+        if link in seen:
+            return seen[seen.index(link):]
+    return []
 
 
 def _chain(path: Path, joints: dict[str, _UrdfJoint], base: str | None, tip: str | None) -> list[_UrdfJoint]:
     by_child = {j.child: j for j in joints.values()}
     links = {j.parent for j in joints.values()} | set(by_child)
     roots = sorted(links - set(by_child))
+    loop = _loop(by_child)
+    if loop:
+        raise RoboCalError(f"a kinematic loop between the links {', '.join(repr(k) for k in loop)} "
+                           f"(each is the parent of the one before it): the URDF is not a tree", source=path,
+                           field=f"joint '{by_child[loop[0]].name}'", hint="RoboCal models serial arms.")
     if base is None:
         if len(roots) != 1:
             raise RoboCalError(f"the URDF has {len(roots)} root links ({', '.join(roots)})", source=path,
@@ -135,6 +182,9 @@ def _chain(path: Path, joints: dict[str, _UrdfJoint], base: str | None, tip: str
         if link not in links:
             raise RoboCalError(f"no link named '{link}'", source=path, field=option,
                                hint=f"Links: {', '.join(sorted(links))}.")
+    if tip == base:
+        raise RoboCalError(f"the tip link '{tip}' is the base link: the chain has no joint", source=path,
+                           field="--tip", hint="Give a tip link further along the arm (the flange or tool link).")
     chain, link = [], tip
     while link != base:
         if link not in by_child:
@@ -146,6 +196,10 @@ def _chain(path: Path, joints: dict[str, _UrdfJoint], base: str | None, tip: str
                                field=f"joint '{joint.name}'")
         if joint.type not in ("revolute", "continuous", "prismatic", "fixed"):
             raise RoboCalError(f"unknown joint type '{joint.type}'", source=path, field=f"joint '{joint.name}'")
+        if joint.mimic:
+            raise RoboCalError("a mimic joint (coupled to another joint) cannot be part of a DH chain",
+                               source=path, field=f"joint '{joint.name}'",
+                               hint=f"Choose a tip link before it with --tip (e.g. '{joint.parent}').")
         chain.append(joint)
         link = joint.parent
     return chain[::-1]
@@ -203,6 +257,11 @@ def import_urdf(path: str | Path, *, base: str | None = None, tip: str | None = 
     chain = _chain(path, joints, base, tip)
     base = base or chain[0].parent
     tip = tip or chain[-1].child
+    length_m = sum(float(np.linalg.norm(j.origin[:3, 3])) for j in chain) / M_TO_MM
+    if length_m > LONGEST_CHAIN_M:
+        raise RoboCalError(f"the chain from '{base}' to '{tip}' is {length_m:.4g} m long: URDF lengths are metres, "
+                           "and these look like millimetres", source=path, field="joint origin xyz",
+                           hint="Write the URDF in metres (divide every length by 1000), then import it again.")
     moving = []                       # (urdf joint, axis point, axis direction) in the base link frame, q = 0
     T = np.eye(4)
     for j in chain:

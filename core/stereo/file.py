@@ -146,15 +146,27 @@ def stereo_yaml_text(data) -> str:
     return fs.releaseAndGetString()
 
 
+BOM = b"\xef\xbb\xbf"                 # UTF-8 byte-order mark some editors write first
+
+
 def open_storage(path, mode):
-    """cv2.FileStorage, or None when it cannot be opened (OpenCV's own log line silenced)."""
+    """cv2.FileStorage, or None when it cannot be opened (OpenCV's own log line silenced); a
+    file read that starts with a byte-order mark is read without it."""
     logging = getattr(getattr(cv2, "utils", None), "logging", None)
     old = None
     if logging is not None:
         old = logging.getLogLevel()
         logging.setLogLevel(logging.LOG_LEVEL_SILENT)
     try:
-        fs = cv2.FileStorage(str(path), mode)
+        head = Path(path).read_bytes()[:3] if mode == cv2.FILE_STORAGE_READ else b""
+    except OSError:
+        head = b""
+    try:
+        if head == BOM:                   # OpenCV cannot read past a byte-order mark: read the text after it
+            text = Path(path).read_bytes()[len(BOM):].decode("utf-8", errors="replace")
+            fs = cv2.FileStorage(text, mode | cv2.FILE_STORAGE_MEMORY)
+        else:
+            fs = cv2.FileStorage(str(path), mode)
     except (cv2.error, SystemError):      # SystemError: OpenCV's parse error under `-W error`
         return None
     finally:
@@ -258,7 +270,9 @@ def node_matrix(fs, key, path) -> np.ndarray:
     """A matrix (!!opencv-matrix) built from its rows, cols and data entries, checked first:
     cv2.FileNode.mat() writes past its buffer when rows·cols and data disagree."""
     node = _node(fs, key, path)
-    what = "expected an OpenCV matrix (!!opencv-matrix with rows, cols, dt, data)"
+    what = "expected an OpenCV matrix (!!opencv-matrix with rows, cols, dt, data, or a list of numbers)"
+    if node.isSeq():
+        return _list_matrix(node, key, path, what)
     if not node.isMap():
         raise RoboCalError(what, source=path, field=key)
     rows, cols, dt, data = (node.getNode(name) for name in ("rows", "cols", "dt", "data"))
@@ -279,6 +293,30 @@ def node_matrix(fs, key, path) -> np.ndarray:
             raise RoboCalError("data holds something other than numbers", source=path, field=key)
         values.append(item.real())
     m = np.array(values, dtype=np.float64).reshape(r, c)
+    if not np.all(np.isfinite(m)):
+        raise RoboCalError("contains values that are not finite numbers", source=path, field=key)
+    return m
+
+
+def _list_matrix(node, key, path, what: str) -> np.ndarray:
+    """A plain list as cv2.FileStorage reads it: [a, b, c] is a column (n x 1), [[a, b], [c, d]]
+    a matrix of rows."""
+    def number(item) -> float:
+        if not (item.isReal() or item.isInt()):
+            raise RoboCalError(what, source=path, field=key)
+        return item.real()
+
+    n = node.size()
+    if not 1 <= n <= 16:
+        raise RoboCalError(f"expected a small matrix (1 to 16 rows), got a list of {n}", source=path, field=key)
+    items = [node.at(i) for i in range(n)]
+    if all(item.isSeq() for item in items):
+        widths = {item.size() for item in items}
+        if len(widths) != 1 or not 1 <= widths.pop() <= 16:
+            raise RoboCalError("expected rows of one length (at most 16)", source=path, field=key)
+        m = np.array([[number(item.at(j)) for j in range(item.size())] for item in items], dtype=np.float64)
+    else:
+        m = np.array([[number(item)] for item in items], dtype=np.float64)
     if not np.all(np.isfinite(m)):
         raise RoboCalError("contains values that are not finite numbers", source=path, field=key)
     return m

@@ -90,3 +90,24 @@ def test_a_robot_file_without_calibration_is_one_line(cell, tmp_path, capsys):
     assert main(args) == 1
     err = capsys.readouterr().err
     assert "holds no calibration" in err and "plain.json" in err
+
+
+@pytest.mark.parametrize("change, says", [
+    (lambda P: P / 1000.0, "its positions look like metres"),                       # metres written as mm
+    (lambda P: P[[1, 0, 2, 3]], "the located points do not match the description"),  # two points swapped
+    (lambda P: P * 1.5, "the located points do not match the description"),          # another fixture's size
+])
+def test_a_description_the_points_do_not_fit_is_refused_with_the_likely_cause(cell, tmp_path, capsys, change, says):
+    root, _ = cell
+    data = json.loads((root / "fixture.json").read_text())
+    P = change(np.array([p["position_mm"] for p in data["points"]], dtype=float))
+    for p, xyz in zip(data["points"], P):
+        p["position_mm"] = xyz.tolist()
+    bad = tmp_path / "fixture.json"
+    bad.write_text(json.dumps(data))
+    args = _args(root, str(root / "pairs"), "--out", str(tmp_path / "p.json"))
+    args[args.index("--fixture") + 1] = str(bad)
+    assert main(args) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and says in err[0] and str(bad) in err[0] and "position_mm" in err[0], err
+    assert not (tmp_path / "p.json").exists()

@@ -7,7 +7,7 @@
 - OpenCV stereo_calib's intrinsics.yml + extrinsics.yml (either one: the other is taken from
   beside it);
 - two ROS camera_info files (left, right), optionally with an OpenCV file holding R, T;
-- a Kalibr camchain.yaml;
+- a Kalibr camchain.yaml (or an IMU-camera chain: Kalibr's T_cam_imu, OpenVINS' T_imu_cam);
 - MATLAB stereoParameters as JSON or as a MAT-file (.mat).
 
 A folder stands for the calibration inside it: intrinsics + extrinsics, left.yaml + right.yaml,
@@ -46,12 +46,15 @@ def _kind(path: Path) -> str:
         raise RoboCalError("not a stereo calibration (a JSON file without CameraParameters1)", source=path,
                            hint=_HINT)
     keys = storage_keys(path)
-    if keys is None:
-        text = path.read_text(encoding="utf-8", errors="replace")
-        if "opencv-matrix" in text or "<opencv_storage>" in text or text.startswith("%YAML:"):
-            raise RoboCalError("not a readable OpenCV YAML/XML file", source=path,
-                               hint="Check the file, or write it again with the program that made it.")
-        data = load_yaml(path)
+    if keys is None:                   # not OpenCV's to read: plain YAML (also behind OpenCV's %YAML:1.0 header)
+        text = path.read_text(encoding="utf-8-sig", errors="replace")
+        try:
+            data = load_yaml(path)
+        except RoboCalError:
+            if "opencv-matrix" in text or "<opencv_storage>" in text:
+                raise RoboCalError("not a readable OpenCV YAML/XML file", source=path,
+                                   hint="Check the file, or write it again with the program that made it.") from None
+            raise
         keys = set(data) if isinstance(data, dict) else set()
     if "format" in keys:
         return "robocal"

@@ -11,6 +11,8 @@ import numpy as np
 from core.errors import RoboCalError
 from core.stereo.file import StereoFile
 
+OPENCV_STYLE_HINT = ("RoboCal reads OpenCV files with K1, D1, K2, D2, R, T (or stereo_calib's M1, M2), and "
+                     "Kalibr or OpenVINS camchains with cam0 and cam1 (see docs/file-formats.md).")
 MAX_BYTES = 16 * 1024 * 1024     # a stereo calibration file is a few kB; MATLAB's with its points < 16 MB
 
 
@@ -48,11 +50,19 @@ def load_yaml(path: Path):
     """A plain YAML document (pyyaml's safe loader), or a RoboCalError naming the file."""
     import yaml
 
+    opencv_style = False
     try:
-        return yaml.safe_load(path.read_text(encoding="utf-8"))
+        text = path.read_text(encoding="utf-8-sig")
+        opencv_style = text.startswith("%YAML:")
+        if opencv_style:                       # OpenCV's header (Kalibr and OpenVINS files have it): not YAML 1.1's
+            text = "#" + text
+        return yaml.safe_load(text)
     except (yaml.YAMLError, UnicodeDecodeError, RecursionError) as exc:
         where = getattr(exc, "problem_mark", None)
         line = f" (line {where.line + 1})" if where is not None else ""
+        if opencv_style:
+            raise RoboCalError(f"an OpenCV-style YAML file (%YAML:1.0) of a layout RoboCal does not read{line}",
+                               source=path, hint=OPENCV_STYLE_HINT) from None
         raise RoboCalError(f"not a readable YAML file{line}", source=path,
                            hint="Check the file; it must be plain YAML.") from None
 

@@ -3,7 +3,9 @@ format tag: one file with both cameras and their pose, or the pair intrinsics.ym
 extrinsics.yml that OpenCV's samples/cpp/stereo_calib.cpp writes.
 
 Fields (docs/file-formats.md): K1 (or M1), D1, K2 (or M2), D2, R, T; optional image_width,
-image_height, E, F, R1, R2, P1, P2, Q. Lengths (T, the translations of P1, P2) are those of
+image_height, E, F, R1, R2, P1, P2, Q. Each an !!opencv-matrix or, as cv2.FileStorage reads
+them too, a plain list (T: [x, y, z]; a matrix as its rows, or its values row by row); a
+file that starts with a byte-order mark is read as without it. Lengths (T, the translations of P1, P2) are those of
 the checkerboard square the calibration was given: `mm_per_unit` converts them to mm.
 Without an image size in the file, `image_size` gives it; otherwise it is inferred from the
 left principal point (a note says so).
@@ -60,7 +62,8 @@ def _matrices(path: Path, wanted: dict[str, bool]) -> tuple[dict, tuple[int, int
             m = node_matrix(fs, name, path)
             if key in SHAPES:
                 shape = SHAPES[key]
-                if not (m.shape == shape or (key == "T" and m.size == 3)):
+                flat = m.shape[1] == 1 and m.size == shape[0] * shape[1]      # a plain list, row by row
+                if not (m.shape == shape or (key == "T" and m.size == 3) or flat):
                     raise RoboCalError(f"expected a {shape[0]}x{shape[1]} matrix, got {m.shape[0]}x{m.shape[1]}",
                                        source=path, field=name)
                 m = m.reshape(shape)

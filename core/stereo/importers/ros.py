@@ -9,6 +9,8 @@ The right camera's pose comes from the two rectifications and the right projecti
 P2 = K'·[I | t] with t = (−B, 0, 0) m for a side-by-side pair (P2[0,3] = −fx'·B), so
 R = R2ᵀ·R1 and T = R2ᵀ·(t2 − t1). A pair calibrated camera by camera (P2 without translation)
 needs the pose given: an OpenCV file with R and T (mm), such as stereo_calib's extrinsics.yml.
+Rectification matrices printed with six decimals (as ROS writes them) are rotations only to
+that rounding: they are taken as the nearest rotations, and a note says so.
 """
 from __future__ import annotations
 
@@ -23,6 +25,7 @@ from core.stereo.importers.opencv import read_pose
 
 MODELS = {"plumb_bob": 5, "rational_polynomial": 8}
 M_TO_MM = 1000.0
+PRINTED_TOL = 1e-4          # |R·Rᵀ − I| of a rotation printed with six decimals is below ~1e-5
 
 
 def _matrix(data, key: str, shape, path) -> np.ndarray:
@@ -55,8 +58,20 @@ def read_camera_info(path) -> dict:
                            field="distortion_coefficients")
     P = _matrix(data, "projection_matrix", (3, 4), path).copy()
     P[:, 3] *= M_TO_MM
+    R, rounded = _rotation_as_printed(_matrix(data, "rectification_matrix", (3, 3), path))
     return {"size": size, "K": _matrix(data, "camera_matrix", (3, 3), path), "D": D,
-            "R": _matrix(data, "rectification_matrix", (3, 3), path), "P": P, "path": path}
+            "R": R, "P": P, "path": path, "rounded": rounded}
+
+
+def _rotation_as_printed(R: np.ndarray) -> tuple[np.ndarray, bool]:
+    """A rectification matrix printed with few decimals (ROS writes six) is a rotation only to
+    that rounding: within PRINTED_TOL it is taken as the nearest rotation (True: it was moved);
+    anything further is left for the checks to refuse."""
+    off = float(np.abs(R @ R.T - np.eye(3)).max())
+    if off == 0.0 or off > PRINTED_TOL or np.linalg.det(R) <= 0:
+        return R, False
+    U, _, Vt = np.linalg.svd(R)
+    return U @ Vt, True
 
 
 def _translation(camera: dict) -> np.ndarray:
@@ -94,6 +109,8 @@ def read_ros_pair(left, right, pose=None) -> ImportedStereo:
         raise RoboCalError("the right camera's projection matrix holds no baseline (P[0,3] = 0): the files do not "
                            "say where the right camera is", source=b["path"], field="projection_matrix",
                            hint="Give the pose too: an OpenCV file with R and T in mm (e.g. extrinsics.yml).")
+    if a["rounded"] or b["rounded"]:
+        notes.append("the rectification matrices, printed with few decimals, taken as the nearest rotations")
     parts = StereoParts(a["size"], a["K"], a["D"], b["K"], b["D"], R, T)
     if pose is None:
         parts.R1, parts.R2, parts.P1, parts.P2 = a["R"], b["R"], a["P"], b["P"]

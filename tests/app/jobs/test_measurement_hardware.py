@@ -5,7 +5,11 @@ once; a disconnect stops the run and keeps what was measured; a Stop ends the ru
 next pose; teach mode reads the joints, warns off the plan, refuses joints outside the limits."""
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 import threading
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -174,3 +178,28 @@ def test_typed_joint_values_are_read_and_checked(lab):
         with pytest.raises(RoboCalError, match=says):
             typed_joints(text, model)
     assert off_plan(model, [10, 20, 30, 0, 5, 6], [10, 20, 31.5, 0, 5, 6]) == ["J3 is 1.50° from the planned pose"]
+
+
+def test_a_move_the_watchdog_stops_is_a_fault_not_a_cancel(lab, trained, rect, Q, tmp_path):
+    """`robocal sim-robot --faults drop@3` (a real subprocess on a pty) never says the third move
+    is done: the driver's watchdog stops the robot, and the run reports that as a fault with its
+    reason, keeping the two poses measured."""
+    root = Path(__file__).resolve().parents[3]
+    proc = subprocess.Popen([sys.executable, "-m", "app.cli", "sim-robot", "--faults", "drop@3", "--time-scale",
+                             "0.01", "--duration", "60"], cwd=tmp_path, env=dict(os.environ, PYTHONPATH=str(root)),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        port = proc.stdout.readline().strip()
+        assert port.startswith("/dev/pts/"), proc.stderr.read() if not port else port
+        driver = SerialRobot(lab.nominal_robot, port, reply_timeout=5.0, move_timeout=1.0)
+        driver.connect()
+        result = measure_hardware(poses_from_internal(Q, lab.nominal_robot), tmp_path / "m.csv", trained, rect,
+                                  driver, capture_source(None, lab=lab, driver=driver))
+        driver.disconnect()
+    finally:
+        proc.terminate()
+        proc.wait(timeout=20)
+    assert not result.cancelled
+    assert result.fault is not None and "no done within 1 s; the robot was stopped" in result.fault
+    assert len(result.measured) == 2 and len(read_measurements(tmp_path / "m.csv").pose) == 2
+    assert driver.stopped

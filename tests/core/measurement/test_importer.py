@@ -51,8 +51,11 @@ def test_units_from_the_command_line_when_columns_do_not_say(synthetic, tmp_path
     src = write_foreign(tmp_path / "t.csv", synthetic, sep=",", suffixes=False)
     got = import_measurements([src], length_unit="m", angle_unit="rad").measurements
     np.testing.assert_allclose(got.xyz, synthetic.xyz, atol=1e-9)
-    wrong = import_measurements([src]).measurements               # read as mm and degrees: not the same
-    assert np.max(np.abs(wrong.xyz - synthetic.xyz)) > 100
+    with pytest.raises(RoboCalError, match="they look like metres. Give --length-unit m") as info:
+        import_measurements([src], angle_unit="rad")               # metres read as mm: refused, not imported
+    assert info.value.source == str(src) and info.value.field == "x, y, z"
+    mm = write_foreign(tmp_path / "mm.csv", synthetic, sep=",", length="mm", suffixes=False)
+    np.testing.assert_allclose(import_measurements([mm], angle_unit="rad").measurements.xyz, synthetic.xyz, atol=1e-9)
 
 
 def test_a_column_unit_that_contradicts_the_given_unit_is_refused(synthetic, tmp_path):

@@ -158,3 +158,11 @@ def test_a_marker_orientation_on_the_tool_round_trips_and_moves_the_predicted_fr
     with pytest.raises(RoboCalError) as info:
         robot_from_dict(bad, "r.json")
     assert info.value.field == "target_rotations.nozzle" and "not in" in info.value.message
+
+
+@pytest.mark.parametrize("name", ['m"/><link name="x', "../tip", "*"])
+def test_a_target_name_that_cannot_be_a_urdf_link_is_refused(tmp_path, name):
+    data = _preset_dict()
+    data["targets"][name] = [0, 0, 50]
+    message = _error_for(tmp_path, data)
+    assert f"field 'targets.{name}'" in message and "becomes a file or link name" in message

@@ -138,3 +138,67 @@ def test_nearly_parallel_axes_take_hayatis_form(tmp_path):
         assert np.abs(T[:3, :3] - ref[:3, :3]).max() < 1e-9
     for q in random_q(model, 1000, np.random.default_rng(4)):
         assert np.abs(model.fk(q)[:3, 3] - urdf_forward_kinematics(path, q)[:3, 3]).max() < 1e-6
+
+
+def _ur5_in_mm() -> str:
+    """UR5 with every origin length written in millimetres (the mistake: URDF lengths are metres)."""
+    import re
+    return re.sub(r'xyz="([^"]*)" rpy', lambda m: 'xyz="' + " ".join(f"{1000 * float(v):g}" for v in m.group(1).split())
+                  + '" rpy', UR5)
+
+
+XACRO = """<?xml version="1.0"?>
+<robot xmlns:xacro="http://ros.org/wiki/xacro" name="arm">
+  <xacro:property name="d1" value="0.089159"/>
+  <xacro:macro name="arm" params="prefix">
+    <link name="${prefix}base_link"/>
+  </xacro:macro>
+  <xacro:arm prefix=""/>
+</robot>
+"""
+
+LOOP = """<robot name="loop"><link name="a"/><link name="b"/><link name="c"/>
+  <joint name="j1" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/><limit lower="-1" upper="1"/></joint>
+  <joint name="j2" type="revolute"><parent link="b"/><child link="c"/><axis xyz="0 0 1"/><limit lower="-1" upper="1"/></joint>
+  <joint name="j3" type="fixed"><parent link="c"/><child link="a"/></joint>
+</robot>"""
+
+GRIPPER = UR5.replace("</robot>", """
+  <link name="finger_left"/><link name="finger_right"/>
+  <joint name="finger_left_joint" type="prismatic"><parent link="ee_link"/><child link="finger_left"/>
+    <origin xyz="0 0 0.05"/><axis xyz="0 1 0"/><limit lower="0" upper="0.04" effort="1" velocity="1"/></joint>
+  <joint name="finger_right_joint" type="prismatic"><parent link="ee_link"/><child link="finger_right"/>
+    <origin xyz="0 0 0.05"/><axis xyz="0 -1 0"/><limit lower="0" upper="0.04" effort="1" velocity="1"/>
+    <mimic joint="finger_left_joint"/></joint>
+</robot>""")
+
+
+@pytest.mark.parametrize("text, kwargs, says, field", [
+    (_ur5_in_mm(), {}, "these look like millimetres", "joint origin xyz"),
+    (XACRO, {}, "unexpanded xacro file", None),
+    (XACRO.replace(' xmlns:xacro="http://ros.org/wiki/xacro"', ""), {}, "unexpanded xacro file", None),
+    (LOOP, {}, "a kinematic loop between the links 'a', 'c', 'b'", "joint 'j3'"),
+    (UR5, {"tip": "base_link"}, "is the base link", "--tip"),
+    (GRIPPER, {"tip": "finger_right"}, "mimic joint", "joint 'finger_right_joint'"),
+    ("<robot name='empty'><link name='a'/></robot>", {}, "no joints", None),
+])
+def test_files_whose_problem_is_named(tmp_path, text, kwargs, says, field):
+    path = tmp_path / "robot.urdf"
+    path.write_text(text)
+    with pytest.raises(RoboCalError, match=says) as info:
+        import_urdf(path, **kwargs)
+    assert info.value.source == str(path) and info.value.field == field
+
+
+def test_a_mimic_joint_off_the_chain_is_ignored(tmp_path):
+    path = tmp_path / "gripper.urdf"
+    path.write_text(GRIPPER)
+    with pytest.raises(RoboCalError, match="end links"):          # the fingers: which one is the tip?
+        import_urdf(path)
+    reference = tmp_path / "ur5.urdf"
+    reference.write_text(UR5)
+    model, plain = import_urdf(path, tip="ee_link").model, import_urdf(reference).model
+    assert model.dof == 6
+    for q in random_q(model, 50, np.random.default_rng(4)):
+        np.testing.assert_allclose(model.fk(q), plain.fk(q), atol=1e-12)
+        np.testing.assert_allclose(model.fk(q), urdf_forward_kinematics(path, q, tip="ee_link"), atol=1e-9)

@@ -139,7 +139,8 @@ def test_kalibr_refuses_other_models(tmp_path, rig, kwargs, field):
     path = ff.kalibr_camchain(rig, tmp_path / "camchain.yaml", **kwargs)
     with pytest.raises(RoboCalError) as err:
         read_any_stereo(path)
-    assert err.value.field == field and "not supported" in err.value.message and "pinhole" in err.value.message
+    says = "equidistant (fisheye) lens model" if kwargs.get("model") == "equidistant" else "not supported"
+    assert err.value.field == field and says in err.value.message and "pinhole" in err.value.message
     assert "\n" not in err.value.message
 
 
@@ -379,3 +380,88 @@ def test_singular_matrices_are_refused_before_anything_is_computed(tmp_path, rig
                      "0.0, 0.0, 0.0, 0.0, 1.0, 0.0]\n")
     with pytest.raises(RoboCalError, match=r"right.yaml: field 'projection_matrix': not a projection matrix"):
         read_any_stereo([left, right])
+
+
+# -- other tools' layouts of the same numbers ------------------------------------------------------
+
+def _imu_chain(rig, path: Path, key: str, header: str = "") -> Path:
+    """A camchain holding no T_cn_cnm1 but each camera's pose against an IMU (metres): Kalibr's
+    T_cam_imu (IMU → camera) or OpenVINS' T_imu_cam (camera → IMU), with an IMU placed at random."""
+    import yaml
+    from scipy.spatial.transform import Rotation
+
+    data = yaml.safe_load(ff.kalibr_camchain(rig, path).read_text())
+    cam1_cam0 = np.array(data["cam1"].pop("T_cn_cnm1"))
+    imu_cam0 = np.eye(4)                                         # X_imu = imu_cam0 · X_cam0
+    imu_cam0[:3, :3] = Rotation.from_rotvec([0.3, -1.2, 0.4]).as_matrix()
+    imu_cam0[:3, 3] = [0.031, -0.012, 0.087]
+    imu_cam1 = imu_cam0 @ np.linalg.inv(cam1_cam0)
+    for name, T in (("cam0", imu_cam0), ("cam1", imu_cam1)):
+        data[name][key] = (T if key == "T_imu_cam" else np.linalg.inv(T)).tolist()
+    path.write_text(header + yaml.safe_dump(data))
+    return path
+
+
+@pytest.mark.parametrize("key, header, kind", [
+    ("T_imu_cam", "%YAML:1.0\n", "Kalibr/OpenVINS IMU-camera chain"),       # OpenVINS kalibr_imucam_chain.yaml
+    ("T_cam_imu", "", "Kalibr/OpenVINS IMU-camera chain"),                  # Kalibr camchain-imucam without T_cn_cnm1
+])
+def test_a_camchain_through_the_imu_is_composed_exactly(tmp_path, rig, key, header, kind):
+    imported = read_any_stereo(_imu_chain(rig, tmp_path / "chain.yaml", key, header))
+    assert imported.kind == kind and any(key in n for n in imported.notes)
+    assert_same_pixels(imported, rig, tol=1e-6)
+    assert imported.file.baseline_mm == pytest.approx(rig.baseline, rel=1e-9)
+
+
+def test_a_kalibr_camchain_with_opencvs_yaml_header_and_a_byte_order_mark(tmp_path, rig):
+    path = ff.kalibr_camchain(rig, tmp_path / "camchain.yaml")
+    path.write_bytes(b"\xef\xbb\xbf%YAML:1.0\n" + path.read_bytes())
+    assert_same_pixels(read_any_stereo(path), rig)
+
+
+def test_a_camchain_without_the_pose_of_cam1_names_what_to_give(tmp_path, rig):
+    path = ff.kalibr_camchain(rig, tmp_path / "camchain.yaml")
+    path.write_text("\n".join(ln for ln in path.read_text().splitlines() if "T_cn_cnm1" not in ln
+                              and not ln.startswith("  - [")) + "\n")
+    with pytest.raises(RoboCalError, match="T_cn_cnm1, or T_cam_imu / T_imu_cam on both cameras") as err:
+        read_any_stereo(path)
+    assert err.value.field == "cam1.T_cn_cnm1"
+
+
+def test_an_opencv_style_yaml_of_another_layout_says_so(tmp_path):
+    path = tmp_path / "other.yaml"
+    path.write_text("%YAML:1.0\ncam0:\n  intrinsics: !!opencv-matrix\n    rows: 1\n  bad: [1, 2\n")
+    with pytest.raises(RoboCalError) as err:
+        read_any_stereo(path)
+    assert str(path) in err.value.message and "\n" not in err.value.message
+    assert "OpenCV" in err.value.message
+
+
+def test_plain_lists_and_a_byte_order_mark_as_cv2_filestorage_reads_them(tmp_path, rig):
+    import cv2
+    path = ff.opencv_file(rig, tmp_path / "stereo.yml", rectification=False)
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    T = fs.getNode("T").mat().ravel()
+    fs.release()
+    text = path.read_text()
+    start = text.index("T: !!opencv-matrix")
+    end = text.index("]", start) + 1
+    listed = text[:start] + "T: [ " + ", ".join(repr(float(v)) for v in T) + " ]" + text[end:]
+    path.write_text(listed)
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)             # OpenCV reads the list as T
+    assert fs.getNode("T").isSeq() and [fs.getNode("T").at(i).real() for i in range(3)] == T.tolist()
+    fs.release()
+    assert_same_pixels(read_any_stereo(path), rig)
+    bom = tmp_path / "bom.yml"
+    bom.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())
+    assert_same_pixels(read_any_stereo(bom), rig)
+
+
+def test_intrinsics_with_k1_k2_are_paired_with_their_extrinsics(tmp_path, rig):
+    ff.stereo_calib_pair(rig, tmp_path)
+    intr = tmp_path / "intrinsics.yml"
+    intr.write_text(intr.read_text().replace("M1:", "K1:").replace("M2:", "K2:"))
+    for given in (intr, tmp_path / "extrinsics.yml", tmp_path):
+        imported = read_any_stereo(given, image_size=rig.left.size)
+        assert imported.kind == "OpenCV stereo_calib intrinsics + extrinsics"
+        assert_same_pixels(imported, rig)
