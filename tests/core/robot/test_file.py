@@ -1,13 +1,14 @@
 """Robot model file: round trip and one clear message per kind of bad input."""
 import json
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from core.errors import RoboCalError
 from core.robot.model import preset_names, robot_path
-from core.robot.file import read_robot, robot_from_dict, robot_to_dict, write_robot
+from core.robot.file import read_robot, robot_file, robot_from_dict, robot_to_dict, write_robot
 
 
 def _preset_dict(name="educational_6r") -> dict:
@@ -158,3 +159,23 @@ def test_a_marker_orientation_on_the_tool_round_trips_and_moves_the_predicted_fr
     with pytest.raises(RoboCalError) as info:
         robot_from_dict(bad, "r.json")
     assert info.value.field == "target_rotations.nozzle" and "not in" in info.value.message
+
+
+def test_a_preset_by_name_from_any_folder(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    for value in ("educational_6r", "ur5.json"):
+        model = read_robot(value)
+        assert model.name == read_robot(robot_path(value.removesuffix(".json"))).name
+    assert robot_file("ur5") == robot_path("ur5")
+    # a file of that name in the folder is what the user means
+    write_robot(read_robot("ur5"), tmp_path / "educational_6r")
+    assert robot_file("educational_6r") == Path("educational_6r") and read_robot("educational_6r").dof == 6
+    assert read_robot("educational_6r").name == read_robot(robot_path("ur5")).name
+
+
+def test_neither_a_file_nor_a_preset_lists_the_presets(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    for value in ("educational_7r", "lab/calibrated.json", "sub/ur5"):
+        with pytest.raises(RoboCalError, match="file not found, and not the name of a preset robot") as err:
+            read_robot(value)
+        assert value in str(err.value) and "educational_6r, fanuc_lrmate200id" in err.value.hint
