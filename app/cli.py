@@ -38,6 +38,7 @@ COMMANDS = {
     "check": "check",
     "identify-tool": "identify_tool",
     "robustness": "robustness",
+    "grade": "grade",
 }
 
 
