@@ -191,7 +191,7 @@ def grade_calibration(student: RobotModel, truth: RobotModel, Q: np.ndarray, tar
     if target not in student.targets:
         raise RoboCalError(f"the calibrated robot has no '{target}' target", source=source, field="targets")
     rows, estimated = _calibration_rows(student, source)
-    params = {p.name: p for p in all_parameters(student, [target])}
+    params = {p.name: p for p in all_parameters(student, [target], orientation_targets=[target])}
     unknown = [n for n in estimated if n not in params]
     if unknown:
         raise RoboCalError(f"unknown parameter '{unknown[0]}' for this robot", source=source,
