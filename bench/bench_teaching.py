@@ -193,14 +193,19 @@ def _literal(line: str) -> tuple[int, str, str]:
 def _command_line(report) -> None:
     """Every code block of the teaching guide, literally and in order, then what each exercise shows."""
     lines = guide_commands()
-    passed = 0
+    passed, by_command = 0, {}
     for k, line in enumerate(lines, 1):
         with report.timer() as t:
             code, _, err = _literal(line)
-        ok = code in RESULT_CODES.get(shlex.split(line)[1], {0})
+        command = shlex.split(line)[1]
+        ok = code in RESULT_CODES.get(command, {0})
         passed += ok
+        runs = by_command.setdefault(command, [0, 0])
+        runs[0] += ok
+        runs[1] += 1
         report.info(f"guide {k:2d}: {line[8:70]}", f"exit {code} ({t():.0f} s)"
                     + ("" if ok else f": {err.strip().splitlines()[-1][:120] if err.strip() else ''}"))
+    report.info("guide commands that run, per command", ", ".join(f"{c} {a}/{n}" for c, (a, n) in by_command.items()))
     report.add("guide commands that run as written (of all)", passed / len(lines), ">=", 1.0,
                note=f"{passed} of {len(lines)}")
     _observations(report)

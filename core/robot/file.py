@@ -30,8 +30,11 @@ def robot_file(value: str | Path) -> Path:
     name = path.name[:-5] if path.name.endswith(".json") else path.name
     if path.parent == Path(".") and name in preset_names():
         return robot_path(name)
-    raise RoboCalError("file not found, and not the name of a preset robot", source=str(value),
-                       hint=f"Give the path of a robot file, or a preset by name: {', '.join(preset_names())}.")
+    if path.parent == Path("."):
+        raise RoboCalError("file not found, and not the name of a preset robot", source=str(value),
+                           hint=f"Give the path of a robot file, or a preset by name: {', '.join(preset_names())}.")
+    raise RoboCalError("file not found", source=str(value),
+                       hint=f"Check the path, or name a preset robot instead: {', '.join(preset_names())}.")
 
 
 def read_robot(path: str | Path) -> RobotModel:

@@ -175,7 +175,9 @@ def test_a_preset_by_name_from_any_folder(tmp_path, monkeypatch):
 
 def test_neither_a_file_nor_a_preset_lists_the_presets(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    for value in ("educational_7r", "lab/calibrated.json", "sub/ur5"):
-        with pytest.raises(RoboCalError, match="file not found, and not the name of a preset robot") as err:
+    for value, says in (("educational_7r", "file not found, and not the name of a preset robot"),
+                        ("lab/calibrated.json", "file not found"), ("sub/ur5", "file not found")):
+        with pytest.raises(RoboCalError, match=says) as err:
             read_robot(value)
         assert value in str(err.value) and "educational_6r, fanuc_lrmate200id" in err.value.hint
+    assert "preset" not in str(err.value).split(".")[0]                   # a path is not a preset name
