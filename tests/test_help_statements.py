@@ -134,6 +134,18 @@ def test_the_fit_kappa_and_the_pose_set_kappa_are_named_apart(lab_fit):
     assert "fixed column scales" in ident and "divided by its own norm" in poses
 
 
+def test_fixing_a_needed_parameter_lowers_kappa_and_raises_the_error(lab_fit):
+    """"κ also falls when you fix parameters … a lower κ with a higher RMS after calibration
+    means the fixed parameter was needed"."""
+    from core.identification.solver import identify
+    lab, meas, result = lab_fit
+    fixed = identify(lab.nominal_robot, meas, fixed=["J2.a"])
+    assert fixed.condition_number < result.condition_number
+    assert fixed.after.rms_mm > 3 * result.after.rms_mm
+    assert "a lower κ with a higher RMS after calibration means the fixed parameter was needed" in \
+        plain("identification.html")
+
+
 # -- 5. the check's choice among the candidate changes ------------------------------------------
 def test_the_check_takes_the_lowest_aic_among_the_sets_the_f_test_keeps():
     from core.monitoring.diagnosis import NONE, SEVERAL, TOOL
