@@ -39,6 +39,7 @@ COMMANDS = {
     "identify-tool": "identify_tool",
     "robustness": "robustness",
     "compensate": "compensate",
+    "grade": "grade",
 }
 
 

@@ -14,11 +14,11 @@ from core.virtual_lab.dataset import simulate_dataset
 from core.virtual_lab.fixture import VirtualFixture, calibrated_base_truth, place_fixture, render_fixture_pairs
 from core.virtual_lab.ideal_measurements import (DEFAULT_POSES, DEFAULT_SIGMA_MM, ideal_lab_measurements, ideal_measure,
                                                  write_ideal_measurements)
-from core.virtual_lab.lab import DEFAULT_BOARD, VirtualLab, lab_options
+from core.virtual_lab.lab import DEFAULT_BOARD, DEFAULT_ROBOT, VirtualLab, lab_options
 from core.virtual_lab.marker_comparison import ComparisonResult, candidate_patterns, compare_markers
 from core.virtual_lab.robustness import LIGHT, OCCLUSION, TILT, RobustnessTable, robustness_sweep
 
-__all__ = ["DEFAULT_BOARD", "DEFAULT_POSES", "DEFAULT_SIGMA_MM", "LIGHT", "OCCLUSION", "SIDES", "TILT",
+__all__ = ["DEFAULT_BOARD", "DEFAULT_POSES", "DEFAULT_ROBOT", "DEFAULT_SIGMA_MM", "LIGHT", "OCCLUSION", "SIDES", "TILT",
            "ComparisonResult", "ImagingConditions", "LabChange", "RobustnessTable", "VirtualFixture", "VirtualLab",
            "apply_change", "build_lab", "calibrated_base_truth", "candidate_patterns", "compare_markers",
            "ideal_lab_measurements", "ideal_measure", "image_measure", "lab_options", "marker_pose", "parse_change",

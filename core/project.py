@@ -181,6 +181,24 @@ def open_project(path: str | Path) -> Project:
                    created=created, **hardware)
 
 
+#: what `robocal simulate` writes into a dataset folder last: the folder is a virtual-lab one
+DATASET_TRUTH = "truth.json"
+
+
+def command_line_folder(path: str | Path) -> Project:
+    """A folder the command-line chain wrote its results into (stereo.yaml, measurements.csv,
+    calibrated.json under the names the wizard uses), read as a project without project.json:
+    named after the folder, a virtual-lab one when `robocal simulate`'s truth.json is there."""
+    folder = Path(path)
+    if not folder.is_dir() or not any((folder / OUTPUT_FILES[k]).is_file()
+                                      for k in ("stereo", "measurements", "calibrated")):
+        raise RoboCalError("no project here (project.json is missing) and no results of the command line "
+                           "(stereo.yaml, measurements.csv or calibrated.json)", source=folder,
+                           hint="Choose a folder made with New project, or the folder the commands wrote into.")
+    mode = VIRTUAL_LAB if (folder / DATASET_TRUTH).is_file() else HARDWARE
+    return Project(folder=folder, name=folder.resolve().name, mode=mode)
+
+
 def save_project(project: Project) -> Path:
     """Write project.json atomically."""
     return atomic_write_json(project.file, project.to_dict())

@@ -110,3 +110,43 @@ def test_select_poses_exercise_runs_as_written(tmp_path, monkeypatch):
     data = json.loads(out.getvalue())
     assert (tmp_path / "poses.csv").is_file() and data["count"] == 30
     assert data["indices"]["O5"] > data["random_median"]["O5"]        # better than random poses
+
+
+def test_the_teaching_guide_blocks_run_from_an_empty_folder():
+    """Every file a command of the guide's code blocks reads is written by an earlier command
+    of the blocks (or is a preset robot named by its name): the blocks run, in order, from an
+    empty folder — what `python -m bench teaching` does for real."""
+    from app.commands.paths import declared
+    from bench.bench_teaching import guide_commands
+    from core.robot.model import preset_names
+
+    lines = guide_commands()
+    assert len(lines) >= 30 and all(ln in {l for d, l in LINES if d == "teaching-guide.md"} for ln in lines)
+    written: list[Path] = []
+    for line in lines:
+        tokens = shlex.split(line)[1:]
+        args = SUB[tokens[0]].parse_args(tokens[1:])
+        module = __import__(f"app.commands.{tokens[0].replace('-', '_')}", fromlist=["INPUTS"])
+        for option, path in declared(args, getattr(module, "INPUTS", ())):
+            if option in ("--robot", "--lab-robot") and str(path) in preset_names():
+                continue
+            assert not path.is_absolute() and ".." not in path.parts, f"`{line}`: {option} {path} is not local"
+            assert any(path == w or w in path.parents for w in written), \
+                f"`{line}`: {option} {path} is written by no earlier command of the guide"
+        written += [path for _, path in declared(args, getattr(module, "OUTPUTS", ()))]
+    assert not any("--pairs 12" in ln for ln in lines)                  # the coverage check warns below 20
+
+
+def test_the_teaching_guide_stereo_run_does_not_warn(tmp_path, monkeypatch, capsys):
+    """The guide's --pairs gives a stereo calibration without the 'not enough views' warning."""
+    from bench.bench_teaching import guide_commands
+    lines = guide_commands()
+    simulate = next(ln for ln in lines if ln.startswith("robocal simulate --out lab "))
+    pairs = shlex.split(simulate)[shlex.split(simulate).index("--pairs") + 1]
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", "--out", "lab", "--seed", "7", "--pairs", pairs, "--poses", "0"]) == 0
+    stereo = next(ln for ln in lines if ln.startswith("robocal stereo-calibrate"))
+    capsys.readouterr()
+    assert main(shlex.split(stereo)[1:]) == 0
+    out = capsys.readouterr()
+    assert "not enough views" not in out.out + out.err and (tmp_path / "lab" / "stereo.yaml").is_file()

@@ -67,7 +67,7 @@ def quoted_numbers(page: Path) -> set[int]:
 
 
 def test_table_lists_the_chapter_equations_the_brief_names():
-    assert "f·b/d" in TABLE["24"] and "midway" in TABLE["25"]
+    assert "f·B/d" in TABLE["24"] and "midway" in TABLE["25"]
     assert "R" in TABLE["13"] and "T" in TABLE["13"]
     assert TABLE["8"].startswith("E") and "E" in TABLE["6"]
     assert "M·P" in TABLE["20"] and "s_i·p_i = M_i·P" in TABLE["22"]
@@ -105,7 +105,7 @@ def test_equations_sit_where_the_chapter_has_them():
     for page in ("marker.html", "measurement.html"):
         assert "si pi = Mi P" in _row(page, 22)
         assert "Z = f · b / d" in _row(page, 24)
-    assert "(u1 + u2) / (2d)" in _row("marker.html", 25)
+    assert "xw = b·(u1 + u2) / (2d)" in _row("marker.html", 25)
     assert "IR(u + i − d" in _row("marker.html", 26)
 
 

@@ -109,7 +109,8 @@ def check_report_path(path: str | Path, option: str = "--out") -> Path:
 
 
 def write_report(project, outputs, *, robot=None, identification=None, accuracy=None, page_size: str = "a4",
-                 figures_dir: str | Path | None = None, draw=None, progress=None, cancelled=None) -> list[Path]:
+                 figures_dir: str | Path | None = None, draw=None, progress=None, cancelled=None,
+                 author: str | None = None, course: str | None = None) -> list[Path]:
     """Build the report of `project` and write it to each path of `outputs` (.html or .pdf) as one
     atomic write; with `figures_dir`, also every figure as PNG there. Runs on a worker when
     `draw` is a `GuiDrawer.draw` (app/report/gui_drawer.py); without it, on the GUI thread.
@@ -119,7 +120,8 @@ def write_report(project, outputs, *, robot=None, identification=None, accuracy=
     for folder in {p.parent for p in outputs} | ({Path(figures_dir)} if figures_dir is not None else set()):
         ensure_writable_dir(folder)
     monitor.step(0.0, "reading the project")
-    report = build_report(project, robot=robot, identification=identification, accuracy=accuracy)
+    report = build_report(project, robot=robot, identification=identification, accuracy=accuracy, author=author,
+                          course=course)
     images = draw_figures(report, draw=draw, progress=monitor.sub(0.05, 0.7), cancelled=cancelled)
     files: dict = {}
     for i, path in enumerate(outputs):

@@ -17,14 +17,15 @@ from core.robot.file import read_robot
 LAB_SEED, LAB_NOISE = 0, 0.5
 
 
-def project_truth_accuracy(project: Project) -> TruthAccuracy | None:
+def project_truth_accuracy(project: Project, *, robot=None, lab_seed: int = LAB_SEED) -> TruthAccuracy | None:
     """Nominal (base registered on the fitted poses) and calibrated model against the true robot
     at TRUTH_POSES fresh visible poses, as the Identification step computes it; None for a
-    hardware project or one without robot, measurements and calibrated model (or unreadable)."""
+    hardware project or one without robot, measurements and calibrated model (or unreadable).
+    `robot`: the nominal model (else the project's); `lab_seed`: the lab's (a dataset's truth.json)."""
     if project.mode != VIRTUAL_LAB or not (project.has("calibrated") and project.has("measurements")):
         return None
     try:
-        robot = load_robot(project)
+        robot = robot if robot is not None else load_robot(project)
         if robot is None:
             return None
         model = read_robot(project.path("calibrated"))
@@ -34,7 +35,7 @@ def project_truth_accuracy(project: Project) -> TruthAccuracy | None:
         test = set(v.get("test_poses") or (split_poses(meas.pose_ids, float(v["fraction"]), seed)[1]
                                            if v.get("method") == "holdout" else []))
         initial = register_base(robot, meas.select_poses([p for p in meas.pose_ids if p not in test]))
-        lab = build_lab(robot, LAB_SEED, LAB_NOISE)
+        lab = build_lab(robot, lab_seed, LAB_NOISE)
         Q = lab.random_visible_poses(TRUTH_POSES, np.random.default_rng([seed, 6]))
         return accuracy_against_truth(lab.true_robot, initial, model, Q, [lab.target])
     except (RoboCalError, KeyError, TypeError, ValueError):

@@ -7,7 +7,8 @@ Area (`find_marker_area`):
   copies of the marker both match), a RANSAC (MAGSAC) homography training image → scene,
   then SIFT again at full resolution in the region of interest only to refine it. The scene
   is rejected, with the reason, when too few matches agree (no marker), when a second
-  consistent cluster of matches remains after removing the first (two marker-like objects),
+  consistent cluster of matches at eight or more different places remains after removing the
+  first (two marker-like objects; repeats of one correspondence count once),
   when the homography is implausible (mirrored, folded, degenerate), and when the marker with
   its border is not wholly inside the image.
 Reference point (`detect_marker`): core.marker.edges.fit_outline on the region of interest,
@@ -264,6 +265,26 @@ def _area_from_h(trained: TrainedMarker, H: np.ndarray, image_size, mode: str, *
                          **kw)
 
 
+def first_of_each_pair(scene: np.ndarray, train: np.ndarray, tol_px: float = 0.5) -> np.ndarray:
+    """Mask keeping one match per (scene point, training point) pair, both rounded to `tol_px`.
+
+    SIFT gives one keypoint per dominant orientation at the same place, and the training image
+    holds several descriptors of one marker point (its tilted views), so one correspondence can
+    appear many times; repeated, four places would pass for a consistent cluster of ten."""
+    if len(scene) == 0:
+        return np.zeros(0, bool)
+    key = np.round(np.hstack([scene, train]) / tol_px)
+    _, first = np.unique(key, axis=0, return_index=True)
+    keep = np.zeros(len(scene), bool)
+    keep[first] = True
+    return keep
+
+
+def distinct_points(xy: np.ndarray, tol_px: float = 0.5) -> int:
+    """How many different places (within `tol_px`) the points (N, 2) are at."""
+    return 0 if len(xy) == 0 else len(np.unique(np.round(np.asarray(xy) / tol_px), axis=0))
+
+
 def _overlaps(a: np.ndarray, b: np.ndarray) -> bool:
     ok, _ = cv2.intersectConvexConvex(a.astype(np.float32), b.astype(np.float32))
     return ok > 0
@@ -310,15 +331,18 @@ def find_marker_area(trained: TrainedMarker, image: np.ndarray, *, search_roi=No
         region = expand_quad(area.outline, 1.6).astype(np.float32)
         rest = ~inl & np.array([cv2.pointPolygonTest(region, (float(x), float(y)), False) < 0 for x, y in scene],
                                dtype=bool) if len(scene) else np.zeros(0, bool)
+        rest &= first_of_each_pair(scene, train)
         if rest.sum() >= opt.second_min_inliers:
             H2, inl2 = _homography(train[rest], scene[rest], opt.ransac_threshold * (1.5 if found["mode"] == "half" else 1))
-            if (H2 is not None and inl2.sum() >= opt.second_min_inliers and not plausibility(trained, H2, opt)
+            if (H2 is not None and distinct_points(scene[rest][inl2]) >= opt.second_min_inliers
+                    and not plausibility(trained, H2, opt)
                     and inlier_spread(trained, train[rest][inl2]) >= opt.min_spread):
                 second = map_points(H2, trained.outline)
                 if not _overlaps(second, area.outline):
                     area.ok = False
                     area.second_outline = second
-                    area.reason = (f"two marker-like objects in view ({int(inl.sum())} and {int(inl2.sum())} "
+                    area.reason = (f"two marker-like objects in view ({distinct_points(scene[inl])} and "
+                                   f"{distinct_points(scene[rest][inl2])} "
                                    "consistent SIFT matches): cannot tell which one is the marker")
                     area.sift_seconds = time.perf_counter() - t_start
                     return area

@@ -39,10 +39,11 @@ def software_version() -> str:
 
 
 def build_report(project: Project, *, robot: RobotModel | None = None, identification=None, accuracy=None,
-                 date: str | None = None) -> Report:
+                 date: str | None = None, author: str | None = None, course: str | None = None) -> Report:
     """The report of `project`. `robot`: the nominal model (else the project's robot.json);
     `identification`: an IdentificationResult of this session (else calibrated.json);
-    `accuracy`: a model_comparison.TruthAccuracy (virtual lab only)."""
+    `accuracy`: a model_comparison.TruthAccuracy (virtual lab only); `author`, `course`: who
+    hands the report in and for which course, on the title page."""
     date = date or datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     problems: list[str] = []
     facts: dict = {}
@@ -72,6 +73,9 @@ def build_report(project: Project, *, robot: RobotModel | None = None, identific
             sections.append(Section(title, [unreadable(f"the {title.lower()} step's files", message)], done=False))
     header = (f"<p class='note'>{esc(date)} · RoboCal {esc(software_version())} · project folder "
               f"{esc(project.folder)} · cell: {esc(project.describe_cell())}</p>")
+    by = " · ".join(esc(v.strip()) for v in (author, course) if v and v.strip())
+    if by:
+        header = f"<p class='author'><b>{by}</b></p>" + header
     report = Report(title=f"RoboCal calibration report: {project.name}", header=header, summary="",
                     sections=sections, footer=FOOTER, problems=problems)
     report.summary = summary_html(report, robot, identification, facts, date)

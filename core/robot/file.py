@@ -16,7 +16,7 @@ from core.robot.compliance import FORMAT as COMPLIANCE_FORMAT
 from core.robot.compliance import FORMAT_FAMILY as COMPLIANCE_FAMILY
 from core.robot.compliance import FORMAT_MAJOR as COMPLIANCE_MAJOR
 from core.robot.compliance import SHAPES, Compliance, check_vertical_arm
-from core.robot.model import PRISMATIC, REVOLUTE, Joint, RobotModel
+from core.robot.model import PRISMATIC, REVOLUTE, Joint, RobotModel, preset_names, robot_path
 from core.validate import check_format, name_text, number, require, text, vector
 
 FORMAT_FAMILY = "robocal.robot"
@@ -24,8 +24,27 @@ FORMAT_MAJOR = 1
 FORMAT = f"{FORMAT_FAMILY}/{FORMAT_MAJOR}"
 
 
+def robot_file(value: str | Path) -> Path:
+    """The robot file a user named: an existing path, else a preset of resources/robots by its
+    name (`educational_6r`, `ur5`, with or without `.json`), so a command runs from any folder.
+    A value that is neither raises RoboCalError listing the presets."""
+    path = Path(value)
+    if path.exists():
+        return path
+    name = path.name[:-5] if path.name.endswith(".json") else path.name
+    if path.parent == Path(".") and name in preset_names():
+        return robot_path(name)
+    if path.parent == Path("."):
+        raise RoboCalError("file not found, and not the name of a preset robot", source=str(value),
+                           hint=f"Give the path of a robot file, or a preset by name: {', '.join(preset_names())}.")
+    raise RoboCalError("file not found", source=str(value),
+                       hint=f"Check the path, or name a preset robot instead: {', '.join(preset_names())}.")
+
+
 def read_robot(path: str | Path) -> RobotModel:
-    """Read and validate a robot file; raises RoboCalError naming the file and field."""
+    """Read and validate a robot file, or a preset by name (`robot_file`); raises
+    RoboCalError naming the file and field."""
+    path = robot_file(path)
     return robot_from_dict(read_json(path), source=path)
 
 

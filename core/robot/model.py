@@ -209,8 +209,10 @@ class RobotModel:
         return self.target_positions(np.asarray(q, dtype=float)[None, :], target)[0]
 
     def parallel_axis_joints(self, tolerance_deg: float = PARALLEL_DEG) -> list[int]:
-        """Indices i whose joint axis is nearly parallel to the next one (|sin α_i| small),
-        where Hayati's β_i replaces the ill-conditioned d_(i+1)."""
+        """0-based indices i of the joints whose axis is nearly parallel to the next one's
+        (|sin α| of joint i small): joint i gets Hayati's β, which replaces its own
+        ill-conditioned d (`J{i+1}.d`, kept at nominal); the next joint's d takes up the real
+        offset along the axes."""
         tol = np.sin(np.deg2rad(tolerance_deg))
         return [i for i, j in enumerate(self.joints[:-1]) if abs(np.sin(j.alpha)) < tol]
 

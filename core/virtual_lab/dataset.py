@@ -157,11 +157,16 @@ def _publish(tmp: Path, out: Path) -> None:
 
 def simulate_dataset(out_dir: str | Path, robot: RobotModel | str | Path | None = None, seed: int = 0,
                      pairs: int = 20, poses: int = 40, noise: float = 0.5, progress=None,
-                     cancelled=None) -> SimulationResult:
+                     cancelled=None, configurations: np.ndarray | None = None) -> SimulationResult:
     """Render a virtual-lab dataset into `out_dir` and return what was written.
 
     `robot` is a nominal robot model, a robot file, or None (educational 6R preset); the
-    virtual lab places it in front of the cameras and derives the true robot from `seed`."""
+    virtual lab places it in front of the cameras and derives the true robot from `seed`.
+    `configurations` (M, n), internal units (rad / mm): the robot poses to render instead of
+    `poses` random visible ones (e.g. a selected pose sequence)."""
+    if configurations is not None:
+        configurations = np.atleast_2d(np.asarray(configurations, dtype=float))
+        poses = len(configurations)
     if pairs < 0 or poses < 0:
         raise UsageError(f"counts must not be negative (pairs={pairs}, poses={poses})")
     if not noise >= 0:
@@ -175,7 +180,10 @@ def simulate_dataset(out_dir: str | Path, robot: RobotModel | str | Path | None 
     lab = VirtualLab.create(robot, seed=seed, noise=noise)
     tmp = _make_temp(out)
     try:
-        result = _write(lab, tmp, out, seed, pairs, poses, noise, monitor)
+        if configurations is not None and configurations.shape[1] != lab.true_robot.dof:
+            raise UsageError(f"the poses have {configurations.shape[1]} joint values, the robot "
+                             f"{lab.true_robot.dof} joints")
+        result = _write(lab, tmp, out, seed, pairs, poses, noise, monitor, configurations)
         monitor.check()
         _publish(tmp, out)
     except BaseException:
@@ -186,7 +194,7 @@ def simulate_dataset(out_dir: str | Path, robot: RobotModel | str | Path | None 
 
 
 def _write(lab: VirtualLab, tmp: Path, out: Path, seed: int, pairs: int, poses: int, noise: float,
-           monitor: Monitor) -> SimulationResult:
+           monitor: Monitor, configurations: np.ndarray | None = None) -> SimulationResult:
     total = pairs + poses + 3
     done = 0
 
@@ -196,7 +204,10 @@ def _write(lab: VirtualLab, tmp: Path, out: Path, seed: int, pairs: int, poses: 
         monitor.step(done / total, msg)
 
     board_poses = lab.random_board_poses(pairs, _stream(seed, _BOARD_POSES)) if pairs else []
-    Q = lab.random_visible_poses(poses, _stream(seed, _ROBOT_POSES)) if poses else np.zeros((0, lab.true_robot.dof))
+    if configurations is not None:
+        Q = configurations
+    else:
+        Q = lab.random_visible_poses(poses, _stream(seed, _ROBOT_POSES)) if poses else np.zeros((0, lab.true_robot.dof))
     step("chose board poses and robot configurations")
     res = SimulationResult(out_dir=out, seed=seed, noise=noise, robot_name=lab.nominal_robot.name)
     board_entries = []

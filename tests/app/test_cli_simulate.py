@@ -74,3 +74,20 @@ def test_usage_errors(tmp_path, capsys):
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
     assert main(["simulate", "--out", str(tmp_path / "x"), "--noise", "loud"]) == 2
     assert not (tmp_path / "x").exists()
+
+
+def test_poses_file_renders_the_given_poses(tmp_path, capsys, monkeypatch):
+    """A selected pose sequence rendered instead of random poses; the robot named as a preset."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "sel.csv").write_text("pose,q1,q2,q3,q4,q5,q6\n0,10,-20,-100,30,-60,15\n1,-30,-40,-90,60,-70,-45\n")
+    code = main(["simulate", "--out", "sel", "--pairs", "0", "--poses-file", "sel.csv", "--robot", "educational_6r",
+                 "--seed", "2", "--json"])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    assert json.loads(captured.out)["poses"] == 2
+    rows = (tmp_path / "sel" / "poses" / "joints.csv").read_text().splitlines()
+    assert rows[1].split(",")[1:] == ["10.000", "-20.000", "-100.000", "30.000", "-60.000", "15.000"]
+    assert (tmp_path / "sel" / "poses" / "left" / "pose_001.png").is_file()
+    (tmp_path / "bad.csv").write_text("pose,q1,q2\n0,1,2\n")
+    assert main(["simulate", "--out", "bad", "--pairs", "0", "--poses-file", "bad.csv"]) == 1
+    assert "bad.csv" in capsys.readouterr().err and not (tmp_path / "bad").exists()

@@ -166,3 +166,35 @@ def test_a_read_only_project_is_reported_and_left_as_it_was(qapp, project, tmp_p
     assert len(err.strip().splitlines()) <= 2                   # one message (and its hint)
     assert sorted(p.relative_to(folder) for p in folder.rglob("*")) == before
     assert (tmp_path / "r.pdf").read_bytes().startswith(b"%PDF")
+
+
+def test_cli_report_of_a_command_line_folder_with_author_and_course(qapp, tmp_path, capsys):
+    """A folder the command-line chain wrote (a dataset's truth.json, measurements.csv,
+    calibrated.json, no project.json): its report, with the student's name and course."""
+    import json as _json
+
+    from core.identification.solver import identify, write_calibrated_model
+    from core.robot.file import robot_to_dict
+    from core.virtual_lab.ideal_measurements import ideal_lab_measurements, write_ideal_measurements
+    from core.virtual_lab.lab import VirtualLab
+
+    lab = VirtualLab.create(seed=5)
+    folder = tmp_path / "lab"
+    folder.mkdir()
+    meas = ideal_lab_measurements(lab, 30, sigma_mm=0.05, seed=1)
+    write_ideal_measurements(meas, folder / "measurements.csv")
+    write_calibrated_model(identify(lab.nominal_robot, meas), folder / "calibrated.json")
+    (folder / "truth.json").write_text(_json.dumps({"format": "robocal.truth/1", "seed": 5,
+                                                    "nominal_robot": robot_to_dict(lab.nominal_robot)}))
+    out = tmp_path / "hand-in.html"
+    code = main(["report", str(folder), "--out", str(out), "--author", "Ana Student", "--course", "Robotics 2"])
+    assert code == 0, capsys.readouterr().err
+    text = " ".join(re.sub(r"<[^>]+>", " ", out.read_text()).split())
+    assert "Ana Student · Robotics 2" in text and "mode: virtual lab" in text
+    assert "Educational 6R" in text and "against the true robot (virtual lab)" in text
+    before, after = re.search(r"against the true robot \(virtual lab\) ([\d.]+) → ([\d.]+) mm", text).groups()
+    assert float(after) < 0.1 < float(before)                  # the lab of seed 5, not of seed 0
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert main(["report", str(empty), "--out", str(tmp_path / "e.html")]) == 1
+    assert "no results of the command line" in capsys.readouterr().err

@@ -136,3 +136,24 @@ def test_homography_maps_the_training_outline(pm):
     corners = scenes.lab().rig.left.project(tf.transform_points(T, scenes.lab().marker.outer_corners()))
     # SIFT's homography gives the area, not the point: worst corner 0.30-0.52 px over noise seeds 2-6
     assert np.abs(area.outline - corners).max() < 1.0
+
+
+def test_repeats_of_one_correspondence_are_not_a_second_marker():
+    """A lab pose (seed 7, pose 18 of 60) whose left image held one marker and a 'second cluster'
+    of ten matches at only four places (SIFT's repeated keypoints): the marker is found."""
+    from core.marker.detection import distinct_points, first_of_each_pair
+    from core.marker.training import train_marker
+    from core.virtual_lab.dataset import _POSE_IMAGES, _ROBOT_POSES, _TRAINING, _stream
+    from core.virtual_lab.lab import VirtualLab
+    lab = VirtualLab.create(seed=7)
+    q = lab.random_visible_poses(60, _stream(7, _ROBOT_POSES))[18]
+    left, _ = lab.render_marker_pair(q, _stream(7, _POSE_IMAGES, 18))
+    trained = train_marker(lab.render_training_image(_stream(7, _TRAINING)))
+    area = find_marker_area(trained, left)
+    assert area.ok, area.reason
+    true_left = lab.rig.left.project(lab.marker_position(q)[None])[0]
+    assert np.linalg.norm(area.sift_reference - true_left) < 2.0
+    # the helpers: three copies of one pair count once; two places are two
+    scene = np.array([[10.0, 20.0], [10.1, 20.0], [10.0, 20.1], [50.0, 60.0]])
+    train = np.array([[1.0, 2.0], [1.0, 2.0], [1.0, 2.0], [1.0, 2.0]])
+    assert first_of_each_pair(scene, train).sum() == 2 and distinct_points(scene) == 2

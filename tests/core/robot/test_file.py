@@ -1,13 +1,14 @@
 """Robot model file: round trip and one clear message per kind of bad input."""
 import json
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from core.errors import RoboCalError
 from core.robot.model import preset_names, robot_path
-from core.robot.file import read_robot, robot_from_dict, robot_to_dict, write_robot
+from core.robot.file import read_robot, robot_file, robot_from_dict, robot_to_dict, write_robot
 
 
 def _preset_dict(name="educational_6r") -> dict:
@@ -166,3 +167,23 @@ def test_a_target_name_that_cannot_be_a_urdf_link_is_refused(tmp_path, name):
     data["targets"][name] = [0, 0, 50]
     message = _error_for(tmp_path, data)
     assert f"field 'targets.{name}'" in message and "becomes a file or link name" in message
+def test_a_preset_by_name_from_any_folder(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    for value in ("educational_6r", "ur5.json"):
+        model = read_robot(value)
+        assert model.name == read_robot(robot_path(value.removesuffix(".json"))).name
+    assert robot_file("ur5") == robot_path("ur5")
+    # a file of that name in the folder is what the user means
+    write_robot(read_robot("ur5"), tmp_path / "educational_6r")
+    assert robot_file("educational_6r") == Path("educational_6r") and read_robot("educational_6r").dof == 6
+    assert read_robot("educational_6r").name == read_robot(robot_path("ur5")).name
+
+
+def test_neither_a_file_nor_a_preset_lists_the_presets(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    for value, says in (("educational_7r", "file not found, and not the name of a preset robot"),
+                        ("lab/calibrated.json", "file not found"), ("sub/ur5", "file not found")):
+        with pytest.raises(RoboCalError, match=says) as err:
+            read_robot(value)
+        assert value in str(err.value) and "educational_6r, fanuc_lrmate200id" in err.value.hint
+    assert "preset" not in str(err.value).split(".")[0]                   # a path is not a preset name
