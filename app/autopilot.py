@@ -17,14 +17,16 @@ def screenshot_name(step) -> str:
 
 
 class Autopilot(QObject):
-    """`start()` it once the window is shown; `finished(exit_code)` is emitted at the end."""
+    """`start()` it once the window is shown; `finished(exit_code)` is emitted at the end.
+    `last`: the step to stop after (default: every page)."""
 
     finished = Signal(int)
 
     def __init__(self, window, screenshots: str | Path | None = None, *,
-                 page_timeout_s: float = 900.0, out=None):
+                 page_timeout_s: float = 900.0, out=None, last: int | None = None):
         super().__init__(window)
         self.window = window
+        self.count = len(window.pages) if last is None else int(last) + 1
         self.screenshots = Path(screenshots) if screenshots else None
         self.page_timeout_ms = int(page_timeout_s * 1000)
         self.out = out or sys.stdout
@@ -78,7 +80,7 @@ class Autopilot(QObject):
                 return
         if not ok:
             self._finish(1, f"the {page.title} step failed: {message or 'no reason given'}")
-        elif self.index + 1 >= n:
+        elif self.index + 1 >= self.count:
             self._finish(0, "every page finished")
         else:
             self._run(self.index + 1)
