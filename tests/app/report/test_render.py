@@ -190,7 +190,7 @@ def test_cli_report_of_a_command_line_folder_with_author_and_course(qapp, tmp_pa
     code = main(["report", str(folder), "--out", str(out), "--author", "Ana Student", "--course", "Robotics 2"])
     assert code == 0, capsys.readouterr().err
     text = " ".join(re.sub(r"<[^>]+>", " ", out.read_text()).split())
-    assert "Ana Student · Robotics 2" in text and "mode: virtual lab" in text
+    assert "Ana Student · Robotics 2" in text and "cell: the virtual lab" in text
     assert "Educational 6R" in text and "against the true robot (virtual lab)" in text
     before, after = re.search(r"against the true robot \(virtual lab\) ([\d.]+) → ([\d.]+) mm", text).groups()
     assert float(after) < 0.1 < float(before)                  # the lab of seed 5, not of seed 0
