@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Sequence
 
 import numpy as np
-from scipy.stats import chi2
+from scipy.stats import f as f_dist
 
 from core.errors import RoboCalError
 from core.identification.identifiability import characteristic_scales
@@ -37,6 +37,7 @@ from core.identification.jacobian import (Parameter, apply_step, calibration_jac
                                           parameter_difference, predict_points)
 from core.identification.solver import display_value
 from core.measurement.file import Measurements, check_against_robot
+from core.monitoring.check_poses import watched_parameters
 from core.monitoring.uncertainty import CalibrationUncertainty
 from core.poses.candidates import generate_candidates, no_candidate_error
 from core.poses.ordering import home_configuration, order_poses
@@ -214,13 +215,14 @@ def reidentify(model: RobotModel, unc: CalibrationUncertainty, changed: Sequence
         if float(np.linalg.norm(x * scale)) < 1e-9 * (1.0 + float(np.linalg.norm(b))):
             break
     b, A = stacked(current, total)
-    rss = float(b[:m] @ b[:m])
-    dof = m - len(changed_names)
     after = float(np.sqrt(np.mean(np.sum((meas.xyz - predict_points(current, meas.Q, meas.target)) ** 2, axis=1))))
-    if dof > 0 and chi2.sf(rss, dof) < alpha:
+    _require_determined(current, meas, [p for p in params if p.name in set(changed_names)], changed_names)
+    probability = only_changed_probability(current, meas, params, changed_names, b[:m])
+    if probability < alpha:
         raise RoboCalError(
             f"re-identifying {', '.join(changed_names)} leaves errors of {after:.3f} mm RMS on the "
-            f"{meas.n_poses} poses, more than the calibration's noise of {sigma:.3f} mm allows",
+            f"{meas.n_poses} poses that the robot's other parameters (base, tool, joint zeros) would explain "
+            f"much better (probability {probability:.1e} that only these changed)",
             hint="The change is not only in these parameters: run a full calibration.")
     scale = np.linalg.norm(A, axis=0)
     scale = np.where(scale > 0, scale, 1.0)
@@ -258,3 +260,49 @@ def _updated_calibration(old: dict | None, model: RobotModel, params: Sequence[P
 def write_reidentified(result: Reidentification, path: str | Path) -> Path:
     """Write the updated calibrated robot file atomically (a failure leaves any file there intact)."""
     return write_robot(result.model, path)
+
+
+def _require_determined(model: RobotModel, meas: Measurements, changed: Sequence[Parameter], names: list[str]) -> None:
+    """RoboCalError when the measured poses alone cannot determine every changed parameter (the
+    Jacobian of the changed set on these poses is rank deficient)."""
+    J = calibration_jacobian(model, meas.Q, meas.target, list(changed))
+    scale = np.linalg.norm(J, axis=0)
+    rank = int(np.linalg.matrix_rank(J / np.where(scale > 0, scale, 1.0), tol=1e-8)) if J.size else 0
+    if rank < len(changed):
+        raise RoboCalError(f"the {meas.n_poses} measured poses determine only {rank} of the {len(changed)} "
+                           f"changed parameters ({', '.join(names)})",
+                           hint="Measure the proposed poses (all of them) together with the check's points, "
+                                "or run a full calibration.")
+
+
+def only_changed_probability(model: RobotModel, meas: Measurements, params: Sequence[Parameter],
+                             changed: Sequence[str], residual) -> float:
+    """The nested F-test's p-value that the re-identified set K explains the points as well as K
+    together with every watched parameter (target offsets, base, joint zeros): with the residual
+    r after the fit of K and the best linear fit of all of them F (RSS_K, RSS_F, ranks p_K, p_F),
+    F = ((RSS_K − RSS_F)/(p_F − p_K)) / (RSS_F/(3N − p_F)) against F(p_F − p_K, 3N − p_F). The
+    ratio does not depend on the points' noise, which for points measured through images after
+    the calibration is larger than the calibration's own σ (its stereo part is not in it). 1.0
+    when the points leave no degrees of freedom for the test."""
+    r = np.asarray(residual, dtype=float)
+    keep = set(changed)
+    watched = {p.name for p in watched_parameters(model, list(dict.fromkeys(meas.target)))}
+    full = [p for p in params if p.name in keep or p.name in watched]
+    K = [p for p in params if p.name in keep]
+
+    def fit(ps):
+        J = calibration_jacobian(model, meas.Q, meas.target, ps)
+        scale = np.linalg.norm(J, axis=0)
+        Js = J / np.where(scale > 0, scale, 1.0)
+        x, _, rank, _ = np.linalg.lstsq(Js, r, rcond=1e-8)
+        e = r - Js @ x
+        return float(e @ e), int(rank)
+
+    rss_f, p_f = fit(full)
+    _, p_k = fit(K)
+    rss_k = float(r @ r)
+    dof = len(r) - p_f
+    if dof <= 0 or p_f <= p_k:
+        return 1.0
+    stat = ((rss_k - rss_f) / (p_f - p_k)) / max(rss_f / dof, 1e-300)
+    return float(f_dist.sf(max(stat, 0.0), p_f - p_k, dof))
