@@ -52,8 +52,9 @@ def statistics_sigma_mm(stats: dict, source=None) -> float:
     """The measurement noise per axis (mm) of a calibration's `statistics`: its σ̂ when it is in mm;
     for a calibration that weighted its points by their own σ (σ̂ is then a unitless factor, its
     `sigma_hat_unit` not "mm"), the RMS 3D error after calibration per axis corrected for the
-    parameters the fit absorbed, rms_after_mm / √3 · √(3N / dof). RoboCalError naming the field
-    when neither is there."""
+    parameters the fit absorbed, rms_after_mm / √3 · √(3N / dof); in both cases at least the
+    error at the poses the calibration held out (held_out_sigma_mm). RoboCalError naming the
+    field when neither σ̂ nor the RMS error is there."""
     if stats.get("sigma_hat_unit", "mm") == "mm":
         sigma = stats.get("sigma_hat")
         field = "calibration.statistics.sigma_hat"
@@ -64,10 +65,24 @@ def statistics_sigma_mm(stats: dict, source=None) -> float:
         raise RoboCalError("expected a positive number (mm)", source=source, field=field,
                            hint="Use the calibrated robot file written by the Identification step (robocal identify).")
     if stats.get("sigma_hat_unit", "mm") == "mm":
-        return float(sigma)
-    n, dof = stats.get("n_points"), stats.get("dof")
-    absorbed = math.sqrt(3.0 * n / dof) if isinstance(n, int) and isinstance(dof, int) and 0 < dof <= 3 * n else 1.0
-    return float(sigma) / math.sqrt(3.0) * absorbed
+        own = float(sigma)
+    else:
+        n, dof = stats.get("n_points"), stats.get("dof")
+        absorbed = math.sqrt(3.0 * n / dof) if isinstance(n, int) and isinstance(dof, int) and 0 < dof <= 3 * n else 1.0
+        own = float(sigma) / math.sqrt(3.0) * absorbed
+    return max(own, held_out_sigma_mm(stats))
+
+
+def held_out_sigma_mm(stats: dict) -> float:
+    """The calibration's error at the poses it held out (validation.after.rms_mm, 3D) per axis, mm;
+    0 without a validation. A point measured after the calibration at other poses is predicted
+    about that well: the error includes what the model cannot absorb (e.g. the stereo
+    calibration's error away from the calibration's poses), which σ̂ of the fitted points does not."""
+    after = ((stats.get("validation") or {}).get("after") or {}) if isinstance(stats.get("validation"), dict) else {}
+    rms = after.get("rms_mm") if isinstance(after, dict) else None
+    if not isinstance(rms, (int, float)) or isinstance(rms, bool) or not math.isfinite(rms) or rms <= 0:
+        return 0.0
+    return float(rms) / math.sqrt(3.0)
 
 
 def _field(cal: dict, key: str, source, field: str):
