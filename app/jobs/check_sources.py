@@ -173,10 +173,64 @@ def connected_cell(model: RobotModel, Q, port: str, profile: str, cameras: tuple
         driver.disconnect()
         raise
     where = f"serial robot on {port} ({driver.profile.name}), cameras {cameras[0]}, {cameras[1]}"
+    motion = AheadMotion(driver, Q)
 
     def measure(q):
-        driver.move_to(q)
+        motion.reach(q)
         frames = source.capture()
+        motion.start_next()                 # the robot moves on while the marker is located in this pair
         return _locate_point(locator, frames.left, frames.right, where)
     ids = np.arange(len(Q)) if ids is None else np.asarray(ids, dtype=int)
-    return MeasuredPoses(Q, ids, measure, where, target, [driver.disconnect, source.close])
+    return MeasuredPoses(Q, ids, measure, where, target, [motion.finish, driver.disconnect, source.close])
+
+
+class AheadMotion:
+    """Moves a driver through planned poses, one move ahead: once a pose's pair is captured, the
+    move to the next planned pose starts on a thread while the pair is processed. `reach(q)` waits
+    for that move when q is the next planned pose, else moves there itself; a fault of a move made
+    ahead is raised by the next `reach` (or `finish`)."""
+
+    def __init__(self, driver, plan):
+        self.driver, self.plan = driver, np.atleast_2d(np.asarray(plan, dtype=float))
+        self.next = 0                    # index in plan of the pose reached next
+        self._thread = None
+        self._error: BaseException | None = None
+
+    def _join(self) -> None:
+        if self._thread is not None:
+            self._thread.join()
+            self._thread = None
+        if self._error is not None:
+            error, self._error = self._error, None
+            raise error
+
+    def reach(self, q) -> None:
+        q = np.asarray(q, dtype=float)
+        ahead = self._thread is not None
+        self._join()
+        planned = self.next < len(self.plan) and np.array_equal(q, self.plan[self.next])
+        if not (ahead and planned):
+            self.driver.move_to(q)
+        self.next = self.next + 1 if planned else len(self.plan)
+
+    def start_next(self) -> None:
+        import threading
+
+        if self.next >= len(self.plan) or self.driver.stopped:
+            return
+        target = self.plan[self.next]
+
+        def move():
+            try:
+                self.driver.move_to(target)
+            except BaseException as exc:    # handed to the caller by the next reach()
+                self._error = exc
+        self._thread = threading.Thread(target=move, name="robocal-move-ahead", daemon=True)
+        self._thread.start()
+
+    def finish(self) -> None:
+        """Wait for a move made ahead (its fault is dropped: nothing is measured after it)."""
+        if self._thread is not None:
+            self._thread.join()
+            self._thread = None
+        self._error = None
