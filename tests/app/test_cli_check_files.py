@@ -6,6 +6,7 @@ measurements file; the re-identification from the proposed poses' pairs."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -149,3 +150,40 @@ def test_reidentify_without_a_check_is_one_line(cell, tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 1 and "check log" in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "u.json").exists()
+
+
+IRB = Path(__file__).resolve().parents[3] / "shared" / "data" / "irb120-laser-tracker"
+
+
+@pytest.mark.skipif(not IRB.is_dir(), reason=f"IRB 120 laser-tracker data not found at {IRB}")
+def test_a_laser_tracker_calibration_checks_its_own_points(tmp_path, capsys):
+    """The real IRB 120 tracker data imported, identified, and checked on its reflector p1's
+    points: the limits come from the calibration's σ̂ in mm (0.15 mm)."""
+    robot = str(robot_path("abb_irb120"))
+    meas, calibrated = tmp_path / "tracker.csv", tmp_path / "calibrated.json"
+    assert main(["import-measurements", str(IRB / "calibration.csv"), str(IRB / "test_points_at_zero.csv"),
+                 "--robot", robot, "--out", str(meas)]) == 0
+    assert main(["identify", "--robot", robot, "--measurements", str(meas), "--out", str(calibrated)]) == 0
+    capsys.readouterr()
+    code, data, err = run_json(capsys, ["check", "--robot", str(calibrated), "--log", str(tmp_path / "c.csv"),
+                                        "--measurements", str(meas)])
+    assert code == 0 and data["in_limits"], err
+    assert len(data["poses"]) == 36 and 0.1 < data["check"]["sigma_mm"] < 0.2
+    assert data["measured_on"] == f"measurement file {meas}"
+    code = main(["check", "--robot", str(calibrated), "--log", str(tmp_path / "c.csv"), "--measurements",
+                 str(meas), "--tool", "no_such_tool"])
+    assert code == 1 and len(capsys.readouterr().err.strip().splitlines()) == 1
+
+
+def test_a_calibration_with_a_useless_noise_is_one_line(cell, tmp_path, capsys):
+    """A σ̂ of 1e308 mm (a calibration that did not converge) is refused naming the field."""
+    root, ds, calibrated, lab = cell
+    data = json.loads(calibrated.read_text())
+    data["calibration"]["statistics"].update(sigma_hat=1e308, sigma_hat_unit="mm")
+    data["calibration"]["statistics"].pop("validation", None)
+    (tmp_path / "bad.json").write_text(json.dumps(data))
+    code = main(["check", "--robot", str(tmp_path / "bad.json"), "--log", str(tmp_path / "c.csv"),
+                 "--measurements", str(root / "meas.csv")])
+    err = capsys.readouterr().err
+    assert code == 1 and "calibration.statistics.sigma_hat" in err and len(err.strip().splitlines()) == 1
+    assert "internal error" not in err
