@@ -11,6 +11,13 @@ the new poses mostly move K and the unchanged parameters only as far as the data
 posterior covariance (ΦᵀΦ/σ² + prior)⁻¹ is written into the new calibrated file, so the next
 checks take their limits from it.
 
+The result is refused when the poses cannot determine K (its Jacobian on them is rank
+deficient), or when K alone leaves errors that the other watched parameters (target offsets,
+base, joint zeros) would explain significantly better: a nested F-test on the points
+(only_changed_probability). That test does not depend on σ, so points measured through images
+after the calibration, whose errors include more than the calibration's σ̂ (the stereo
+calibration's error at new poses), are not refused for that.
+
 The fewest poses (`propose_poses`): the check's own points were measured after the change, so
 they count as data. New poses are added one at a time from feasible (visible) candidates, each the
 one that most lowers the predicted mean squared error of the updated model over those candidates,
