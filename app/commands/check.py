@@ -211,9 +211,23 @@ def _lab(args, job, monitor):
     result, diagnosis = job.check(cell, measure, log=args.log, progress=monitor.sub(0.3, 0.7))
     update = None
     if diagnosis is not None and args.out and diagnosis.explained and diagnosis.parameters:
-        update = job.reidentify_from_proposed(cell, result, diagnosis, measure, args.out, lab_options=opts,
-                                              log=args.log, seed=args.seed, progress=monitor.sub(0.7, 0.9))
+        update = _reidentified(lambda: job.reidentify_from_proposed(
+            cell, result, diagnosis, measure, args.out, lab_options=opts, log=args.log, seed=args.seed,
+            progress=monitor.sub(0.7, 0.9)))
     return where, cell, result, diagnosis, update, opts
+
+
+def _reidentified(run):
+    """The Update of a re-identification, or the words why it wrote nothing (a RoboCalError other
+    than a robot fault, which ends the command)."""
+    from core.errors import RoboCalError
+    from core.robot.driver import RobotFault
+    try:
+        return run()
+    except RobotFault:
+        raise
+    except RoboCalError as exc:
+        return f"{exc.problem}. {exc.hint or ''}".strip()
 
 
 def _files(args, job, monitor):
@@ -259,9 +273,9 @@ def _port(args, job, monitor):
         result, diagnosis = _check_poses(job, cell, poses, args.log, monitor)
         update = None
         if diagnosis is not None and args.out and diagnosis.explained and diagnosis.parameters:
-            update = job.reidentify_from_proposed(cell, result, diagnosis, _driven(poses), args.out,
-                                                  lab_options=opts, log=args.log, seed=args.seed,
-                                                  progress=monitor.sub(0.7, 0.9))
+            update = _reidentified(lambda: job.reidentify_from_proposed(
+                cell, result, diagnosis, _driven(poses), args.out, lab_options=opts, log=args.log, seed=args.seed,
+                progress=monitor.sub(0.7, 0.9)))
     return poses.where, cell, result, diagnosis, update, opts
 
 
@@ -300,7 +314,10 @@ def _result(args, where, cell, result, diagnosis, update, reid) -> CommandResult
         data["reid_poses"] = {"path": str(args.reid_poses), "poses": len(reid.Q)}
     elif diagnosis is not None and args.reid_poses:
         lines.append(f"{args.reid_poses} was not written: no single change explains the check.")
-    if update is not None:
+    if isinstance(update, str):
+        lines.append(f"{args.out} was not written: {update}")
+        data["reidentification_refused"] = update
+    elif update is not None:
         lines.append(f"Re-identified {', '.join(update.reidentification.changed)} from {len(update.proposed)} "
                      f"proposed poses and the check: wrote {update.path}. Check of the updated robot: "
                      + update.after.verdict())

@@ -111,14 +111,16 @@ def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: D
                              progress=None, cancelled=None) -> Update:
     """Propose the few poses that, with the check's points (measured after the change), determine
     what changed, measure them, re-identify from them and the check's points with the calibration
-    as prior, check the updated model at the check poses, and only when all that succeeded: keep
-    the file at `out` in history/ (`archive`) and write `out` atomically. A failure leaves no
-    file behind."""
+    as prior, check the updated model at the check poses, and only when all that succeeded and
+    that check is within limits: keep the file at `out` in history/ (`archive`) and write `out`
+    atomically. A failure, or an updated model still out of limits (RoboCalError advising a full
+    calibration), leaves no file behind."""
     monitor = Monitor(progress, cancelled)
     opts = {k: v for k, v in (lab_options or {}).items() if k != "robot"}
     opts["target"] = cell.target
     proposal = propose_poses(cell.model, cell.unc, diagnosis.parameters, result.Q, candidates=CANDIDATES,
-                             seed=seed, progress=monitor.sub(0.0, 0.3), cancelled=cancelled, **opts)
+                             seed=seed, measured_scale=diagnosis.chosen.noise_scale, progress=monitor.sub(0.0, 0.3),
+                             cancelled=cancelled, **opts)
     Qs, xyz = [], []
     for k, q in enumerate(proposal.Q):
         monitor.step(0.3 + 0.3 * k / len(proposal.Q), f"measuring proposed pose {k + 1} of {len(proposal.Q)}")
@@ -140,6 +142,10 @@ def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: D
     updated = replace(cell, model=re.model, unc=unc, source=str(out),
                       limits=check_limits(re.model, unc, cell.Q, [cell.target] * len(cell.Q), cell.limits.alpha))
     after, _ = check(updated, measure, log=log, progress=monitor.sub(0.7, 1.0), cancelled=cancelled)
+    if not after.cancelled and after.points and not after.within:
+        raise RoboCalError(f"after re-identifying {', '.join(re.changed)} the check is still out of limits "
+                           f"({after.rms_mm:.3f} mm RMS, limit {after.rms_limit_mm:.3f} mm); {out.name} was not "
+                           "changed", hint="The change is not only what the diagnosis found: run a full calibration.")
     path = write_keeping_previous(re, out, kept)
     return Update(re, Path(path), proposal.Q, after, updated)
 
@@ -243,7 +249,8 @@ def propose_reidentification(cell: CheckSetup, result: CheckResult, diagnosis: D
     what `diagnosis` found; `options`: the cell's cameras and marker (core.poses.candidates)."""
     opts = {k: v for k, v in (options or {}).items() if k not in ("robot", "target")}
     return propose_poses(cell.model, cell.unc, diagnosis.parameters, result.Q, target=cell.target,
-                         candidates=CANDIDATES, seed=seed, progress=progress, cancelled=cancelled, **opts)
+                         candidates=CANDIDATES, seed=seed, measured_scale=diagnosis.chosen.noise_scale,
+                         progress=progress, cancelled=cancelled, **opts)
 
 
 def change_parameters(model: RobotModel, target: str, kind: str) -> list:

@@ -24,7 +24,11 @@ one that most lowers the predicted mean squared error of the updated model over 
 tr(W·P) with W the mean of Φ(q)ᵀΦ(q) over the candidates and P = (ΦᵀΦ/σ² + prior)⁻¹ the
 posterior covariance (a Bayesian I-optimal design, the prior and the poses measured so far
 included), until that predicted error is within `accuracy` × the calibration's own, tr(W·C)
-(what a full calibration of the same kind achieves).
+(what a full calibration of the same kind achieves). The check's points count with their own
+noise when it is larger than σ (`measured_scale`, from the check's residuals once the change is
+fitted, core.monitoring.diagnosis.CandidateFit.noise_scale): the check poses sit at the
+workspace's edges, where points measured through images err more than the calibration's σ̂, and
+a re-identification resting on them alone puts those errors into the changed parameters.
 """
 from __future__ import annotations
 
@@ -90,11 +94,12 @@ def _prior_information(unc: CalibrationUncertainty, params: Sequence[Parameter],
 def propose_poses(model: RobotModel, unc: CalibrationUncertainty, changed: Sequence[Parameter],
                   measured=None, *, count: int | None = None, accuracy: float = DEFAULT_ACCURACY,
                   max_count: int | None = None, target: str = "marker", candidates: int = 600, seed: int = 0,
-                  progress=None, cancelled=None, **options) -> Proposal:
+                  measured_scale: float = 1.0, progress=None, cancelled=None, **options) -> Proposal:
     """The fewest new poses that, with the configurations `measured` (M, n; rad / mm) after the
     change (the check's points), bring the predicted error of re-identifying `changed` with the
     calibration `unc` as prior within `accuracy` × the calibration's own (see the module); at most
-    `max_count` (default 2·p_K), or exactly `count`. `options` go to
+    `max_count` (default 2·p_K), or exactly `count`. The `measured` points count with noise
+    σ·`measured_scale` (≥ 1). `options` go to
     core.poses.candidates.generate_candidates (rig, plate_size, visibility, floor, margin)."""
     monitor = Monitor(progress, cancelled)
     names = {p.name for p in changed}
@@ -117,7 +122,8 @@ def propose_poses(model: RobotModel, unc: CalibrationUncertainty, changed: Seque
     reference = math.sqrt(float(np.trace(W @ (C * np.outer(scale, scale)))))
     info = _prior_information(unc, params, names) / np.outer(scale, scale)
     if len(measured):
-        J0 = calibration_jacobian(model, measured, [target] * len(measured), params) / scale / sigma
+        J0 = calibration_jacobian(model, measured, [target] * len(measured), params) / scale / sigma / \
+            max(float(measured_scale), 1.0)
         info = info + J0.T @ J0
     info = info + 1e-9 * max(float(np.max(np.diag(info))), 1.0) * np.eye(len(params))  # changed set not yet determined
     P = np.linalg.inv(info)
@@ -309,7 +315,7 @@ def only_changed_probability(model: RobotModel, meas: Measurements, params: Sequ
     _, p_k = fit(K)
     rss_k = float(r @ r)
     dof = len(r) - p_f
-    if dof <= 0 or p_f <= p_k:
+    if p_f <= p_k or dof < p_f - p_k:           # too few points to tell the alternatives apart
         return 1.0
     stat = ((rss_k - rss_f) / (p_f - p_k)) / max(rss_f / dof, 1e-300)
     return float(f_dist.sf(max(stat, 0.0), p_f - p_k, dof))
