@@ -112,9 +112,10 @@ def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: D
     """Propose the few poses that, with the check's points (measured after the change), determine
     what changed, measure them, re-identify from them and the check's points with the calibration
     as prior, check the updated model at the check poses, and only when all that succeeded and
-    that check is within limits: keep the file at `out` in history/ (`archive`) and write `out`
-    atomically. A failure, or an updated model still out of limits (RoboCalError advising a full
-    calibration), leaves no file behind."""
+    that check's overall RMS is within its limit: keep the file at `out` in history/ (`archive`)
+    and write `out` atomically. A failure, or an updated model still out of limits as a whole
+    (RoboCalError advising a full calibration), leaves no file behind; one point beyond its own
+    limit alone does not refuse it (the next check shows it)."""
     monitor = Monitor(progress, cancelled)
     opts = {k: v for k, v in (lab_options or {}).items() if k != "robot"}
     opts["target"] = cell.target
@@ -142,7 +143,7 @@ def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: D
     updated = replace(cell, model=re.model, unc=unc, source=str(out),
                       limits=check_limits(re.model, unc, cell.Q, [cell.target] * len(cell.Q), cell.limits.alpha))
     after, _ = check(updated, measure, log=log, progress=monitor.sub(0.7, 1.0), cancelled=cancelled)
-    if not after.cancelled and after.points and not after.within:
+    if not after.cancelled and after.points and after.rms_mm > after.rms_limit_mm:     # as a whole, not one point
         raise RoboCalError(f"after re-identifying {', '.join(re.changed)} the check is still out of limits "
                            f"({after.rms_mm:.3f} mm RMS, limit {after.rms_limit_mm:.3f} mm); {out.name} was not "
                            "changed", hint="The change is not only what the diagnosis found: run a full calibration.")
