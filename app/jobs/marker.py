@@ -29,6 +29,7 @@ from core.images import load_gray
 from core.marker.correspondence import WindowSweep
 from core.marker.location import MarkerLocation, MarkerLocator
 from core.marker.training import TrainedMarker, find_outline, train_marker
+from core.provenance import changed_inputs, record_inputs
 from core.report.marker import DETAILS_FILE, DETAILS_FORMAT, LIVE_IMAGES
 from core.task import Monitor
 
@@ -302,6 +303,7 @@ def save_trained(project, trained: TrainedMarker) -> Path:
         files[Path(project.folder) / TRAINING_FILE] = png.tobytes()
     with output_locks(files):                   # not while a robocal command writes them
         atomic_write_many(files)                # both, or neither changed
+    record_marker_inputs(project)
     old = [verification_file(project), details_file(project)] + [Path(project.folder) / n for n in LIVE_IMAGES.values()]
     for record in old:
         try:
@@ -312,9 +314,30 @@ def save_trained(project, trained: TrainedMarker) -> Path:
 
 
 def write_verification(project, marker_name: str, record: dict) -> None:
-    """marker_verification.json: the marker `marker_name` was located (`record` says how)."""
+    """marker_verification.json: the marker `marker_name` was located (`record` says how), with
+    the project's stereo.yaml of now (recorded beside marker.npz)."""
     with output_lock(verification_file(project)):
         atomic_write_json(verification_file(project), {"format": VERIFICATION_FORMAT, "marker": marker_name, **record})
+    record_marker_inputs(project)
+
+
+def marker_inputs(project) -> dict[str, Path]:
+    """The project files the marker's training and verification are made with: stereo.yaml (when
+    the project has one; a marker checked with the Stereo step's unsaved result records none)."""
+    path = project.path("stereo")
+    return {path.name: path} if path.is_file() else {}
+
+
+def record_marker_inputs(project) -> None:
+    """Record beside marker.npz the stereo.yaml it was trained and verified with (core.provenance)."""
+    record_inputs(marker_file(project), marker_inputs(project))
+
+
+def marker_changed_inputs(project) -> list[str]:
+    """The inputs changed since the project's marker was trained or verified with them ([]: up to
+    date, or nothing recorded)."""
+    path = project.path("stereo")
+    return changed_inputs(marker_file(project), {path.name: path})
 
 
 def recorded_verification(project) -> bool:

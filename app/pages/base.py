@@ -37,6 +37,13 @@ from widgets.progress_row import ProgressRow
 DoneCallback = Callable[..., None]
 
 
+def out_of_date(what: str, changed: list[str], again: str) -> str:
+    """The words a page shows when its result was made from other input files than the project
+    now has (names from core.provenance.changed_inputs)."""
+    return (f"Out of date: {what} was made from other inputs than the project now has "
+            f"({', '.join(changed)} changed since). {again}")
+
+
 class TaskMixin:
     """One long task at a time for a page: start, progress, Cancel, and its outcome.
 

@@ -12,12 +12,12 @@ from PySide6.QtWidgets import QFileDialog, QTabWidget, QVBoxLayout
 
 from app.html import number
 from app.jobs.marker import (Comparison, LiveResult, Training, TrainingImage, VerificationResult,
-                             camera_live_pair, camera_training_image, capture_training_image, live_pair, load_training_image, recorded_verification,
-                             run_comparison, run_verification, save_trained, train_job, write_details,
-                             write_verification)
+                             camera_live_pair, camera_training_image, capture_training_image, live_pair,
+                             load_training_image, marker_changed_inputs, recorded_verification, run_comparison,
+                             run_verification, save_trained, train_job, write_details, write_verification)
 from app.jobs.marker_conditions import ConditionsPair, conditions_pair, run_sweep
 from app.lab import RobustnessTable, VirtualLab
-from app.pages.base import WizardPage
+from app.pages.base import WizardPage, out_of_date
 from app.pages.marker.autopilot import MarkerAutopilot
 from app.safety import motion_refused
 from app.pages.marker.compare_panel import ComparePanel
@@ -138,7 +138,8 @@ class MarkerPage(MarkerAutopilot, WizardPage):
             return "No project yet: create or open one in the Setup step (1).", None
         path = marker_file(project)
         if not path.is_file():
-            return "", None
+            return ("No trained marker in this project yet: capture or load a training image of the marker, "
+                    "then Train."), None
         try:
             trained = TrainedMarker.load(path)
         except RoboCalError as exc:
@@ -149,6 +150,9 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         self.training_panel.size_spin.setValue(trained.outer_size)
         self._draw_training()
         self.verified = recorded_verification(project)
+        changed = marker_changed_inputs(project)
+        if changed:
+            return out_of_date("the marker's verification", changed, "Run a verification (or a live pair) again."), False
         return (f"This project already has a trained marker ({path.name}, {trained.n_image_features} SIFT features)"
                 + (", verified: the step is done." if self.verified else
                    ". Locate it on a pair (Live pair or Verification) to finish the step."), self.verified)
@@ -166,6 +170,11 @@ class MarkerPage(MarkerAutopilot, WizardPage):
             self._locator = None
         self.stereo_bar.draw(src, self.state.virtual)
         self._update_buttons()
+        changed = self.changed_inputs() if self.state.project is not None else []
+        if changed and not self.busy:
+            self._set_status(out_of_date("the marker's verification", changed,
+                                         "Run a verification (or a live pair) again."), False)
+            self.notify_complete()
 
     # -- WizardPage -------------------------------------------------------------------------
     def on_enter(self) -> None:
@@ -173,7 +182,12 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         self.notify_complete()
 
     def is_complete(self) -> bool:
-        return self.trained is not None and self.saved_path is not None and self.verified
+        return (self.trained is not None and self.saved_path is not None and self.verified
+                and not self.changed_inputs())
+
+    def changed_inputs(self) -> list[str]:
+        """The project's inputs (stereo.yaml) changed since its marker was trained or verified."""
+        return marker_changed_inputs(self.state.project) if self.saved_path is not None else []
 
     # -- tasks --------------------------------------------------------------------------------
     def on_busy_changed(self) -> None:
@@ -397,10 +411,8 @@ class MarkerPage(MarkerAutopilot, WizardPage):
                 write_verification(project, self.saved_path.name, record)
             except RoboCalError as exc:
                 self._set_status(f"The verification record was not written: {exc.message}", False)
-        was = self.verified
         self.verified = True
-        if not was:
-            self.notify_complete()
+        self.notify_complete()
 
     # -- comparison ---------------------------------------------------------------------------
     def compare(self) -> bool:
