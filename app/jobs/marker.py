@@ -9,6 +9,7 @@ argument (the page asks `WizardState.request_lab` for it first).
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import re
@@ -31,7 +32,7 @@ from core.marker.location import MarkerLocation, MarkerLocator
 from core.marker.training import TrainedMarker, find_outline, train_marker
 from core.provenance import changed_inputs, record_inputs
 from core.report.marker import DETAILS_FILE, DETAILS_FORMAT, LIVE_IMAGES
-from core.task import Monitor
+from core.task import Cancelled, Monitor
 
 CROP_MARGIN = 0.18           # default crop: the found outline enlarged by this fraction per side
 
@@ -193,7 +194,18 @@ class VerificationResult:
     located: np.ndarray               # (n,) bool
     reasons: Counter = field(default_factory=Counter)
     seconds: float = 0.0
-    cancelled_after: int | None = None
+    cancelled_after: int | None = None    # Cancel came after this many poses (the result holds them)
+    planned: int = 0                      # poses asked for (0: n); more than n while running or cancelled
+
+    @property
+    def poses_planned(self) -> int:
+        return self.planned or self.n
+
+    def first(self, k: int) -> "VerificationResult":
+        """A copy of the first k poses (what was measured when the run was looked at or cancelled)."""
+        return VerificationResult(k, self.stereo, self.depth[:k].copy(), self.errors[:k].copy(),
+                                  self.sigmas[:k].copy(), self.located[:k].copy(), Counter(self.reasons),
+                                  self.seconds, self.cancelled_after, self.poses_planned)
 
     @property
     def n_located(self) -> int:
@@ -239,8 +251,10 @@ class VerificationResult:
 
 
 def run_verification(lab: VirtualLab, locator: MarkerLocator, n: int, seed: int, run: int, stereo: str,
-                     driver=None, *, progress=None, cancelled=None) -> VerificationResult:
-    """Locate the marker at n random visible robot poses of the virtual lab; compare with the truth."""
+                     driver=None, *, shown=None, progress=None, cancelled=None) -> VerificationResult:
+    """Locate the marker at n random visible robot poses of the virtual lab; compare with the truth.
+    `shown(result so far)` after every pose (a copy; from the worker thread). Cancel ends the run
+    after the poses measured: they come back, with `cancelled_after`."""
     monitor = Monitor(progress, cancelled)
     t0 = time.perf_counter()
     monitor.step(0.0, "choosing visible poses")
@@ -248,7 +262,13 @@ def run_verification(lab: VirtualLab, locator: MarkerLocator, n: int, seed: int,
     res = VerificationResult(n, stereo, np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan),
                              np.zeros(n, bool))
     for i, q in enumerate(Q):
-        monitor.step(i / n, f"pose {i + 1} of {n}")
+        try:
+            monitor.step(i / n, f"pose {i + 1} of {n}")
+        except Cancelled:
+            if i == 0:
+                raise
+            res.seconds, res.cancelled_after = time.perf_counter() - t0, i
+            return res.first(i)
         _move(driver, q)
         left, right = lab.render_marker_pair(q, np.random.default_rng([seed, 34, run, i]))
         truth = lab.marker_position(q)
@@ -260,8 +280,12 @@ def run_verification(lab: VirtualLab, locator: MarkerLocator, n: int, seed: int,
             res.sigmas[i] = float(np.linalg.norm(loc.sigma)) if loc.sigma is not None else np.nan
         else:
             res.reasons[short_reason(loc.reason)] += 1
+        if shown is not None:
+            res.seconds = time.perf_counter() - t0
+            shown(res.first(i + 1))
     res.seconds = time.perf_counter() - t0
-    monitor.step(1.0, "done")
+    with contextlib.suppress(Cancelled):        # a Cancel after the last pose: every pose is measured
+        monitor.step(1.0, "done")
     return res
 
 

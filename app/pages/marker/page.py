@@ -53,6 +53,7 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         self.comparison: Comparison | None = None
         self._live_count = 0
         self._verify_count = 0
+        self._verifying = 0                     # the verification run being drawn as it comes (0: none)
         self._conditions_count = 0
         self._build()
         state.projectChanged.connect(self._context_changed)
@@ -73,6 +74,7 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         self.ssd_panel = SsdPanel()
         self.verification_panel = VerificationPanel(self.progress_row())
         self.verification_panel.verify_button.clicked.connect(lambda: self.verify())
+        self.verification_panel.pointsArrived.connect(self._verification_so_far)
         self.compare_panel = ComparePanel()
         self.compare_panel.compare_button.clicked.connect(lambda: self.compare())
         self.conditions_panel = ConditionsPanel()
@@ -377,19 +379,29 @@ class MarkerPage(MarkerAutopilot, WizardPage):
             n = self.verification_panel.verify_spin.value()
             self._verify_count += 1
             self.tabs.setCurrentIndex(TAB_VERIFY)
+            self._verifying = self._verify_count
             return self.start(run_verification, lab, locator, n, int(self.state.seed), self._verify_count,
                               self.stereo.label, self.state.robot_connection, on_done=self._verified,
+                              shown=self.verification_panel.pointsArrived.emit,
                               label="Verification", then=then, status=f"Verification over {n} random poses…")
 
         return self.with_lab(go)
 
+    def _verification_so_far(self, v: VerificationResult) -> None:
+        """The poses measured so far, drawn while the verification runs (a late one is dropped)."""
+        if self.busy and self._verifying == self._verify_count:
+            self.verification_panel.draw(v, running=True)
+
     def _verified(self, v: VerificationResult) -> None:
+        self._verifying = 0
         self.verification = v
         self.verification_panel.draw(v)
         self._save_details(verification=v)
+        cancelled = (f"Cancelled after {v.n} of {v.poses_planned} poses, those measured are kept. "
+                     if v.cancelled_after is not None else "")
         if v.n_located:
             self._mark_verified({"kind": "verification", **v.to_dict()})
-            self._set_status(f"✓ Verification: {v.n_located} of {v.n} located, median 3D error "
+            self._set_status(f"✓ {cancelled}Verification: {v.n_located} of {v.n} located, median 3D error "
                              f"{number(v.median_error, 3, 'mm')}, RMS {number(v.rms_error, 3, 'mm')}. "
                              "The step is done.", True)
         else:
