@@ -68,6 +68,16 @@ def record_inputs(output: str | Path, inputs: dict[str, str | Path] | dict[str, 
                                                    "inputs": digests})
 
 
+def forget_inputs(output: str | Path) -> None:
+    """Remove `output`'s side file (its output was replaced by one made without a record)."""
+    side = inputs_file(output)
+    try:
+        side.unlink(missing_ok=True)
+    except OSError as exc:
+        raise RoboCalError(f"cannot remove the record of the old file's inputs ({exc.strerror})", source=side,
+                           hint="Check the folder's permissions, or delete the file.") from exc
+
+
 def recorded_inputs(output: str | Path) -> dict[str, str | None] | None:
     """The digests recorded beside `output`, None when there is no readable side file."""
     side = inputs_file(output)

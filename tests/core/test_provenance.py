@@ -55,3 +55,17 @@ def test_digests_taken_before_the_work_are_recorded_as_given(tmp_path):
     assert provenance.changed_inputs(out, {"measurements.csv": meas}) == ["measurements.csv"]
     (tmp_path / "calibrated.inputs.json").write_text("not json")
     assert provenance.changed_inputs(out, {"measurements.csv": meas}) == []
+
+
+def test_a_forgotten_record_says_nothing_again(tmp_path):
+    meas = tmp_path / "measurements.csv"
+    meas.write_text("q1,x\n0,1\n")
+    out = tmp_path / "calibrated.json"
+    out.write_text("{}")
+    provenance.record_inputs(out, {"measurements.csv": meas})
+    meas.write_text("q1,x\n0,2\n")
+    assert provenance.changed_inputs(out, {"measurements.csv": meas}) == ["measurements.csv"]
+    provenance.forget_inputs(out)
+    provenance.forget_inputs(out)                 # twice: nothing to remove is fine
+    assert not provenance.inputs_file(out).exists()
+    assert provenance.changed_inputs(out, {"measurements.csv": meas}) == []
