@@ -1,7 +1,8 @@
 """Words that follow the project: a result made from other inputs than the project now has is
 called out of date (Identification, Marker) and its step is not done until run again; the Check
 page sees a calibrated.json saved in the same session; the Marker page inside a project says what
-to do; the Setup page reads the joints again after another step moved the robot."""
+to do; the Setup page reads the joints again after another step moved the robot; measurements taken
+with another stereo calibration are out of date."""
 from __future__ import annotations
 
 import numpy as np
@@ -12,12 +13,14 @@ from app.main_window import MainWindow
 from app.pages.check.page import MISSING, CheckPage
 from app.pages.identification.page import IdentificationPage
 from app.pages.marker.page import MarkerPage
+from app.pages.measurement.page import MeasurementPage
 from app.pages.setup.page import SetupPage
 from app.pages.steps import Step
 from app.state import WizardState
 from app.worker import TaskRunner
 from core import project as projects
 from core.measurement.file import write_measurements
+from core.poses.file import write_poses
 from core.provenance import inputs_file
 from core.virtual_lab.synthetic import perturbed_model, simulate_measurements
 from tests.app.virtual_inputs import lab_marker, lab_state, make_lab, true_stereo_yaml
@@ -176,3 +179,25 @@ def test_the_step_list_marks_an_out_of_date_step(qtbot, tmp_path):
         assert window.step_list.state(row) is StepState.DONE
     finally:
         window.close()
+
+
+def test_measurements_are_out_of_date_after_a_new_stereo_calibration(qtbot, lab, tmp_path, made):
+    state = lab_state(lab)
+    lab_marker(lab).save(state.project.folder / "marker.npz")
+    write_poses(state.project.path("poses"), lab.nominal_robot.q_to_file(
+        lab.random_visible_poses(10, np.random.default_rng(5))))
+    page = made(MeasurementPage, state, TaskRunner())
+    assert page.start_run()
+    idle(qtbot, page)
+    assert page.is_complete() and page.changed_inputs() == [], page.status.text()
+    assert inputs_file(page.measurements_path()).is_file()
+    path = state.project.path("stereo")
+    path.write_text(path.read_text().replace("0.02", "0.05"))
+    page.on_enter()
+    assert not page.is_complete() and page.changed_inputs() == ["stereo.yaml"]
+    assert page.status.text().startswith("Out of date: measurements.csv was made from other inputs (stereo.yaml")
+    assert "Start over" in page.status.text()
+    page.grab().save(str(tmp_path / "measurement-out-of-date.png"))
+    assert page.start_over(confirm=False) and page.start_run()
+    idle(qtbot, page)
+    assert page.is_complete() and page.changed_inputs() == [], page.status.text()
