@@ -27,8 +27,9 @@ from core.task import Monitor
 
 CANDIDATES = 600
 #: shares of the progress bar, from timing the educational 6R's 8 check poses on the virtual lab:
-#: choosing the poses ~1 s, their limits ~5 s (no progress inside), a check through rendered images
-#: about as long as both; one with ideal measurements a few ms
+#: choosing the poses ~1 s, their limits ~5 s (no progress inside); a pair rendered and located
+#: takes ~1 s per pose (the Marker page's verification), so a check through images about as long
+#: as both; one with ideal measurements a few ms
 SELECTION_SHARE = 0.2
 CHECK_SHARE_IMAGES = 0.5
 CHECK_SHARE_IDEAL = 0.02

@@ -34,6 +34,7 @@ from core.marker.location import LocatorOptions, MarkerLocator
 from core.marker.training import TrainedMarker
 
 TAB_TRAINING, TAB_LIVE, TAB_SSD, TAB_VERIFY, TAB_COMPARE, TAB_CONDITIONS = range(6)
+AGAIN = "Run a verification (or a live pair) again."      # what makes an out-of-date marker current
 
 
 class MarkerPage(MarkerAutopilot, WizardPage):
@@ -154,7 +155,7 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         self.verified = recorded_verification(project)
         changed = marker_changed_inputs(project)
         if changed:
-            return out_of_date("the marker's verification", changed, "Run a verification (or a live pair) again."), False
+            return out_of_date("the marker's verification", changed, AGAIN), False
         return (f"This project already has a trained marker ({path.name}, {trained.n_image_features} SIFT features)"
                 + (", verified: the step is done." if self.verified else
                    ". Locate it on a pair (Live pair or Verification) to finish the step."), self.verified)
@@ -174,8 +175,7 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         self._update_buttons()
         changed = self.changed_inputs() if self.state.project is not None else []
         if changed and not self.busy:
-            self._set_status(out_of_date("the marker's verification", changed,
-                                         "Run a verification (or a live pair) again."), False)
+            self._set_status(out_of_date("the marker's verification", changed, AGAIN), False)
             self.notify_complete()
 
     # -- WizardPage -------------------------------------------------------------------------
