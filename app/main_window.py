@@ -364,8 +364,10 @@ class MainWindow(QMainWindow):
         for i, page in enumerate(self.pages):
             if page.load_error:
                 s = StepState.ERROR
+            elif page.is_complete():
+                s = StepState.DONE
             else:
-                s = StepState.DONE if page.is_complete() else StepState.TODO
+                s = StepState.STALE if page.changed_inputs() else StepState.TODO
             self.step_list.set_state(i, s)
         if self._current >= 0:
             ok = self.can_go_next()

@@ -11,6 +11,10 @@ hand on are typed attributes, each with its signal and its setter:
     state.set_poses(selection)        # posesChanged(selection)        PoseSelectionResult
     state.set_measurements(path)      # measurementsChanged(path)      Path of measurements.csv
     state.set_identification(result, accuracy)   # identificationChanged(result)
+    state.output_saved("calibrated")             # outputSaved(key): a step wrote that project file
+
+A page whose result was made from other inputs than the project now has says so (core.provenance:
+the inputs' hashes recorded beside an output) and its step is not done until it is run again.
 
 The virtual lab is built once, on a worker thread, by `request_lab(callback)`.
 
@@ -60,7 +64,8 @@ class WizardState(QObject):
     `stoppedChanged(bool)` (Stop / Resume), `cellChanged(Project)` (the project's cell changed:
     virtual lab or real cell, `set_cell`), `labChanged(VirtualLab | None)`, and one per
     step result (`stereoChanged`, `markerChanged`, `posesChanged`, `measurementsChanged`,
-    `identificationChanged`) with the new value.
+    `identificationChanged`) with the new value; `outputSaved(str)`: a step wrote a project
+    file (its core.project.OUTPUT_FILES key, or "marker"), so results made from it may be out of date.
     """
 
     projectChanged = Signal(object)
@@ -76,6 +81,7 @@ class WizardState(QObject):
     posesChanged = Signal(object)
     measurementsChanged = Signal(object)
     identificationChanged = Signal(object)
+    outputSaved = Signal(str)
 
     def __init__(self, parent: QObject | None = None, *, seed: int = 0, noise: float = 0.5):
         super().__init__(parent)
@@ -419,6 +425,10 @@ class WizardState(QObject):
         self.identification = result
         self.accuracy = accuracy
         self.identificationChanged.emit(result)
+
+    def output_saved(self, key: str) -> None:
+        """A step wrote the project file `key` ("stereo", "measurements", "calibrated", "marker"...)."""
+        self.outputSaved.emit(key)
 
     def _clear_results(self) -> None:
         self.stereo = self.marker = self.poses = self.measurements = None

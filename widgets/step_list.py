@@ -1,4 +1,4 @@
-"""A side list of numbered steps, each with a state: to do / done (or failed to load)."""
+"""A side list of numbered steps, each with a state: to do / done / out of date (or failed to load)."""
 from __future__ import annotations
 
 from enum import Enum
@@ -13,19 +13,21 @@ from PySide6.QtWidgets import (QAbstractItemView, QListWidget, QListWidgetItem, 
 class StepState(Enum):
     TODO = "to do"
     DONE = "done"
+    STALE = "out of date: run again"
     ERROR = "failed to load"
 
 
 _COLOURS = {
     StepState.TODO: QColor("#1a73e8"),
     StepState.DONE: QColor("#188038"),
+    StepState.STALE: QColor("#b06000"),
     StepState.ERROR: QColor("#c5221f"),
 }
 
 
 def state_icon(state: StepState, number: int, size: int = 28) -> QIcon:
-    """A round badge: the step number in a ring (to do), on a green disc with a tick (done),
-    on a red disc (failed to load)."""
+    """A round badge: the step number in a ring (to do; amber: out of date), on a green disc with
+    a tick (done), on a red disc (failed to load)."""
     scale = 2
     pix = QPixmap(size * scale, size * scale)
     pix.setDevicePixelRatio(scale)

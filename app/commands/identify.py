@@ -54,6 +54,7 @@ def run(args) -> CommandResult:
     from core.identification.prior import PriorOptions
     from core.identification.solver import identify, write_calibrated_model
     from core.measurement.file import read_measurements
+    from core.provenance import forget_inputs
     from core.robot.file import read_robot
 
     if args.holdout is not None and not 0.0 < args.holdout < 1.0:
@@ -67,6 +68,7 @@ def run(args) -> CommandResult:
                       seed=args.seed, prior=prior, orientation=args.orientation, compliance=args.compliance,
                       payload_kg=args.payload)
     write_calibrated_model(result, args.out)
+    forget_inputs(args.out)          # a record of the wizard's inputs belongs to the file replaced
     data = result.summary()
     data["out"] = str(args.out)
     return CommandResult(text=_text(result, args.out), data=data)

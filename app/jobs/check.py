@@ -26,6 +26,13 @@ from core.robot.model import RobotModel
 from core.task import Monitor
 
 CANDIDATES = 600
+#: shares of the progress bar, from timing the educational 6R's 8 check poses on the virtual lab:
+#: choosing the poses ~1 s, their limits ~5 s (no progress inside); a pair rendered and located
+#: takes ~1 s per pose (the Marker page's verification), so a check through images about as long
+#: as both; one with ideal measurements a few ms
+SELECTION_SHARE = 0.2
+CHECK_SHARE_IMAGES = 0.5
+CHECK_SHARE_IDEAL = 0.02
 
 
 @dataclass
@@ -76,9 +83,9 @@ def setup(robot_path, *, lab_options: dict | None = None, poses_path=None, count
     else:
         opts = {k: v for k, v in (lab_options or {}).items() if k != "robot"}
         opts["target"] = target
-        Q = select_check_poses(model, count, candidates=CANDIDATES, seed=seed, progress=monitor.sub(0.0, 0.7),
-                               cancelled=cancelled, **opts).Q
-    monitor.step(0.7, "limits of the check poses")
+        Q = select_check_poses(model, count, candidates=CANDIDATES, seed=seed,
+                               progress=monitor.sub(0.0, SELECTION_SHARE), cancelled=cancelled, **opts).Q
+    monitor.step(SELECTION_SHARE, "limits of the check poses")
     limits = check_limits(model, unc, Q, [target] * len(Q), alpha)
     monitor.step(1.0, "ready")
     return CheckSetup(model, unc, Q, limits, str(robot_path), target, tool)
@@ -230,17 +237,24 @@ def weighted_sigma_mm(path) -> float | None:
         return None
 
 
+def check_share(images) -> float:
+    """The check's share of a run that first chooses its poses: measuring through rendered images
+    takes about as long as choosing the poses and their limits; ideal measurements take no time."""
+    return CHECK_SHARE_IMAGES if images is not None else CHECK_SHARE_IDEAL
+
+
 def check_project(calibrated, lab, *, cell: CheckSetup | None = None, count: int = DEFAULT_CHECK_POSES,
                   change: str | None = None, images=None, log=None, seed: int = 0, tool: str | None = None,
                   progress=None, cancelled=None) -> tuple[CheckSetup, CheckResult, Diagnosis | None]:
     """The Check page's run: choose the check poses of `calibrated` for the mounted `tool` on the
     lab unless `cell` is given, then one check (appended to `log`) and its diagnosis."""
     monitor = Monitor(progress, cancelled)
+    share = 1.0 if cell is not None else check_share(images)      # of the whole run, for the check itself
     if cell is None:
         cell = setup(calibrated, lab_options=lab_options_of(lab), count=count, sigma_mm=weighted_sigma_mm(calibrated),
-                     tool=tool, progress=monitor.sub(0.0, 0.6), cancelled=cancelled)
+                     tool=tool, progress=monitor.sub(0.0, 1.0 - share), cancelled=cancelled)
     result, diagnosis = check_on_lab(cell, lab, change, images=images, log=log, seed=seed,
-                                     progress=monitor.sub(0.6, 1.0), cancelled=cancelled)
+                                     progress=monitor.sub(1.0 - share, 1.0), cancelled=cancelled)
     return cell, result, diagnosis
 
 

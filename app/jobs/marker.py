@@ -9,6 +9,7 @@ argument (the page asks `WizardState.request_lab` for it first).
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import re
@@ -29,8 +30,9 @@ from core.images import load_gray
 from core.marker.correspondence import WindowSweep
 from core.marker.location import MarkerLocation, MarkerLocator
 from core.marker.training import TrainedMarker, find_outline, train_marker
+from core.provenance import changed_inputs, record_inputs
 from core.report.marker import DETAILS_FILE, DETAILS_FORMAT, LIVE_IMAGES
-from core.task import Monitor
+from core.task import Cancelled, Monitor
 
 CROP_MARGIN = 0.18           # default crop: the found outline enlarged by this fraction per side
 
@@ -192,7 +194,18 @@ class VerificationResult:
     located: np.ndarray               # (n,) bool
     reasons: Counter = field(default_factory=Counter)
     seconds: float = 0.0
-    cancelled_after: int | None = None
+    cancelled_after: int | None = None    # Cancel came after this many poses (the result holds them)
+    planned: int = 0                      # poses asked for (0: n); more than n while running or cancelled
+
+    @property
+    def poses_planned(self) -> int:
+        return self.planned or self.n
+
+    def first(self, k: int) -> "VerificationResult":
+        """A copy of the first k poses (what was measured when the run was looked at or cancelled)."""
+        return VerificationResult(k, self.stereo, self.depth[:k].copy(), self.errors[:k].copy(),
+                                  self.sigmas[:k].copy(), self.located[:k].copy(), Counter(self.reasons),
+                                  self.seconds, self.cancelled_after, self.poses_planned)
 
     @property
     def n_located(self) -> int:
@@ -238,8 +251,10 @@ class VerificationResult:
 
 
 def run_verification(lab: VirtualLab, locator: MarkerLocator, n: int, seed: int, run: int, stereo: str,
-                     driver=None, *, progress=None, cancelled=None) -> VerificationResult:
-    """Locate the marker at n random visible robot poses of the virtual lab; compare with the truth."""
+                     driver=None, *, shown=None, progress=None, cancelled=None) -> VerificationResult:
+    """Locate the marker at n random visible robot poses of the virtual lab; compare with the truth.
+    `shown(result so far)` after every pose (a copy; from the worker thread). Cancel ends the run
+    after the poses measured: they come back, with `cancelled_after`."""
     monitor = Monitor(progress, cancelled)
     t0 = time.perf_counter()
     monitor.step(0.0, "choosing visible poses")
@@ -247,7 +262,13 @@ def run_verification(lab: VirtualLab, locator: MarkerLocator, n: int, seed: int,
     res = VerificationResult(n, stereo, np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan),
                              np.zeros(n, bool))
     for i, q in enumerate(Q):
-        monitor.step(i / n, f"pose {i + 1} of {n}")
+        try:
+            monitor.step(i / n, f"pose {i + 1} of {n}")
+        except Cancelled:
+            if i == 0:
+                raise
+            res.seconds, res.cancelled_after = time.perf_counter() - t0, i
+            return res.first(i)
         _move(driver, q)
         left, right = lab.render_marker_pair(q, np.random.default_rng([seed, 34, run, i]))
         truth = lab.marker_position(q)
@@ -259,8 +280,12 @@ def run_verification(lab: VirtualLab, locator: MarkerLocator, n: int, seed: int,
             res.sigmas[i] = float(np.linalg.norm(loc.sigma)) if loc.sigma is not None else np.nan
         else:
             res.reasons[short_reason(loc.reason)] += 1
+        if shown is not None:
+            res.seconds = time.perf_counter() - t0
+            shown(res.first(i + 1))
     res.seconds = time.perf_counter() - t0
-    monitor.step(1.0, "done")
+    with contextlib.suppress(Cancelled):        # a Cancel after the last pose: every pose is measured
+        monitor.step(1.0, "done")
     return res
 
 
@@ -302,6 +327,7 @@ def save_trained(project, trained: TrainedMarker) -> Path:
         files[Path(project.folder) / TRAINING_FILE] = png.tobytes()
     with output_locks(files):                   # not while a robocal command writes them
         atomic_write_many(files)                # both, or neither changed
+    record_marker_inputs(project)
     old = [verification_file(project), details_file(project)] + [Path(project.folder) / n for n in LIVE_IMAGES.values()]
     for record in old:
         try:
@@ -312,9 +338,30 @@ def save_trained(project, trained: TrainedMarker) -> Path:
 
 
 def write_verification(project, marker_name: str, record: dict) -> None:
-    """marker_verification.json: the marker `marker_name` was located (`record` says how)."""
+    """marker_verification.json: the marker `marker_name` was located (`record` says how), with
+    the project's stereo.yaml of now (recorded beside marker.npz)."""
     with output_lock(verification_file(project)):
         atomic_write_json(verification_file(project), {"format": VERIFICATION_FORMAT, "marker": marker_name, **record})
+    record_marker_inputs(project)
+
+
+def marker_inputs(project) -> dict[str, Path]:
+    """The project files the marker's training and verification are made with: stereo.yaml (when
+    the project has one; a marker checked with the Stereo step's unsaved result records none)."""
+    path = project.path("stereo")
+    return {path.name: path} if path.is_file() else {}
+
+
+def record_marker_inputs(project) -> None:
+    """Record beside marker.npz the stereo.yaml it was trained and verified with (core.provenance)."""
+    record_inputs(marker_file(project), marker_inputs(project))
+
+
+def marker_changed_inputs(project) -> list[str]:
+    """The inputs changed since the project's marker was trained or verified with them ([]: up to
+    date, or nothing recorded)."""
+    path = project.path("stereo")
+    return changed_inputs(marker_file(project), {path.name: path})
 
 
 def recorded_verification(project) -> bool:

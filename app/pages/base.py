@@ -37,6 +37,12 @@ from widgets.progress_row import ProgressRow
 DoneCallback = Callable[..., None]
 
 
+def out_of_date(what: str, changed: list[str], again: str) -> str:
+    """The words a page shows when its result was made from other input files than the project
+    now has (names from core.provenance.changed_inputs)."""
+    return f"Out of date: {what} was made from other inputs ({', '.join(changed)} changed since). {again}"
+
+
 class TaskMixin:
     """One long task at a time for a page: start, progress, Cancel, and its outcome.
 
@@ -250,6 +256,11 @@ class WizardPage(TaskMixin, QWidget):
     def is_complete(self) -> bool:
         """True when the step's output exists, so Next may go on (PySide's QWizardPage idea)."""
         return False
+
+    def changed_inputs(self) -> list[str]:
+        """The project files changed since this step's result was made from them (names; [] when
+        up to date or the step keeps no record): the step is then out of date, not done."""
+        return []
 
     def autopilot(self, done: DoneCallback) -> None:
         """Run the step on its own (classroom demo, `robocal gui --autopilot`) and call

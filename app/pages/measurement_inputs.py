@@ -27,6 +27,12 @@ def marker_file(project) -> Path:
     return Path(project.folder) / MARKER_FILE
 
 
+def measurement_inputs(project) -> dict[str, Path]:
+    """The project files a measurement run locates the marker with, by name: stereo.yaml and
+    marker.npz (core.provenance records them beside measurements.csv)."""
+    return {path.name: path for path in (project.path("stereo"), marker_file(project))}
+
+
 def verification_file(project) -> Path:
     return Path(project.folder) / VERIFICATION_FILE
 

@@ -184,3 +184,18 @@ def test_identify_with_orientation(tmp_path, capsys):
     code = main(argv + ["--orientation"])
     text = capsys.readouterr().out
     assert code == 0 and "Orientation (40 points)" in text and "marker.rz" in text
+
+
+def test_identify_over_a_wizard_calibration_drops_the_wizards_record_of_its_inputs(data, tmp_path, capsys):
+    from core.provenance import changed_inputs, inputs_file, record_inputs
+
+    meas = tmp_path / "measurements.csv"
+    meas.write_bytes((data / "m.csv").read_bytes())
+    out = tmp_path / "calibrated.json"
+    out.write_text("{}")
+    record_inputs(out, {"measurements.csv": data / "m.csv"})
+    meas.write_text(meas.read_text() + "# measured again\n")       # the wizard would call it out of date
+    assert changed_inputs(out, {"measurements.csv": meas}) == ["measurements.csv"]
+    code, _, err = run_json(capsys, ["identify", "--robot", ROBOT, "--measurements", str(meas), "--out", str(out)])
+    assert code == 0 and err == ""
+    assert not inputs_file(out).exists() and changed_inputs(out, {"measurements.csv": meas}) == []

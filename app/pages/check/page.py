@@ -38,6 +38,7 @@ from core.monitoring.log import CheckLog, read_check_log
 
 LOG_NAME = "checks.csv"
 MISSING = "No calibrated robot in the project (calibrated.json). Run the Identification step first."
+NO_PROJECT = "No project: choose one in the Setup step."
 
 
 def short_verdict(result) -> str:
@@ -104,6 +105,7 @@ class CheckPage(CellMixin, TeachMixin, WizardPage):
         state.connectionChanged.connect(lambda *_: self.refresh())
         state.camerasChanged.connect(lambda *_: self.refresh())
         state.robotChanged.connect(lambda *_: self._calibration_changed())
+        state.outputSaved.connect(lambda key: self.refresh() if key == "calibrated" else None)
         self.refresh()
 
     # -- sources -------------------------------------------------------------------------
@@ -168,13 +170,15 @@ class CheckPage(CellMixin, TeachMixin, WizardPage):
                 self._set_status(f"✗ {exc.message}", False)
         self.results.show_log(self.log)
         if not self._ready() and not self.busy:
-            self._set_status(MISSING if self.state.project is not None else
-                             "No project: choose one in the Setup step.", False)
+            self._set_status(MISSING if self.state.project is not None else NO_PROJECT, False)
         elif not self.state.virtual and not self.busy and self.result is None:
             problem = self.cell_problem()
             self._set_status(f"This project measures on {self.state.cell}. "
                              + (f"Nothing can be measured: {problem}." if problem else "Ready to check."),
                              None if problem is None else False)
+        elif not self.busy and self.status.text() in ("", MISSING, NO_PROJECT):     # words of before
+            self._set_status(f"Ready to check the calibrated robot ({self.calibrated_path().name}) on the "
+                             "virtual lab.", None)
         self.on_busy_changed()
         self.notify_complete()
 

@@ -18,7 +18,7 @@ from PySide6.QtWidgets import QFileDialog, QHBoxLayout, QLabel, QVBoxLayout
 
 from app.jobs.identification import IdentificationRun, generate_ideal_measurements, run_identification
 from app.lab import DEFAULT_POSES, DEFAULT_SIGMA_MM
-from app.pages.base import WizardPage
+from app.pages.base import WizardPage, out_of_date
 from app.pages.forms import button
 from app.pages.identification.options_panel import OptionsPanel
 from app.pages.identification.results_panel import ResultsPanel
@@ -30,6 +30,7 @@ from core.identification.exports import export_model
 from core.identification.solver import IdentificationResult, write_calibrated_model
 from core.measurement.file import read_measurements
 from core.measurement.synthetic import synthetic_description
+from core.provenance import changed_inputs, changed_since, fingerprint, record_inputs
 
 
 class IdentificationPage(WizardPage):
@@ -39,6 +40,7 @@ class IdentificationPage(WizardPage):
         super().__init__(state, tasks, **kwargs)
         self.run_result: IdentificationRun | None = None
         self.saved_path: Path | None = None
+        self._made_from: dict[str, str | None] | None = None    # digests of the inputs of `run_result`
         self._ready = False                 # measurements.csv exists and reads for the robot
         self.source = SourcePanel(on_ideal=self.use_ideal_measurements)
         self.options = OptionsPanel(self.progress_row(), robot=lambda: self.state.robot,
@@ -66,6 +68,8 @@ class IdentificationPage(WizardPage):
 
         state.projectChanged.connect(self._context_changed)
         state.robotChanged.connect(self._context_changed)
+        state.measurementsChanged.connect(lambda *_: self._inputs_changed())
+        state.outputSaved.connect(lambda key: self._inputs_changed() if key == "measurements" else None)
         self.options.set_busy(False)
         self._show_result()
         self._refresh_source()
@@ -78,6 +82,28 @@ class IdentificationPage(WizardPage):
     def measurements_path(self) -> Path | None:
         return self.state.project.path("measurements") if self.state.project is not None else None
 
+    def inputs(self) -> dict[str, Path]:
+        """The project files an identification is made from, by name."""
+        path = self.measurements_path()
+        return {path.name: path} if path is not None else {}
+
+    def changed_inputs(self) -> list[str]:
+        """The inputs that changed since this session's result (or the project's calibrated.json)
+        was made from them: [] when up to date or nothing is known."""
+        if self.state.project is None:
+            return []
+        if self.run_result is not None:
+            return changed_since(self._made_from, self.inputs())
+        return changed_inputs(self.state.project.path("calibrated"), self.inputs())
+
+    def _inputs_changed(self) -> None:
+        """New measurements: say whether the result is still the one made from them."""
+        self._refresh_source()
+        changed = self.changed_inputs()
+        if changed and not self.busy:
+            self._set_status(out_of_date("the identification", changed, "Identify again."), ok=False)
+        self.notify_complete()
+
     def fixed_names(self) -> list[str]:
         return self.options.fixed_names()
 
@@ -86,6 +112,7 @@ class IdentificationPage(WizardPage):
         self.forget_task()
         self.run_result = None
         self.saved_path = None
+        self._made_from = None
         self._show_result()
         self.options.rebuild_fix_menu()
         self._refresh_source()
@@ -94,10 +121,10 @@ class IdentificationPage(WizardPage):
     # -- WizardPage ----------------------------------------------------------------------
     def on_enter(self) -> None:
         self.options.rebuild_fix_menu()
-        self._refresh_source()
+        self._inputs_changed()
 
     def is_complete(self) -> bool:
-        return self.run_result is not None
+        return self.run_result is not None and not self.changed_inputs()
 
     def on_busy_changed(self) -> None:
         busy = self.busy
@@ -188,8 +215,14 @@ class IdentificationPage(WizardPage):
             return False
 
         def identify(lab=None) -> bool:
+            made_from = fingerprint(self.inputs())            # the measurements as the run reads them
+
+            def identified(run: IdentificationRun) -> None:
+                self._made_from = made_from
+                self._identified(run)
+
             return self.start(run_identification, state.robot, path, seed=state.seed, lab=lab, **opts,
-                              on_done=self._identified, label="Identifying", status="Identifying…")
+                              on_done=identified, label="Identifying", status="Identifying…")
 
         return self.with_lab(identify, status="Identifying…") if state.virtual else identify()
 
@@ -236,11 +269,14 @@ class IdentificationPage(WizardPage):
         path = self.state.project.path("calibrated")
         try:
             write_calibrated_model(self.result, path)
+            if self._made_from is not None:
+                record_inputs(path, self._made_from, hashed=True)
         except RoboCalError as exc:
             self._set_status(f"✗ {exc.message}", ok=False)
             return False
         self.saved_path = path
         self._set_status(f"✓ Saved {path}", ok=True)
+        self.state.output_saved("calibrated")
         return True
 
     def export_file(self, fmt: str, path: str | Path | None = None) -> Path | None:

@@ -12,12 +12,12 @@ from PySide6.QtWidgets import QFileDialog, QTabWidget, QVBoxLayout
 
 from app.html import number
 from app.jobs.marker import (Comparison, LiveResult, Training, TrainingImage, VerificationResult,
-                             camera_live_pair, camera_training_image, capture_training_image, live_pair, load_training_image, recorded_verification,
-                             run_comparison, run_verification, save_trained, train_job, write_details,
-                             write_verification)
+                             camera_live_pair, camera_training_image, capture_training_image, live_pair,
+                             load_training_image, marker_changed_inputs, recorded_verification, run_comparison,
+                             run_verification, save_trained, train_job, write_details, write_verification)
 from app.jobs.marker_conditions import ConditionsPair, conditions_pair, run_sweep
 from app.lab import RobustnessTable, VirtualLab
-from app.pages.base import WizardPage
+from app.pages.base import WizardPage, out_of_date
 from app.pages.marker.autopilot import MarkerAutopilot
 from app.safety import motion_refused
 from app.pages.marker.compare_panel import ComparePanel
@@ -34,6 +34,7 @@ from core.marker.location import LocatorOptions, MarkerLocator
 from core.marker.training import TrainedMarker
 
 TAB_TRAINING, TAB_LIVE, TAB_SSD, TAB_VERIFY, TAB_COMPARE, TAB_CONDITIONS = range(6)
+AGAIN = "Run a verification (or a live pair) again."      # what makes an out-of-date marker current
 
 
 class MarkerPage(MarkerAutopilot, WizardPage):
@@ -53,6 +54,7 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         self.comparison: Comparison | None = None
         self._live_count = 0
         self._verify_count = 0
+        self._verifying = 0                     # the verification run being drawn as it comes (0: none)
         self._conditions_count = 0
         self._build()
         state.projectChanged.connect(self._context_changed)
@@ -73,6 +75,7 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         self.ssd_panel = SsdPanel()
         self.verification_panel = VerificationPanel(self.progress_row())
         self.verification_panel.verify_button.clicked.connect(lambda: self.verify())
+        self.verification_panel.pointsArrived.connect(self._verification_so_far)
         self.compare_panel = ComparePanel()
         self.compare_panel.compare_button.clicked.connect(lambda: self.compare())
         self.conditions_panel = ConditionsPanel()
@@ -138,7 +141,8 @@ class MarkerPage(MarkerAutopilot, WizardPage):
             return "No project yet: create or open one in the Setup step (1).", None
         path = marker_file(project)
         if not path.is_file():
-            return "", None
+            return ("No trained marker in this project yet: capture or load a training image of the marker, "
+                    "then Train."), None
         try:
             trained = TrainedMarker.load(path)
         except RoboCalError as exc:
@@ -149,6 +153,9 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         self.training_panel.size_spin.setValue(trained.outer_size)
         self._draw_training()
         self.verified = recorded_verification(project)
+        changed = marker_changed_inputs(project)
+        if changed:
+            return out_of_date("the marker's verification", changed, AGAIN), False
         return (f"This project already has a trained marker ({path.name}, {trained.n_image_features} SIFT features)"
                 + (", verified: the step is done." if self.verified else
                    ". Locate it on a pair (Live pair or Verification) to finish the step."), self.verified)
@@ -166,6 +173,10 @@ class MarkerPage(MarkerAutopilot, WizardPage):
             self._locator = None
         self.stereo_bar.draw(src, self.state.virtual)
         self._update_buttons()
+        changed = self.changed_inputs() if self.state.project is not None else []
+        if changed and not self.busy:
+            self._set_status(out_of_date("the marker's verification", changed, AGAIN), False)
+            self.notify_complete()
 
     # -- WizardPage -------------------------------------------------------------------------
     def on_enter(self) -> None:
@@ -173,7 +184,12 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         self.notify_complete()
 
     def is_complete(self) -> bool:
-        return self.trained is not None and self.saved_path is not None and self.verified
+        return (self.trained is not None and self.saved_path is not None and self.verified
+                and not self.changed_inputs())
+
+    def changed_inputs(self) -> list[str]:
+        """The project's inputs (stereo.yaml) changed since its marker was trained or verified."""
+        return marker_changed_inputs(self.state.project) if self.saved_path is not None else []
 
     # -- tasks --------------------------------------------------------------------------------
     def on_busy_changed(self) -> None:
@@ -363,19 +379,29 @@ class MarkerPage(MarkerAutopilot, WizardPage):
             n = self.verification_panel.verify_spin.value()
             self._verify_count += 1
             self.tabs.setCurrentIndex(TAB_VERIFY)
+            self._verifying = self._verify_count
             return self.start(run_verification, lab, locator, n, int(self.state.seed), self._verify_count,
                               self.stereo.label, self.state.robot_connection, on_done=self._verified,
+                              shown=self.verification_panel.pointsArrived.emit,
                               label="Verification", then=then, status=f"Verification over {n} random poses…")
 
         return self.with_lab(go)
 
+    def _verification_so_far(self, v: VerificationResult) -> None:
+        """The poses measured so far, drawn while the verification runs (a late one is dropped)."""
+        if self.busy and self._verifying == self._verify_count:
+            self.verification_panel.draw(v, running=True)
+
     def _verified(self, v: VerificationResult) -> None:
+        self._verifying = 0
         self.verification = v
         self.verification_panel.draw(v)
         self._save_details(verification=v)
+        cancelled = (f"Cancelled after {v.n} of {v.poses_planned} poses, those measured are kept. "
+                     if v.cancelled_after is not None else "")
         if v.n_located:
             self._mark_verified({"kind": "verification", **v.to_dict()})
-            self._set_status(f"✓ Verification: {v.n_located} of {v.n} located, median 3D error "
+            self._set_status(f"✓ {cancelled}Verification: {v.n_located} of {v.n} located, median 3D error "
                              f"{number(v.median_error, 3, 'mm')}, RMS {number(v.rms_error, 3, 'mm')}. "
                              "The step is done.", True)
         else:
@@ -397,10 +423,8 @@ class MarkerPage(MarkerAutopilot, WizardPage):
                 write_verification(project, self.saved_path.name, record)
             except RoboCalError as exc:
                 self._set_status(f"The verification record was not written: {exc.message}", False)
-        was = self.verified
         self.verified = True
-        if not was:
-            self.notify_complete()
+        self.notify_complete()
 
     # -- comparison ---------------------------------------------------------------------------
     def compare(self) -> bool:

@@ -2,7 +2,7 @@
 virtual lab, its detection rate, 3D errors against the truth (mm) and rejection reasons."""
 from __future__ import annotations
 
-from PySide6.QtCore import Qt
+from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
 
 from app.html import esc, number
@@ -20,7 +20,9 @@ def verification_html(v: VerificationResult, truth: bool = True) -> str:
     """Detection rate, 3D errors (mm) and the rejection reasons counted."""
     rate = f"<b>{v.n_located} of {v.n}</b> located ({100 * v.detection_rate:.0f} %)"
     if v.cancelled_after is not None:
-        rate += f" — cancelled after {v.cancelled_after} poses"
+        rate += f" — cancelled after {v.n} of {v.poses_planned} poses (those measured are kept)"
+    elif v.n < v.poses_planned:
+        rate += f" so far — pose {v.n} of {v.poses_planned}"
     rows = [f"<p>{rate} in {v.seconds:.1f} s.</p>"]
     if truth and v.n_located:
         rows.append("<table cellspacing='0' cellpadding='2'>"
@@ -43,7 +45,10 @@ def verification_html(v: VerificationResult, truth: bool = True) -> str:
 
 class VerificationPanel(QWidget):
     """The Verification tab with the page's progress row; the page connects `verify_button`
-    and calls `draw(result)`."""
+    and calls `draw(result)`. `pointsArrived(result so far)` may be emitted from a worker thread
+    (Qt queues it to the GUI thread); the page draws it while its verification runs."""
+
+    pointsArrived = Signal(object)
 
     def __init__(self, progress: ProgressRow, parent: QWidget | None = None):
         super().__init__(parent)
@@ -69,8 +74,9 @@ class VerificationPanel(QWidget):
         body.addWidget(self.precision_plot, 1)
         layout.addLayout(body, 1)
 
-    def draw(self, v: VerificationResult | None) -> None:
-        """The summary and the precision plot of `v` (None: what a verification does)."""
+    def draw(self, v: VerificationResult | None, running: bool = False) -> None:
+        """The summary and the precision plot of `v` (None: what a verification does); `running`:
+        the poses measured so far (the progress row goes on)."""
         if v is None:
             self.verify_summary.setText(IDLE_TEXT)
             self.precision_plot.clear_points()
@@ -78,4 +84,9 @@ class VerificationPanel(QWidget):
             return
         self.verify_summary.setText(verification_html(v))
         self.precision_plot.set_points(v.depth, v.errors, v.sigmas)
-        self.progress.set_progress(1.0, "done")
+        if running:
+            return
+        if v.cancelled_after is not None:
+            self.progress.set_progress(v.n / v.poses_planned, f"cancelled after {v.n} of {v.poses_planned} poses")
+        else:
+            self.progress.set_progress(1.0, "done")

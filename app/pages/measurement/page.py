@@ -32,7 +32,7 @@ from PySide6.QtWidgets import QFileDialog, QLabel, QSplitter, QVBoxLayout
 
 from app.jobs.measurement import (MEASURED, PENDING, REJECTED, RUNNING, PoseRow, choose_pose_list, pose_rows,
                                   poses_needed)
-from app.pages.base import WizardPage
+from app.pages.base import WizardPage, out_of_date
 from app.pages.measurement.controls import RunControls
 from app.pages.measurement.pair_view import PairView
 from app.pages.measurement.pose_table import PoseTable
@@ -41,11 +41,12 @@ from app.pages.measurement.teach import TeachMixin
 from app.pages.measurement.teach_panel import TeachPanel
 from app.pages.measurement.texts import counts, ready_text, sources_html, summary_html
 from app.pages.measurement.views import MeasurementViews
-from app.pages.measurement_inputs import project_marker, stereo_source
+from app.pages.measurement_inputs import measurement_inputs, project_marker, stereo_source
 from app.pages.steps import Step
 from core.errors import RoboCalError
 from core.measurement.run import rejects_path_for
 from core.poses.file import PoseList, read_pose_list
+from core.provenance import changed_inputs
 from widgets.workspace_views import camera_wedges
 
 
@@ -66,6 +67,7 @@ class MeasurementPage(RunMixin, TeachMixin, WizardPage):
         self.result = None                          # the last MeasurementRunResult
         self._pause = threading.Event()
         self._run_id = 0                            # the poses reported by an older run are dropped
+        self._made_from = (None, False)             # (inputs' digests, from the first pose) of the run
         self._autopilot_retried = False
         self._wedges = None
         self._file_problem = ""
@@ -221,7 +223,13 @@ class MeasurementPage(RunMixin, TeachMixin, WizardPage):
         self.notify_complete()
 
     def is_complete(self) -> bool:
-        return self.n_min > 0 and self.n_measured >= self.n_min
+        return self.n_min > 0 and self.n_measured >= self.n_min and not self.changed_inputs()
+
+    def changed_inputs(self) -> list[str]:
+        """stereo.yaml or marker.npz changed since measurements.csv was measured with them."""
+        if self.state.project is None:
+            return []
+        return changed_inputs(self.measurements_path(), measurement_inputs(self.state.project))
 
     def on_busy_changed(self) -> None:
         self._update_buttons()
@@ -271,6 +279,11 @@ class MeasurementPage(RunMixin, TeachMixin, WizardPage):
         self._show_teach()
 
     def _ready_status(self) -> None:
+        changed = self.changed_inputs()
+        if changed and not self._pending():
+            self._set_status(out_of_date("measurements.csv", changed,
+                                         "Start over… to measure every pose with them."), False)
+            return
         c = self.counts()
         complete = self.is_complete()
         ok = False if self._file_problem else (complete if not self._pending() and c[MEASURED] else None)

@@ -17,10 +17,11 @@ from PySide6.QtWidgets import QMessageBox
 from app import messages
 from app.jobs.measurement import MEASURED, PENDING, REJECTED, RUNNING, measure_virtual, move_aside
 from app.jobs.measurement_hardware import capture_source, measure_hardware
-from app.pages.measurement_inputs import project_marker, stereo_source
+from app.pages.measurement_inputs import measurement_inputs, project_marker, stereo_source
 from app.safety import motion_refused
 from core.errors import RoboCalError
 from core.measurement.run import PoseOutcome, rejects_path_for
+from core.provenance import fingerprint, record_inputs, recorded_inputs
 
 
 class RunMixin:
@@ -116,6 +117,7 @@ class RunMixin:
         self.result = None
         pending = len(self._pending())
         done = len(self.rows) - pending
+        self._made_from = (fingerprint(measurement_inputs(self.state.project)), done == 0)
         status = (f"Measuring {pending} pose{'s' if pending != 1 else ''}"
                   + (f" (continuing after the {done} done earlier)" if done else "") + "… Esc stops the robot.")
         driver, path = self.state.robot_connection, self.measurements_path()
@@ -182,10 +184,26 @@ class RunMixin:
         """A run ended: the files are the truth."""
         self.controls.pause_button.setChecked(False)
         self._pause.clear()
+        self._record_inputs()
         self._read_existing()
         done = sum(1 for r in self.rows if r.status in (MEASURED, REJECTED))
         self.controls.show_done(done, len(self.rows))
         self._redraw()
+
+    def _record_inputs(self) -> None:
+        """Record beside measurements.csv the stereo.yaml and marker.npz the run measured with: a
+        run from the first pose records them; a continued run keeps the record (a record of other
+        inputs stays, so that the mixed file is out of date; a file without one stays unknown)."""
+        made_from, fresh = self._made_from
+        self._made_from = (None, False)
+        path = self.measurements_path()
+        if made_from is None or path is None or not path.is_file():
+            return
+        if fresh or recorded_inputs(path) == made_from:
+            try:
+                record_inputs(path, made_from, hashed=True)
+            except RoboCalError as exc:
+                self._set_status(f"The record of the run's inputs was not written: {exc.message}", False)
 
     def _robot_stopped(self) -> bool:
         driver = self.state.robot_connection

@@ -199,6 +199,7 @@ class SetupPage(WizardPage):
 
     def on_enter(self) -> None:
         self._refresh()
+        self.robot_panel.read_again()          # the robot may have moved on another page
         self.camera_panel.start_preview()
 
     def on_leave(self) -> None:

@@ -199,6 +199,18 @@ class RobotPanel(QGroupBox):
             return False
         return self.page.start(read_joints, driver, on_done=self._joints_read, label="Reading the joints")
 
+    def read_again(self) -> bool:
+        """The joints shown were read before another step moved the robot: forget them (a jog
+        never starts from an old reading) and read them again when the robot is connected."""
+        if self.joints is None:
+            return False
+        self.joints = None
+        self.refresh()
+        driver = self.state.robot_connection
+        if driver is None or not driver.connected or self.page.busy:
+            return False
+        return self.read_joints()
+
     def _joints_read(self, q) -> None:
         self.joints = np.asarray(q, dtype=float)
         self.page._set_status("Joints read.", True)

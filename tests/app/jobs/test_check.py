@@ -1,0 +1,58 @@
+"""app.jobs.check: the progress of a check adds up — "check pose k of n" comes at the fraction of
+the poses done, within the check's own share of the run (the whole bar once the poses exist)."""
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from app.jobs import check as job
+from app.lab import build_lab, ideal_lab_measurements, lab_options
+from core.identification.solver import identify, write_calibrated_model
+from core.robot.file import read_robot
+from core.robot.model import robot_path
+
+POSES = 6
+
+
+@pytest.fixture(scope="module")
+def calibrated(tmp_path_factory):
+    lab = build_lab(read_robot(robot_path("educational_6r")), 0, 0.5)
+    path = tmp_path_factory.mktemp("check") / "calibrated.json"
+    write_calibrated_model(identify(lab.nominal_robot, ideal_lab_measurements(lab, 50, sigma_mm=0.05, seed=4)), path)
+    return lab, path
+
+
+def pose_fractions(marks) -> dict[int, float]:
+    """{k: fraction} of the "check pose k of n" messages."""
+    found = {}
+    for fraction, message in marks:
+        m = re.fullmatch(r"check pose (\d+) of (\d+)", message)
+        if m:
+            assert int(m.group(2)) == POSES
+            found[int(m.group(1))] = fraction
+    return found
+
+
+def test_a_check_of_chosen_poses_fills_the_whole_bar_pose_by_pose(calibrated):
+    lab, path = calibrated
+    first = []
+    cell, _, _ = job.check_project(path, lab, count=POSES, progress=lambda f, m: first.append((f, m)))
+    fractions = [f for f, _ in first]
+    assert fractions == sorted(fractions) and fractions[-1] == pytest.approx(1.0)
+    start = 1.0 - job.check_share(None)               # the poses were chosen first: the check's share follows
+    assert pose_fractions(first) == pytest.approx({k: start + job.check_share(None) * (k - 1) / POSES
+                                                   for k in range(1, POSES + 1)})
+    again = []
+    job.check_project(path, lab, cell=cell, progress=lambda f, m: again.append((f, m)))
+    assert pose_fractions(again) == pytest.approx({k: (k - 1) / POSES for k in range(1, POSES + 1)})
+    assert again[-1] == (pytest.approx(1.0), "check done")
+
+
+def test_choosing_the_poses_gives_most_of_the_bar_to_their_limits(calibrated):
+    lab, path = calibrated
+    marks = []
+    job.setup(path, lab_options=lab_options(lab), count=POSES, progress=lambda f, m: marks.append((f, m)))
+    limits = [f for f, m in marks if m == "limits of the check poses"]
+    assert limits == [pytest.approx(job.SELECTION_SHARE)]
+    assert max(f for f, m in marks if m != "ready" and m != "limits of the check poses") <= job.SELECTION_SHARE + 1e-9
