@@ -83,3 +83,22 @@ def test_relative_to_without_place_and_an_unknown_reference_are_refused(lab_file
                       "--relative-to", "tip")) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "the reference target 'tip' is not in the robot" in err[0]
+
+
+def test_a_calibration_with_deflection_terms_says_they_hold_for_its_payload(tmp_path, capsys):
+    from core.virtual_lab.ideal_measurements import ideal_lab_measurements as lab_points
+    from core.virtual_lab.lab import VirtualLab
+
+    lab = VirtualLab.create(seed=0, noise=0.5, deflection=True)
+    write_calibrated_model(identify(lab.nominal_robot, lab_points(lab, 40, sigma_mm=0.02, seed=4), compliance="on",
+                                    payload_kg=1.0), tmp_path / "bent.json")
+    write_measurements(lab_points(lab, 8, sigma_mm=0.02, seed=9), tmp_path / "check.csv")
+    code, data, err = run_json(capsys, ["check", "--robot", str(tmp_path / "bent.json"), "--log",
+                                        str(tmp_path / "c.csv"), "--measurements", str(tmp_path / "check.csv"),
+                                        "--payload", "3"])
+    assert code == 0 and err == "" and data["check"]["within"]
+    assert data["payload"] == {"declared_kg": 3.0, "calibration_kg": 1.0, "differs": True, "deflection_terms": True}
+    main(["check", "--robot", str(tmp_path / "bent.json"), "--log", str(tmp_path / "c.csv"), "--measurements",
+          str(tmp_path / "check.csv"), "--payload", "3"])
+    assert ("Payload: 3 kg declared, 1 kg during calibration: its deflection terms hold for 1 kg (a heavier tool "
+            "bends the arm more).") in capsys.readouterr().out.splitlines()
