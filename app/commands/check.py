@@ -24,7 +24,7 @@ OUT_OF_LIMITS = 3
 ALPHA = Bound(1e-4, 0.2, "", "a false-alarm probability")
 SIGMA = Bound(1e-4, 10.0, "mm", "a measurement noise per axis")
 
-INPUTS = ("robot", "poses", "stereo", "marker", "lab_robot", "joints", "images", "measurements")
+INPUTS = ("robot", "poses", "stereo", "marker", "lab_robot", "joints", "images", "measurements", "place")
 OUTPUTS = ("log", "out", "propose_poses", "reid_poses")
 
 
@@ -42,6 +42,16 @@ def add_arguments(parser) -> None:
     parser.add_argument("--tool", metavar="NAME",
                         help="the tool mounted, by its name in the robot file's \"tools\" (default: the first "
                              "calibrated tool); check poses, predictions and limits use its target")
+    parser.add_argument("--payload", type=options.payload_kg, metavar="KG",
+                        help="the mass mounted on the flange now (kg); compared with the payload the calibration "
+                             "recorded, for which its deflection terms hold")
+    parser.add_argument("--place", metavar="ONCE.csv",
+                        help="measurements file of targets the robot file lacks, each measured in one pose: they are "
+                             "placed on the tool before the check; by the model alone unless --relative-to is given")
+    parser.add_argument("--relative-to", type=options.target_names, metavar="TARGETS",
+                        help="with --place: calibrated target(s) measured in the same pose as each new one "
+                             "(comma-separated); the new target is placed from the difference of the two "
+                             "measurements, so the model's own error at that pose cancels")
     files = parser.add_argument_group("measured outside RoboCal: captured pairs or another instrument")
     files.add_argument("--joints", metavar="POSES.csv", help="joint values of the captured check poses "
                        "(pose,q1..qn), one per pair in --images")
@@ -121,6 +131,8 @@ def _validate(args, source: str) -> None:
     if source in ("images", "measurements", "propose") and args.poses:
         raise _usage("--poses gives the poses to drive (lab or connected robot); captured pairs take theirs from "
                      "--joints, a measurements file from its rows")
+    if args.relative_to and not args.place:
+        raise _usage("--relative-to needs --place ONCE.csv (the measurements of the new targets)")
     if source == "propose" and (args.reid_poses or args.out):
         raise _usage("--propose-poses measures nothing, so there is nothing to re-identify")
 
@@ -133,16 +145,17 @@ def run(args) -> CommandResult:
     _validate(args, source)
     progress = ProgressLine("check")
     monitor = Monitor(progress)
+    robot, placed = _robot(args)
     try:
         if source == "propose":
-            return _propose(args, job, monitor)
+            return _propose(args, job, monitor, robot)
         if source == "lab":
             run_check = _lab
         elif source == "port":
             run_check = _port
         else:
             run_check = _files
-        where, cell, result, diagnosis, update, options_ = run_check(args, job, monitor)
+        where, cell, result, diagnosis, update, options_ = run_check(args, job, monitor, robot)
         reid = None
         if diagnosis is not None and diagnosis.explained and diagnosis.parameters and args.reid_poses:
             from core.poses.file import write_poses
@@ -152,10 +165,22 @@ def run(args) -> CommandResult:
             write_poses(args.reid_poses, reid.q_file)
     finally:
         progress.close()
-    return _result(args, where, cell, result, diagnosis, update, reid)
+    return _result(args, where, cell, result, diagnosis, update, reid, placed)
 
 
-def _propose(args, job, monitor) -> CommandResult:
+def _robot(args):
+    """The calibrated robot, with the targets of --place placed on the tool (and how each was)."""
+    from core.identification.placement import place_targets
+    from core.measurement.file import read_measurements
+    from core.robot.file import read_robot
+
+    robot = read_robot(args.robot)
+    if not args.place:
+        return robot, []
+    return place_targets(robot, read_measurements(args.place, robot), references=args.relative_to or ())
+
+
+def _propose(args, job, monitor, robot) -> CommandResult:
     from core.poses.file import write_poses
     from app.jobs.check_sources import stereo_options
 
@@ -164,7 +189,7 @@ def _propose(args, job, monitor) -> CommandResult:
     if not args.stereo and (args.lab or args.lab_seed is not None or args.lab_robot):
         opts = _lab_options(args)[1]
     cell = job.setup(args.robot, lab_options=opts, count=args.count, alpha=args.alpha, seed=args.seed, tool=args.tool,
-                     progress=monitor)
+                     model=robot, progress=monitor)
     write_poses(args.propose_poses, cell.model.q_to_file(cell.Q))
     seen = ("both cameras of the stereo calibration see the marker" if args.stereo
             else "the virtual lab's cameras see the marker" if opts else "no camera given: joint limits only")
@@ -186,14 +211,14 @@ def _locator(args):
     return setup_locator(args)[0]
 
 
-def _lab(args, job, monitor):
+def _lab(args, job, monitor, robot):
     from app.lab import apply_change, ideal_measure, image_measure, parse_change
     from core.errors import UsageError
 
     change = parse_change(args.change) if args.change else None
     lab, opts = _lab_options(args)
     cell = job.setup(args.robot, lab_options=opts, poses_path=args.poses, count=args.count, alpha=args.alpha,
-                     seed=args.seed, tool=args.tool, progress=monitor.sub(0.0, 0.3))
+                     seed=args.seed, tool=args.tool, model=robot, progress=monitor.sub(0.0, 0.3))
     if cell.target not in lab.nominal_robot.targets:
         raise UsageError(f"the virtual lab's robot has no target '{cell.target}' of the tool '{cell.tool}'",
                          hint="Give --lab-robot the robot file that defines the tool.")
@@ -230,11 +255,10 @@ def _reidentified(run):
         return f"{exc.problem}. {exc.hint or ''}".strip()
 
 
-def _files(args, job, monitor):
+def _files(args, job, monitor, robot):
     from app.jobs import check_sources
-    from core.robot.file import read_robot
 
-    model = read_robot(args.robot)
+    model = robot
     if args.measurements:
         unc = job.calibration_uncertainty(model, source=args.robot)
         _, target = job.mounted_tool(model, unc, args.tool, args.robot)
@@ -244,7 +268,8 @@ def _files(args, job, monitor):
         locator = _locator(args)
         poses = check_sources.image_files(model, args.joints, args.images, locator)
         opts = check_sources.stereo_options(args.stereo, args.marker_size)
-    cell = job.setup(args.robot, Q=poses.Q, alpha=args.alpha, tool=args.tool, progress=monitor.sub(0.0, 0.1))
+    cell = job.setup(args.robot, Q=poses.Q, alpha=args.alpha, tool=args.tool, model=robot,
+                     progress=monitor.sub(0.0, 0.1))
     result, diagnosis = _check_poses(job, cell, poses, args.log, monitor)
     return poses.where, cell, result, diagnosis, None, opts
 
@@ -260,12 +285,12 @@ def _check_poses(job, cell, poses, log, monitor):
     return result, diagnosis
 
 
-def _port(args, job, monitor):
+def _port(args, job, monitor, robot):
     from app.jobs import check_sources
 
     opts = check_sources.stereo_options(args.stereo, args.marker_size)
     cell = job.setup(args.robot, lab_options=opts, poses_path=args.poses, count=args.count, alpha=args.alpha,
-                     seed=args.seed, tool=args.tool, progress=monitor.sub(0.0, 0.2))
+                     seed=args.seed, tool=args.tool, model=robot, progress=monitor.sub(0.0, 0.2))
     locator = _locator(args)
     cameras = check_sources.parse_cameras(args.cameras)
     with check_sources.connected_cell(cell.model, cell.Q, args.port, args.profile, cameras, locator,
@@ -294,7 +319,25 @@ def _driven(poses):
     return measure
 
 
-def _result(args, where, cell, result, diagnosis, update, reid) -> CommandResult:
+def _payload(args, model) -> tuple[str | None, dict | None]:
+    """One line comparing the declared payload (--payload) with the calibration's, and its JSON."""
+    if args.payload is None:
+        return None, None
+    recorded = (model.calibration or {}).get("payload_kg")
+    terms = model.compliance is not None and not model.compliance.is_zero
+    data = {"declared_kg": args.payload, "calibration_kg": recorded,
+            "differs": recorded is not None and abs(float(recorded) - args.payload) > 1e-9, "deflection_terms": terms}
+    if recorded is None:
+        return (f"Payload: {args.payload:g} kg declared; the calibration did not record the payload it was measured "
+                "with, so it cannot be compared.", data)
+    if not data["differs"]:
+        return None, data
+    why = (f"its deflection terms hold for {float(recorded):g} kg (a heavier tool bends the arm more)" if terms
+           else "the arm bends more under a heavier tool")
+    return f"Payload: {args.payload:g} kg declared, {float(recorded):g} kg during calibration: {why}.", data
+
+
+def _result(args, where, cell, result, diagnosis, update, reid, placed) -> CommandResult:
     lines = [f"Measured on {where}.", result.verdict()]
     change = "none"
     if diagnosis is not None:
@@ -305,6 +348,14 @@ def _result(args, where, cell, result, diagnosis, update, reid) -> CommandResult
             "poses": [{"pose": p.pose, "error_mm": p.error_mm, "limit_mm": p.limit_mm, "within": p.within}
                       for p in result.points],
             "check": result.summary(), "lab_change": args.change}
+    payload, data["payload"] = _payload(args, cell.model)
+    if payload:
+        lines.insert(1, payload)
+    for p in placed:
+        lines.append(f"{p.name} placed {p.how} from pose {', '.join(str(i) for i in p.poses)}: "
+                     f"({', '.join(f'{v:.3f}' for v in p.offset)}) mm on the tool")
+    if placed:
+        data["placed"] = [p.summary() for p in placed]
     if diagnosis is not None:
         lines.append(diagnosis.text)
         data["diagnosis"] = diagnosis.summary()

@@ -68,12 +68,13 @@ def mounted_tool(model: RobotModel, unc: CalibrationUncertainty, tool: str | Non
 
 def setup(robot_path, *, lab_options: dict | None = None, poses_path=None, count: int = DEFAULT_CHECK_POSES,
           alpha: float = 0.01, sigma_mm: float | None = None, seed: int = 0, tool: str | None = None,
-          Q=None, progress=None, cancelled=None) -> CheckSetup:
-    """Read the calibrated robot, take the check poses Q (rad / mm), or from `poses_path`, or
+          Q=None, model: RobotModel | None = None, progress=None, cancelled=None) -> CheckSetup:
+    """Read the calibrated robot (or take `model`, read from it and changed, e.g. with targets
+    placed), take the check poses Q (rad / mm), or from `poses_path`, or
     choose `count` of them (with the lab's or cell's cameras and marker in `lab_options`) for the
     mounted `tool` (None: the first calibrated one), and compute their limits."""
     monitor = Monitor(progress, cancelled)
-    model = read_robot(robot_path)
+    model = read_robot(robot_path) if model is None else model
     unc = calibration_uncertainty(model, source=robot_path, sigma_mm=sigma_mm)
     tool, target = mounted_tool(model, unc, tool, robot_path)
     if Q is not None:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from core.errors import RoboCalError
+from core.report.compliance import deflection_blocks
 from core.project import Project
 from core.report.document import (Figure, Section, esc, not_done, num, panel, series, sig, table,
                                   unreadable)
@@ -96,6 +97,7 @@ def _blocks(calibration: dict, model: RobotModel, source: str, robot, accuracy, 
                    [series("nominal", values=accuracy.nominal.errors, color=1)]),
              panel("histogram", "calibrated model", "error (mm)", "points",
                    [series("calibrated", values=accuracy.calibrated.errors, color=0)])]))
+    blocks += deflection_blocks(calibration, model, facts.get("measurements"))
     blocks.append(_parameters(calibration))
     blocks.append(_correlation(calibration))
     return blocks
