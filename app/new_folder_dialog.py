@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from PySide6.QtWidgets import QFileDialog, QWidget
+from PySide6.QtWidgets import QDialogButtonBox, QFileDialog, QLineEdit, QWidget
 
 
 class NewFolderDialog(QFileDialog):
@@ -23,6 +23,18 @@ class NewFolderDialog(QFileDialog):
         self.setLabelText(QFileDialog.DialogLabel.FileName, "Folder:")
         self.setLabelText(QFileDialog.DialogLabel.Accept, "Choose")
         self._folder: Path | None = None
+        # Qt disables its accept button for a name that does not exist: enabled again after Qt's own update
+        self.name_edit = self.findChild(QLineEdit, "fileNameEdit")
+        self.name_edit.textChanged.connect(self._allow_new_name)
+        self.directoryEntered.connect(self._allow_new_name)
+
+    def accept_button(self):
+        return self.findChild(QDialogButtonBox, "buttonBox").button(QDialogButtonBox.StandardButton.Open)
+
+    def _allow_new_name(self, *_) -> None:
+        text = self.name_edit.text().strip()
+        if text and not Path(self.directory().absoluteFilePath(text)).exists():
+            self.accept_button().setEnabled(True)
 
     def folder(self) -> Path | None:
         return self._folder

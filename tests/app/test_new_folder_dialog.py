@@ -30,8 +30,8 @@ def page(qtbot):
 
 
 def _answer_folder_dialog(qtbot, text: str | None, seen: list) -> None:
-    """Once the folder dialog is open: type `text` into its name field and press Enter
-    (None: press Esc)."""
+    """Once the folder dialog is open: type `text` into its name field and click its Choose
+    button (None: press Esc)."""
     def answer():
         dialog = QApplication.activeModalWidget()
         if not isinstance(dialog, NewFolderDialog):
@@ -44,7 +44,12 @@ def _answer_folder_dialog(qtbot, text: str | None, seen: list) -> None:
             return
         edit.clear()
         qtbot.keyClicks(edit, text)
-        qtbot.keyClick(edit, Qt.Key.Key_Return)
+        button = dialog.accept_button()
+        seen.append(button.isEnabled())
+        if button.isEnabled():
+            qtbot.mouseClick(button, Qt.MouseButton.LeftButton)
+        else:                                        # fail, not hang
+            dialog.reject()
     QTimer.singleShot(0, answer)
 
 
@@ -55,7 +60,7 @@ def test_a_new_folder_typed_by_name_becomes_the_project(page, qtbot, tmp_path, m
     _answer_folder_dialog(qtbot, "Cell 7 calibration", seen)
     project = page.new_project()
     target = tmp_path / "Cell 7 calibration"
-    assert seen and "type a new folder's name" in seen[0]
+    assert "type a new folder's name" in seen[0] and seen[1] is True        # Choose is enabled for a new name
     assert project is not None and project.folder == target
     assert json.loads((target / "project.json").read_text())["name"] == "Cell 7 calibration"
     assert page.state.project is project and "Cell 7 calibration" in page.project_folder.text()

@@ -39,7 +39,7 @@ class UrdfDialog(QDialog):
         self.preview.setObjectName("urdfPreview")
         self.preview.setWordWrap(True)
         self.preview.setTextFormat(Qt.TextFormat.RichText)
-        self.preview.setMinimumWidth(420)
+        self.setMinimumWidth(560)                     # wrapped labels get their height at this width
         self.buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Ok | QDialogButtonBox.StandardButton.Cancel)
         self.buttons.accepted.connect(self.accept)
         self.buttons.rejected.connect(self.reject)
