@@ -11,8 +11,8 @@ measured with that stereo.yaml. Here it is propagated through triangulation:
 over p = fx, fy, cx, cy of both cameras, the rotation vector (rx, ry, rz, deg) and T (tx, ty,
 tz, mm) between them (uncertainty.TRIANGULATION_PARAMETERS), Σ_p their covariance from the
 joint fit with its correlations: the point is projected with the calibration, then
-triangulated again with one parameter moved. Distortion is left out (a small part where the
-marker is usually seen).
+triangulated again with one parameter moved. The distortion coefficients' uncertainty is not
+included (their effect depends on where in the images the point is seen).
 
 Units: mm (points, covariance mm²), px (intrinsics), deg (rotation), mm (T).
 """

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
 
@@ -102,5 +103,6 @@ class VerificationPanel(QWidget):
             self.progress.reset()
             return
         self.verify_summary.setText(verification_html(v))
-        self.precision_plot.set_points(v.depth, v.errors, v.sigmas)
+        total = np.hypot(v.sigmas, v.calibration_sigmas) if v.calibration_sigmas is not None else None
+        self.precision_plot.set_points(v.depth, v.errors, v.sigmas, total)
         self.progress.set_progress(1.0, "done")

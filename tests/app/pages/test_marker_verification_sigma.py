@@ -49,6 +49,12 @@ def test_the_difference_is_explained_with_the_calibrations_share(panel):
         "\xa0", "&nbsp;")
     assert "σ with the stereo calibration" in text and number(total, 3, "mm") in text
     assert "image noise carried through triangulation" in text and WHY in text
+    plot = panel.precision_plot                               # both σ drawn, per located pose
+    assert (plot.n_errors, plot.n_sigmas, plot.n_totals) == (3, 3, 3)
+    np.testing.assert_allclose(plot.totals.getData()[1], np.hypot([0.009, 0.008, 0.010], [0.11, 0.13, 0.12]))
+    assert len(plot.legend.items) == 3
+    panel.draw(_result())                                     # a run without it: its points and legend go
+    assert plot.n_totals == 0 and len(plot.legend.items) == 2
     assert (f"it is {number(0.12, 3, 'mm')} (median); with the image noise, σ = {number(total, 3, 'mm')}, "
             f"to compare with the median error of {number(0.12, 3, 'mm')}") in text
 
@@ -59,6 +65,7 @@ def test_without_the_calibrations_uncertainty_it_says_so(panel):
     text = unescape(panel.verify_summary.text())
     assert WHY in text and "σ with the stereo calibration" not in text
     assert "so only the image noise is predicted" in text and math.isnan(v.median_total_sigma)
+    assert panel.precision_plot.n_totals == 0 and panel.precision_plot.n_sigmas == 3
 
 
 def test_the_page_takes_the_covariance_from_the_projects_stereo_json(qtbot, tmp_path):
