@@ -1,6 +1,7 @@
 """New / Open / Save project, shared by the File menu and the Setup page.
 
-Each action asks for a folder when none is given, shows a RoboCalError as one message box
+Each action asks for a folder when none is given (New project and Save the demo take a new
+folder's name too: the folder is created), shows a RoboCalError as one message box
 line, and returns the project (or None when cancelled or failed). New project also asks which
 cell the project measures on (the virtual lab or a real cell, app/pages/setup/cell_dialog.py)
 when it asks for the folder; given a folder and no cell, it makes a virtual-lab project."""
@@ -12,6 +13,7 @@ from pathlib import Path
 from PySide6.QtWidgets import QFileDialog, QWidget
 
 from app.messages import show_error
+from app.new_folder_dialog import ask_new_folder
 from app.pages.setup.cell_dialog import ask_cell
 from app.state import WizardState
 from core.errors import RoboCalError
@@ -22,9 +24,8 @@ def new_project(parent: QWidget | None, state: WizardState, folder: str | Path |
                 cell: tuple[str, dict | None, dict | None] | None = None) -> Project | None:
     """`cell`: (mode, robot_connection, cameras) as CellDialog.cell() gives them."""
     if folder is None:
-        folder = QFileDialog.getExistingDirectory(
-            parent, "New project: choose or create an empty folder", str(Path.home()))
-        if not folder:
+        folder = ask_new_folder(parent, "New project: choose an empty folder or type a new folder's name")
+        if folder is None:
             return None
         if cell is None:
             cell = ask_cell(parent)
@@ -76,9 +77,9 @@ def save_demo_as_project(parent: QWidget | None, state: WizardState, folder: str
     """Copy the temporary demo project (its images, results, exports, report) into `folder`
     (asked for; a new or empty folder) and make the copy the open project."""
     if folder is None:
-        folder = QFileDialog.getExistingDirectory(
-            parent, "Save the demo as a project: choose or create an empty folder", str(Path.home()))
-        if not folder:
+        folder = ask_new_folder(parent, "Save the demo as a project: choose an empty folder or type a new "
+                                        "folder's name")
+        if folder is None:
             return None
     folder = Path(folder)
     try:

@@ -30,7 +30,8 @@ class DHTable(QTableWidget):
         self.verticalHeader().setVisible(False)
         header = self.horizontalHeader()
         header.setSectionResizeMode(QHeaderView.ResizeMode.Stretch)
-        header.setSectionResizeMode(COLUMNS.index("θ offset (°)"), QHeaderView.ResizeMode.ResizeToContents)
+        for name in ("Joint", "Type", "θ offset (°)"):     # names (shoulder_lift_joint …) never cut
+            header.setSectionResizeMode(COLUMNS.index(name), QHeaderView.ResizeMode.ResizeToContents)
         header.setDefaultAlignment(Qt.AlignmentFlag.AlignCenter)
         # as tall as its rows (at least `min_rows`), no taller: no empty grid below the robot
         self.min_rows = 6

@@ -32,6 +32,8 @@ from core.marker.location import MarkerLocation, MarkerLocator
 from core.marker.training import TrainedMarker, find_outline, train_marker
 from core.provenance import changed_inputs, record_inputs
 from core.report.marker import DETAILS_FILE, DETAILS_FORMAT, LIVE_IMAGES
+from core.stereo.file import StereoFile
+from core.stereo.point_uncertainty import calibration_covariance, parameter_covariance
 from core.task import Cancelled, Monitor
 
 CROP_MARGIN = 0.18           # default crop: the found outline enlarged by this fraction per side
@@ -196,6 +198,9 @@ class VerificationResult:
     seconds: float = 0.0
     cancelled_after: int | None = None    # Cancel came after this many poses (the result holds them)
     planned: int = 0                      # poses asked for (0: n); more than n while running or cancelled
+    # (n,) mm, √trace of the point's covariance due to the stereo calibration's parameter
+    # uncertainty (core/stereo/point_uncertainty.py); NaN when not located or that is unknown
+    calibration_sigmas: np.ndarray | None = None
 
     @property
     def poses_planned(self) -> int:
@@ -205,7 +210,8 @@ class VerificationResult:
         """A copy of the first k poses (what was measured when the run was looked at or cancelled)."""
         return VerificationResult(k, self.stereo, self.depth[:k].copy(), self.errors[:k].copy(),
                                   self.sigmas[:k].copy(), self.located[:k].copy(), Counter(self.reasons),
-                                  self.seconds, self.cancelled_after, self.poses_planned)
+                                  self.seconds, self.cancelled_after, self.poses_planned,
+                                  None if self.calibration_sigmas is None else self.calibration_sigmas[:k].copy())
 
     @property
     def n_located(self) -> int:
@@ -236,9 +242,25 @@ class VerificationResult:
 
     @property
     def median_sigma(self) -> float:
-        s = self.sigmas[self.located]
+        """Median σ (mm) of the image noise propagated through triangulation."""
+        return self._located_median(self.sigmas)
+
+    def _located_median(self, values: np.ndarray | None) -> float:
+        s = values[self.located] if values is not None else np.empty(0)
         s = s[np.isfinite(s)]
         return float(np.median(s)) if s.size else float("nan")
+
+    @property
+    def median_calibration_sigma(self) -> float:
+        """Median σ (mm) the stereo calibration's uncertainty alone gives a point; NaN if unknown."""
+        return self._located_median(self.calibration_sigmas)
+
+    @property
+    def median_total_sigma(self) -> float:
+        """Median of √(σ_image² + σ_calibration²) (mm): the predicted σ with the calibration's share."""
+        if self.calibration_sigmas is None:
+            return float("nan")
+        return self._located_median(np.hypot(self.sigmas, self.calibration_sigmas))
 
     def to_dict(self) -> dict:
         def num(v):
@@ -247,20 +269,28 @@ class VerificationResult:
         return {"poses": self.n, "located": self.n_located, "detection_rate": round(self.detection_rate, 4),
                 "median_error_mm": num(self.median_error), "rms_error_mm": num(self.rms_error),
                 "max_error_mm": num(self.max_error), "median_sigma_mm": num(self.median_sigma),
+                "median_calibration_sigma_mm": num(self.median_calibration_sigma),
+                "median_total_sigma_mm": num(self.median_total_sigma),
                 "reasons": dict(self.reasons), "stereo": self.stereo}
 
 
 def run_verification(lab: VirtualLab, locator: MarkerLocator, n: int, seed: int, run: int, stereo: str,
-                     driver=None, *, shown=None, progress=None, cancelled=None) -> VerificationResult:
+                     driver=None, calibration_cov: np.ndarray | None = None, *, shown=None, progress=None,
+                     cancelled=None) -> VerificationResult:
     """Locate the marker at n random visible robot poses of the virtual lab; compare with the truth.
-    `shown(result so far)` after every pose (a copy; from the worker thread). Cancel ends the run
-    after the poses measured: they come back, with `cancelled_after`."""
+    `calibration_cov`: the stereo parameters' covariance (stereo_parameter_covariance), propagated
+    to each located point as its calibration σ. `shown(result so far)` after every pose (a copy;
+    from the worker thread). Cancel ends the run after the poses measured: they come back, with
+    `cancelled_after`."""
     monitor = Monitor(progress, cancelled)
     t0 = time.perf_counter()
     monitor.step(0.0, "choosing visible poses")
     Q = lab.random_visible_poses(n, np.random.default_rng([seed, 33, run]))
     res = VerificationResult(n, stereo, np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan),
                              np.zeros(n, bool))
+    calibration = locator.rect.calibration
+    if calibration_cov is not None and calibration is not None:
+        res.calibration_sigmas = np.full(n, np.nan)
     for i, q in enumerate(Q):
         try:
             monitor.step(i / n, f"pose {i + 1} of {n}")
@@ -278,6 +308,10 @@ def run_verification(lab: VirtualLab, locator: MarkerLocator, n: int, seed: int,
             res.located[i] = True
             res.errors[i] = float(np.linalg.norm(loc.point - truth))
             res.sigmas[i] = float(np.linalg.norm(loc.sigma)) if loc.sigma is not None else np.nan
+            if res.calibration_sigmas is not None:
+                cov = calibration_covariance(calibration.K1, calibration.K2, calibration.R, calibration.T,
+                                             loc.point, calibration_cov)
+                res.calibration_sigmas[i] = math.sqrt(max(float(np.trace(cov)), 0.0))
         else:
             res.reasons[short_reason(loc.reason)] += 1
         if shown is not None:
@@ -287,6 +321,24 @@ def run_verification(lab: VirtualLab, locator: MarkerLocator, n: int, seed: int,
     with contextlib.suppress(Cancelled):        # a Cancel after the last pose: every pose is measured
         monitor.step(1.0, "done")
     return res
+
+
+def stereo_parameter_covariance(calibration: StereoFile | None, details: Path | None, result=None
+                                ) -> np.ndarray | None:
+    """The covariance of `calibration`'s parameters (core.stereo.uncertainty.TRIANGULATION_PARAMETERS):
+    from its details file (stereo.json) or the Stereo step's `result` in memory when that result is
+    this calibration; None when unknown (imported from another tool, the virtual lab's true rig)."""
+    if calibration is None:
+        return None
+    if details is not None:
+        cov = parameter_covariance(details, calibration.K1, calibration.K2, calibration.T)
+        if cov is not None:
+            return cov
+    cov = getattr(result, "covariance", None)
+    if cov is not None and all(np.allclose(getattr(result.file, k), getattr(calibration, k), rtol=1e-9, atol=1e-9)
+                               for k in ("K1", "K2", "R", "T")):
+        return cov
+    return None
 
 
 def short_reason(reason: str) -> str:

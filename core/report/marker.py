@@ -318,13 +318,25 @@ def _verification(project: Project, details: dict | None, why: str | None, probl
                     ("3D error, median", num(v.get("median_error_mm"), 3, "mm")),
                     ("3D error, RMS", num(v.get("rms_error_mm"), 3, "mm")),
                     ("3D error, max", num(v.get("max_error_mm"), 3, "mm")),
-                    ("predicted σ, median", num(v.get("median_sigma_mm"), 3, "mm"))]
+                    ("predicted σ (image noise), median", num(v.get("median_sigma_mm"), 3, "mm"))]
+            if v.get("median_total_sigma_mm") is not None:
+                rows.append(("predicted σ with the stereo calibration, median",
+                             num(v.get("median_total_sigma_mm"), 3, "mm")))
         reasons = v.get("reasons") or {}
     except (RoboCalError, KeyError, TypeError, ValueError) as exc:
         reason = _bad(VERIFICATION_FILE, exc, problems)
         return [unreadable(VERIFICATION_FILE, _message(exc)), Figure("marker_precision", PRECISION_TITLE, "",
                                                                      unavailable=reason)]
     text = f"<h3>{esc(title)}</h3>" + pairs_table(rows)
+    if v.get("kind") != "live pair":
+        text += ("<p>The image-noise σ is the scatter of a point from one pair of images to the next with the "
+                 "stereo calibration taken as exact; the calibration's own error (its focal lengths, principal "
+                 "points, rotation and offset between the cameras) is one systematic error shared by every "
+                 "point, and is not in it. "
+                 + ("Propagated from the calibration's parameter covariance, it gives the σ with the stereo "
+                    "calibration, the one the 3D error compares with.</p>"
+                    if v.get("median_total_sigma_mm") is not None else
+                    "The calibration's parameter covariance was not known for this verification.</p>"))
     if reasons:
         text += "<p>Not located: " + esc("; ".join(f"{k}: {n}" for k, n in reasons.items())) + "</p>"
     if details is None:

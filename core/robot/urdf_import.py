@@ -66,6 +66,17 @@ class UrdfImport:
     notes: list[str]
 
 
+@dataclass
+class UrdfLinks:
+    """A URDF's links, each parent before its children, and the base and tip links the import
+    takes when none is named (None where it cannot choose one; `why` then says why)."""
+
+    links: list[str]
+    base: str | None
+    tip: str | None
+    why: str = ""
+
+
 def _floats(text: str | None, n: int, source, where: str) -> np.ndarray:
     if text is None:
         return np.zeros(n)
@@ -329,6 +340,33 @@ def import_urdf(path: str | Path, *, base: str | None = None, tip: str | None = 
         notes.append(f"the tip link '{tip}' is not the last DH frame: the difference is the tool transform")
     model = RobotModel(name=name, joints=dh, base=base_T, tool=tool)
     return UrdfImport(model, base, tip, notes)
+
+
+def urdf_links(path: str | Path) -> UrdfLinks:
+    """The links of the URDF at `path` (to choose a chain's base and tip) with the defaults
+    `import_urdf` takes. A file that is not a URDF (an unexpanded xacro, no joints…) is refused."""
+    path = Path(path)
+    _, joints = _read(path)
+    children: dict[str, list[str]] = {}
+    for j in joints.values():
+        children.setdefault(j.parent, []).append(j.child)
+    by_child = {j.child for j in joints.values()}
+    roots = sorted({j.parent for j in joints.values()} - by_child)
+    links: list[str] = []
+    stack = roots[::-1]
+    while stack:                                   # depth first, in the file's order of joints
+        link = stack.pop()
+        if link in links:
+            continue
+        links.append(link)
+        stack.extend(children.get(link, [])[::-1])
+    links += sorted(by_child - set(links))         # links of a loop (refused by the import)
+    base = roots[0] if len(roots) == 1 else None
+    try:
+        chain = _chain(path, joints, None, None)
+    except RoboCalError as exc:
+        return UrdfLinks(links, base, None, exc.problem)
+    return UrdfLinks(links, chain[0].parent, chain[-1].child)
 
 
 def urdf_forward_kinematics(path: str | Path, q, *, base: str | None = None, tip: str | None = None) -> np.ndarray:

@@ -80,6 +80,7 @@ class StereoCalibrationResult:
     coverage: Coverage | None = None
     detections: DetectionResult | None = None
     warnings: list[str] = field(default_factory=list)
+    covariance: np.ndarray | None = None    # (14, 14) of uncertainty.TRIANGULATION_PARAMETERS: px, deg, mm
 
     @property
     def file(self) -> StereoFile:
@@ -252,7 +253,7 @@ def calibrate_points(left_points: Sequence[np.ndarray], right_points: Sequence[n
     threshold = max(median + options.outlier_k * sigma, options.outlier_min_ratio * median)
     outliers = [indices[v] for v in range(V) if pv[v] > threshold]
 
-    std, params = parameter_uncertainty(obj, fit, options)
+    std, params, covariance = parameter_uncertainty(obj, fit, options)
 
     monitor.step(0.55, "rectifying")
     rect = StereoRectification.from_calibration(fit.file, for_location=False)
@@ -275,7 +276,7 @@ def calibrate_points(left_points: Sequence[np.ndarray], right_points: Sequence[n
         view_indices=indices, view_names=names, object_points=obj, left_points=L, right_points=Rp,
         per_view_rms_left=pv_l, per_view_rms_right=pv_r, per_view_rms=pv,
         outlier_threshold=threshold, outliers=outliers,
-        std=std, parameters=params, rectification=rect, epipolar=epipolar, cross_validation=cv,
+        std=std, parameters=params, covariance=covariance, rectification=rect, epipolar=epipolar, cross_validation=cv,
         rejected=sorted(rejected), reordered=reordered, detections=_detections, warnings=warnings)
 
 

@@ -400,7 +400,8 @@ def ros_camera_info_files(folder: str | Path, data, names: tuple[str, str] = ("l
 def stereo_json(data, result=None) -> dict:
     """The JSON export: the stereo.yaml fields, plus the calibration details when `result`
     (a StereoCalibrationResult) is given: summary, parameter table with standard
-    deviations, the outlier threshold, per-view errors and every corner's residual
+    deviations, the covariance of the parameters a triangulated point depends on, the outlier
+    threshold, per-view errors and every corner's residual
     (observed − projected, px)."""
     if result is None and not isinstance(data, StereoFile):
         result = data
@@ -409,6 +410,10 @@ def stereo_json(data, result=None) -> dict:
         d["calibration"] = result.summary()
         d["parameters"] = [{"group": r.group, "name": r.name, "value": r.value, "std": r.std,
                             "unit": r.unit, "fixed": r.fixed} for r in result.parameters]
+        if result.covariance is not None:
+            from core.stereo.uncertainty import TRIANGULATION_PARAMETERS
+            d["parameter_covariance"] = {"names": list(TRIANGULATION_PARAMETERS), "units": "px, deg, mm",
+                                         "matrix": np.asarray(result.covariance, float).tolist()}
         d["outlier_threshold_px"] = float(result.outlier_threshold)
         d["views"] = [{"pair": int(i) + 1, "files": name, "rms_left": float(result.per_view_rms_left[k]),
                        "rms_right": float(result.per_view_rms_right[k]), "rms": float(result.per_view_rms[k]),

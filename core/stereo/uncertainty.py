@@ -5,6 +5,12 @@ ones of `calibrateCameraExtended` are kept in `mono_left`/`mono_right` for compa
 used for the intrinsics when the stereo fit keeps them fixed.)
 
 Units: px for the intrinsics, mm for T and the baseline, degrees for the rotation vector.
+
+The covariance of the parameters a triangulated point depends on most (TRIANGULATION_PARAMETERS:
+both cameras' fx, fy, cx, cy, the rotation vector and T) is kept with their correlations, which
+matter: the principal points and the rotation, or the focal lengths and T, move together in
+the fit, and taking them as independent overstates a point's uncertainty about tenfold
+(core/stereo/point_uncertainty.py propagates it to a point).
 """
 from __future__ import annotations
 
@@ -17,6 +23,8 @@ import numpy as np
 from core.stereo.fit import CalibrationOptions, StereoFit
 
 DIST_NAMES = ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6")
+TRIANGULATION_PARAMETERS = (tuple(f"{n}_{side}" for side in ("left", "right") for n in ("fx", "fy", "cx", "cy"))
+                            + ("rx", "ry", "rz", "tx", "ty", "tz"))     # px, px, px, px (×2), deg (×3), mm (×3)
 
 
 @dataclass
@@ -67,9 +75,10 @@ def _intrinsic_map(K: np.ndarray, options: CalibrationOptions) -> tuple[np.ndarr
 
 
 def parameter_uncertainty(obj: np.ndarray, fit: StereoFit, options: CalibrationOptions
-                          ) -> tuple[dict[str, float], list[CameraParameterRow]]:
-    """Standard deviations ({name_group: std}) and the parameter table of a joint fit
-    (`obj`: the board's (N, 3) corners, mm)."""
+                          ) -> tuple[dict[str, float], list[CameraParameterRow], np.ndarray]:
+    """Standard deviations ({name_group: std}), the parameter table of a joint fit (`obj`: the
+    board's (N, 3) corners, mm) and the covariance of TRIANGULATION_PARAMETERS (14 x 14; px,
+    deg, mm; intrinsics kept fixed by the stereo fit: their single-camera variances, uncorrelated)."""
     pair = fit.file
     res_l, res_r = fit.residuals_left, fit.residuals_right
     V, N = res_l.shape[:2]
@@ -148,4 +157,19 @@ def parameter_uncertainty(obj: np.ndarray, fit: StereoFit, options: CalibrationO
     s_b = float(math.sqrt(max(g @ cov_t @ g, 0.0)))
     std["baseline"] = s_b
     rows.append(CameraParameterRow("stereo", "baseline", b, s_b, "mm"))
-    return std, rows
+    return std, rows, _triangulation_covariance(cov, M1, M2, p1, refine, rel0, std)
+
+
+def _triangulation_covariance(cov, M1, M2, p1: int, refine: bool, rel0: int, std: dict[str, float]) -> np.ndarray:
+    """The joint fit's covariance mapped onto TRIANGULATION_PARAMETERS (rotation in degrees)."""
+    G = np.zeros((len(TRIANGULATION_PARAMETERS), cov.shape[0]))
+    if refine:
+        G[0:4, 0:p1] = M1[:4]
+        G[4:8, p1:p1 + M2.shape[1]] = M2[:4]
+    G[8:11, rel0:rel0 + 3] = np.eye(3) * math.degrees(1.0)
+    G[11:14, rel0 + 3:rel0 + 6] = np.eye(3)
+    out = G @ cov @ G.T
+    if not refine:                     # fixed in the stereo fit: the single-camera fits' variances
+        for i, name in enumerate(TRIANGULATION_PARAMETERS[:8]):
+            out[i, i] = std.get(name, 0.0) ** 2
+    return out

@@ -2,9 +2,9 @@
 from __future__ import annotations
 
 from PySide6.QtCore import QTimer
-from PySide6.QtWidgets import QApplication, QFileDialog, QMessageBox
+from PySide6.QtWidgets import QApplication, QMessageBox
 
-from app import messages
+from app import messages, project_actions
 from app.main_window import MainWindow
 from app.state import WizardState
 
@@ -55,7 +55,7 @@ def test_cancel_keeps_the_window_and_the_demo(qtbot):
 def test_save_the_demo_as_a_project_then_quit(qtbot, tmp_path, monkeypatch):
     win, folder = _demo_window(qtbot, results=True)
     target = tmp_path / "my-demo"
-    monkeypatch.setattr(QFileDialog, "getExistingDirectory", lambda *a, **k: str(target))
+    monkeypatch.setattr(project_actions, "ask_new_folder", lambda *a, **k: target)
     _answer_with("Save the demo as a project…")
     assert win.close()
     assert not folder.exists()
@@ -69,7 +69,7 @@ def test_a_non_empty_folder_is_refused_and_nothing_is_lost(qtbot, tmp_path, monk
     target = tmp_path / "busy"
     target.mkdir()
     (target / "thesis.tex").write_text("keep me")
-    monkeypatch.setattr(QFileDialog, "getExistingDirectory", lambda *a, **k: str(target))
+    monkeypatch.setattr(project_actions, "ask_new_folder", lambda *a, **k: target)
     _answer_with("Save the demo as a project…")
     QTimer.singleShot(400, lambda: _answer_with("OK"))          # the refusal's message box
     assert not win.close()

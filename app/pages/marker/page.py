@@ -14,7 +14,8 @@ from app.html import number
 from app.jobs.marker import (Comparison, LiveResult, Training, TrainingImage, VerificationResult,
                              camera_live_pair, camera_training_image, capture_training_image, live_pair,
                              load_training_image, marker_changed_inputs, recorded_verification, run_comparison,
-                             run_verification, save_trained, train_job, write_details, write_verification)
+                             run_verification, save_trained, stereo_parameter_covariance, train_job,
+                             write_details, write_verification)
 from app.jobs.marker_conditions import ConditionsPair, conditions_pair, run_sweep
 from app.lab import RobustnessTable, VirtualLab
 from app.pages.base import WizardPage, out_of_date
@@ -380,8 +381,12 @@ class MarkerPage(MarkerAutopilot, WizardPage):
             self._verify_count += 1
             self.tabs.setCurrentIndex(TAB_VERIFY)
             self._verifying = self._verify_count
+            project, rect = self.state.project, self.stereo.rect
+            details = project.path("stereo_details") if project is not None and self.stereo.kind == "file" else None
+            covariance = stereo_parameter_covariance(rect.calibration if rect is not None else None, details,
+                                                     self.state.stereo)
             return self.start(run_verification, lab, locator, n, int(self.state.seed), self._verify_count,
-                              self.stereo.label, self.state.robot_connection, on_done=self._verified,
+                              self.stereo.label, self.state.robot_connection, covariance, on_done=self._verified,
                               shown=self.verification_panel.pointsArrived.emit,
                               label="Verification", then=then, status=f"Verification over {n} random poses…")
 

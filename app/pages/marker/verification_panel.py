@@ -1,7 +1,11 @@
 """The Marker page's Verification tab: the marker located at N random robot poses of the
-virtual lab, its detection rate, 3D errors against the truth (mm) and rejection reasons."""
+virtual lab, its detection rate, 3D errors against the truth (mm), the predicted σ (image
+noise, and with the stereo calibration's uncertainty) explained, and rejection reasons."""
 from __future__ import annotations
 
+import math
+
+import numpy as np
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
 
@@ -17,30 +21,52 @@ IDLE_TEXT = ("<span style='color:#5f6368'>The robot visits N random poses where 
 
 
 def verification_html(v: VerificationResult, truth: bool = True) -> str:
-    """Detection rate, 3D errors (mm) and the rejection reasons counted."""
+    """Detection rate, 3D errors (mm), the predicted σ (image noise, and with the stereo
+    calibration's uncertainty when known) with where they differ, and the rejection reasons."""
     rate = f"<b>{v.n_located} of {v.n}</b> located ({100 * v.detection_rate:.0f} %)"
     if v.cancelled_after is not None:
         rate += f" — cancelled after {v.n} of {v.poses_planned} poses (those measured are kept)"
     elif v.n < v.poses_planned:
         rate += f" so far — pose {v.n} of {v.poses_planned}"
     rows = [f"<p>{rate} in {v.seconds:.1f} s.</p>"]
+    known = math.isfinite(v.median_total_sigma)
     if truth and v.n_located:
+        total = (f"<tr><td>σ with the stereo calibration&nbsp;</td><td align='right'>"
+                 f"<b>{number(v.median_total_sigma, 3, 'mm')}</b></td></tr>") if known else ""
         rows.append("<table cellspacing='0' cellpadding='2'>"
                     f"<tr><td>median 3D error&nbsp;</td><td align='right'><b>{number(v.median_error, 3, 'mm')}</b>"
                     "</td></tr>"
                     f"<tr><td>RMS 3D error</td><td align='right'><b>{number(v.rms_error, 3, 'mm')}</b></td></tr>"
                     f"<tr><td>largest error</td><td align='right'>{number(v.max_error, 3, 'mm')}</td></tr>"
-                    f"<tr><td>median predicted σ&nbsp;</td><td align='right'>{number(v.median_sigma, 3, 'mm')}"
-                    "</td></tr></table>")
+                    f"<tr><td>median σ, image noise&nbsp;</td><td align='right'>{number(v.median_sigma, 3, 'mm')}"
+                    f"</td></tr>{total}</table>")
+        rows.append(f"<p style='color:#5f6368'>{sigma_explanation(v)}</p>")
     if v.reasons:
         rows.append("<p><b>Rejected</b> (a clear reason, never a guessed point):</p><ul>"
                     + "".join(f"<li>{n}× {esc(r)}</li>" for r, n in v.reasons.most_common()) + "</ul>")
     elif v.n_located == v.n:
         rows.append("<p>No pose rejected.</p>")
     rows.append(f"<p style='color:#5f6368'>Stereo: {esc(v.stereo)}. Errors are against the virtual lab's "
-                "true marker positions; with a calibrated stereo.yaml they include the calibration's own "
-                "error.</p>")
+                "true marker positions.</p>")
     return "".join(rows)
+
+
+def sigma_explanation(v: VerificationResult) -> str:
+    """In plain words, with the numbers: why the error can exceed the image-noise σ."""
+    text = (f"The σ of each point ({number(v.median_sigma, 3, 'mm')}, median) is the image noise carried "
+            "through triangulation: how much the point scatters from one pair of images to the next with "
+            "the stereo calibration taken as exact. The calibration's own error is not in it: its focal "
+            "lengths, principal points and the rotation and offset between the cameras are estimates, and "
+            "their error is one systematic error shared by every point measured with it.")
+    if math.isfinite(v.median_total_sigma):
+        text += (f" Carried through triangulation from the calibration's parameter uncertainty it is "
+                 f"{number(v.median_calibration_sigma, 3, 'mm')} (median); with the image noise, "
+                 f"σ = {number(v.median_total_sigma, 3, 'mm')}, to compare with the median error of "
+                 f"{number(v.median_error, 3, 'mm')}.")
+    else:
+        text += (" The uncertainty of this calibration's parameters is not known here (the virtual lab's true "
+                 "cameras, or a calibration made elsewhere without it), so only the image noise is predicted.")
+    return text
 
 
 class VerificationPanel(QWidget):
@@ -83,7 +109,8 @@ class VerificationPanel(QWidget):
             self.progress.reset()
             return
         self.verify_summary.setText(verification_html(v))
-        self.precision_plot.set_points(v.depth, v.errors, v.sigmas)
+        total = np.hypot(v.sigmas, v.calibration_sigmas) if v.calibration_sigmas is not None else None
+        self.precision_plot.set_points(v.depth, v.errors, v.sigmas, total)
         if running:
             return
         if v.cancelled_after is not None:

@@ -22,6 +22,7 @@ from app.pages.setup.cameras_panel import CameraPanel
 from app.pages.setup.cell_dialog import change_cell
 from app.pages.setup.protocol_panel import ProtocolPanel
 from app.pages.setup.robot_panel import RobotPanel
+from app.pages.setup.urdf_dialog import ask_urdf_chain
 from app.pages.steps import Step
 from core import project as projects
 from core.errors import RoboCalError
@@ -30,6 +31,7 @@ from core.robot.model import RobotModel, preset_names, robot_path
 from widgets.dh_table import DHTable
 
 DEMO_PRESET = "educational_6r"
+URDF_SUFFIXES = (".urdf", ".xacro", ".xml")       # read by the URDF importer, not as robot.json
 
 
 def preset_title(name: str) -> str:
@@ -132,6 +134,9 @@ class SetupPage(WizardPage):
         self.preset_combo.setMinimumContentsLength(18)
         self.preset_combo.currentIndexChanged.connect(self._preset_picked)
         self.load_button = forms.button("Load robot.json…", on_click=self.load_robot_file)
+        self.urdf_button = forms.button("Load URDF…", "loadUrdfButton", on_click=self.load_urdf,
+                                        tooltip="A robot model from a URDF file (expanded by xacro): choose the "
+                                                "chain's base and tip links")
         self.robot_name = QLabel()
         self.robot_name.setObjectName("robotName")
         self.robot_summary = QLabel()
@@ -140,7 +145,7 @@ class SetupPage(WizardPage):
         self.dh_table = DHTable()
         robot_box = QGroupBox("Robot model (nominal DH parameters, eq. 1)")
         rl = QVBoxLayout(robot_box)
-        pick = forms.row("Preset:", self.preset_combo, "or", self.load_button, stretch=False)
+        pick = forms.row("Preset:", self.preset_combo, "or", self.load_button, self.urdf_button, stretch=False)
         pick.setStretchFactor(self.preset_combo, 1)
         rl.addLayout(pick)
         rl.addWidget(self.robot_name)
@@ -176,15 +181,43 @@ class SetupPage(WizardPage):
         if path is None:
             start = str(self.state.project.folder) if self.state.project else str(Path.home())
             path, _ = QFileDialog.getOpenFileName(self, "Load a robot model", start,
-                                                  "Robot model (*.json);;All files (*)")
+                                                  "Robot model (*.json *.urdf);;All files (*)")
             if not path:
                 return None
+        if Path(path).suffix.lower() in URDF_SUFFIXES:
+            return self.load_urdf(path)
         try:
             return self.state.load_robot_file(path)
         except RoboCalError as exc:
             self.show_error(exc.message)
             self._refresh()
             return None
+
+    def load_urdf(self, path: str | Path | None = None) -> RobotModel | None:
+        """A robot model from a URDF (asked for when not given) through the same importer as
+        `robocal robot-import`: its base and tip links chosen in a dialog, the model written to
+        the project's robot.json."""
+        if path is None:
+            start = str(self.state.project.folder) if self.state.project else str(Path.home())
+            path, _ = QFileDialog.getOpenFileName(self, "Load a robot model from a URDF", start,
+                                                  "URDF (*.urdf *.xml);;All files (*)")
+            if not path:
+                return None
+        try:
+            imported = ask_urdf_chain(self, path)
+            if imported is None:
+                return None
+            self.state.set_robot(imported.model, str(path))
+        except RoboCalError as exc:
+            self.show_error(exc.message)
+            self._refresh()
+            return None
+        text = (f"✓ {imported.model.name}: {imported.model.dof} joints from '{imported.base_link}' to "
+                f"'{imported.tip_link}' of {Path(path).name}." + "".join(f" Note: {n}." for n in imported.notes))
+        if self.state.project is None:
+            text += " To continue: create or open a project."
+        self._set_status(text, ok=self.state.project is not None)
+        return imported.model
 
     def _preset_picked(self, index: int) -> None:
         if self._syncing:
@@ -264,7 +297,7 @@ class SetupPage(WizardPage):
         finally:
             self._syncing = False
         if model is None:
-            self.robot_name.setText("No robot model yet: choose a preset or load a robot.json file.")
+            self.robot_name.setText("No robot model yet: choose a preset, or load a robot.json or a URDF file.")
             self.robot_summary.setText("")
         else:
             self.robot_name.setText(f"<b>{esc(model.name)}</b>")

@@ -3,6 +3,7 @@ the training image, training on a crop, one live pair, the verification and its 
 rejection reasons counted together, the marker comparison, and the step's project files."""
 from __future__ import annotations
 
+import json
 import math
 from collections import Counter
 
@@ -12,7 +13,8 @@ import pytest
 
 from app.jobs.marker import (VerificationResult, capture_training_image, crop_around, details_file, live_pair,
                              load_training_image, recorded_verification, run_comparison, run_verification,
-                             save_trained, short_reason, train_job, write_verification)
+                             save_trained, short_reason, stereo_parameter_covariance, train_job,
+                             write_verification)
 from app.lab import build_lab
 from app.pages.measurement_inputs import (MARKER_FILE, TRAINING_FILE, VERIFICATION_FILE, preview_source,
                                           verification_file)
@@ -180,3 +182,59 @@ def test_project_files_held_by_a_running_command_are_not_written(tmp_path, train
     with output_lock(verification_file(project)), pytest.raises(RoboCalError, match="being written"):
         write_verification(project, MARKER_FILE, {"located": 1})
     assert save_trained(project, trained) == project.folder / MARKER_FILE
+
+
+def _lab_calibration(lab):
+    """A StereoFile of the lab's true cameras (as a calibration would give them)."""
+    from core.stereo.file import StereoFile
+
+    rig = lab.rig
+    size = (rig.left.width, rig.left.height)
+    R1, R2, P1, P2, Q, *_ = cv2.stereoRectify(rig.left.K, rig.left.dist, rig.right.K, rig.right.dist, size,
+                                              rig.R, rig.T.reshape(3, 1), flags=cv2.CALIB_ZERO_DISPARITY, alpha=0)
+    return StereoFile(size, rig.left.K, rig.left.dist, rig.right.K, rig.right.dist, rig.R, rig.T,
+                      rig.essential(), rig.fundamental(), R1, R2, P1, P2, Q)
+
+
+def test_verification_adds_the_stereo_calibrations_share_of_sigma(lab, trained):
+    from core.stereo.point_uncertainty import PARAMETERS
+    from core.stereo.rectification import StereoRectification
+
+    calibration = _lab_calibration(lab)
+    locator = MarkerLocator(trained, StereoRectification.from_calibration(calibration), LocatorOptions())
+    cov = np.diag([0.1 ** 2] * 8 + [0.005 ** 2] * 3 + [0.01 ** 2] * 3)      # px², deg², mm²
+    assert cov.shape == (len(PARAMETERS),) * 2
+    v = run_verification(lab, locator, 3, 0, 1, "stereo.yaml", None, cov)
+    located = v.located
+    assert located.sum() >= 2
+    assert np.all(np.isfinite(v.calibration_sigmas[located])) and np.all(np.isnan(v.calibration_sigmas[~located]))
+    assert np.all(v.calibration_sigmas[located] > v.sigmas[located])       # 0.1 px of focal length: tenths of a mm
+    assert v.median_total_sigma == pytest.approx(np.median(np.hypot(v.sigmas, v.calibration_sigmas)[located]))
+    assert v.to_dict()["median_total_sigma_mm"] == pytest.approx(v.median_total_sigma, abs=1e-6)
+    plain = run_verification(lab, locator, 3, 0, 1, "stereo.yaml")          # no covariance known
+    assert plain.calibration_sigmas is None and math.isnan(plain.median_total_sigma)
+    assert plain.to_dict()["median_total_sigma_mm"] is None
+
+
+def test_the_covariance_comes_from_stereo_json_or_the_result_of_this_calibration(lab, tmp_path):
+    from types import SimpleNamespace
+
+    from core.stereo.point_uncertainty import PARAMETERS
+
+    calibration = _lab_calibration(lab)
+    cov = np.eye(len(PARAMETERS)) * 0.01
+    rows = [{"group": g, "name": "fx", "value": float(k[0, 0]), "std": 0.1}
+            for g, k in (("left", calibration.K1), ("right", calibration.K2))]
+    rows += [{"group": "stereo", "name": n, "value": float(t), "std": 0.1} for n, t in zip("tx ty tz".split(),
+                                                                                       calibration.T)]
+    details = tmp_path / "stereo.json"
+    details.write_text(json.dumps({"parameters": rows, "parameter_covariance": {
+        "names": list(PARAMETERS), "units": "px, deg, mm", "matrix": cov.tolist()}}))
+    np.testing.assert_array_equal(stereo_parameter_covariance(calibration, details), cov)
+    same = SimpleNamespace(file=calibration, covariance=2 * cov)
+    np.testing.assert_array_equal(stereo_parameter_covariance(calibration, tmp_path / "none.json", same), 2 * cov)
+    moved = _lab_calibration(lab)
+    moved.T = moved.T + np.array([0.5, 0.0, 0.0])
+    other = SimpleNamespace(file=moved, covariance=2 * cov)                 # another calibration in memory
+    assert stereo_parameter_covariance(calibration, None, other) is None
+    assert stereo_parameter_covariance(None, details, same) is None

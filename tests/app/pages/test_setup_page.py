@@ -6,7 +6,7 @@ import json
 
 import pytest
 from PySide6.QtCore import Qt
-from PySide6.QtWidgets import QAbstractButton, QGroupBox, QLabel, QRadioButton
+from PySide6.QtWidgets import QAbstractButton, QApplication, QGroupBox, QLabel, QRadioButton
 
 from app.pages.setup.page import SetupPage
 from app.state import WizardState
@@ -199,3 +199,18 @@ def test_choosing_the_virtual_robot_without_a_model_connects_nothing(page, qtbot
     qtbot.mouseClick(page.robot_panel.virtual_radio, Qt.MouseButton.LeftButton)
     assert page.robot_panel.virtual_radio.isChecked()
     assert page.state.robot_connection is None           # nothing to connect without a robot
+
+
+@pytest.mark.parametrize("width", [1000, 1700])
+def test_the_dh_tables_joint_names_are_shown_whole(page, width):
+    """The UR5's joint names (shoulder_lift_joint …) are never cut, on a small screen's page
+    width as on a large one."""
+    page.resize(width, 650)
+    page.choose_preset("ur5")
+    table = page.dh_table
+    names = [table.cell_text(r, 0) for r in range(table.rowCount())]
+    assert "shoulder_lift_joint" in names
+    QApplication.processEvents()
+    assert table.columnWidth(0) >= table.sizeHintForColumn(0)
+    assert table.columnWidth(0) >= max(table.fontMetrics().horizontalAdvance(n) for n in names)
+    assert table.columnWidth(1) >= table.sizeHintForColumn(1)            # "revolute", "prismatic"

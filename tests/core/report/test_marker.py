@@ -170,3 +170,18 @@ def test_a_live_pair_as_last_check_is_reported(tmp_path, trained):
     marker = next(s for s in report.sections if s.title == "Marker")
     text = "".join(b for b in marker.blocks if isinstance(b, str))
     assert report.problems == [] and "Last check: one live pair" in text and "0.012 mm" in text
+
+
+def test_the_verification_gives_both_sigmas_and_says_why_they_differ(tmp_path, trained):
+    project = marker_project(tmp_path / "p", trained)
+    record = json.loads((project.folder / VERIFICATION_FILE).read_text())
+    marker = next(s for s in build_report(open_project(project.folder)).sections if s.title == "Marker")
+    text = "".join(b for b in marker.blocks if isinstance(b, str))
+    assert "predicted σ (image noise), median" in text and "with the stereo calibration, median" not in text
+    assert "is not in it" in text and "covariance was not known" in text
+    record.update(median_calibration_sigma_mm=0.115, median_total_sigma_mm=0.1154)
+    atomic_write_json(project.folder / VERIFICATION_FILE, record)
+    marker = next(s for s in build_report(open_project(project.folder)).sections if s.title == "Marker")
+    text = "".join(b for b in marker.blocks if isinstance(b, str))
+    assert "predicted σ with the stereo calibration, median" in text and "0.115 mm" in text
+    assert "the one the 3D error compares with" in text

@@ -24,6 +24,7 @@ ARMS = [("ur5_robot.urdf", "ee_link", "world", 6),
         ("kuka_kr16_2.urdf", None, "base_link", 6),
         ("fanuc_lrmate200ic.urdf", None, "base_link", 6),
         ("franka_panda.urdf", None, "world", 7),
+        ("franka_panda_hand.urdf", "panda_hand", "panda_link0", 7),
         ("kinova_gen3_lite.urdf", "tool_frame", "world", 6)]
 ALL = [(REAL / f, tip, base, dof) for f, tip, base, dof in ARMS] + [
     (DATA / "robots" / "fanuc_lrmate200id.urdf", None, "base_link", 6)]

@@ -13,6 +13,7 @@ import yaml
 from core.errors import RoboCalError
 from core.stereo.calibration import calibrate_points
 from core.stereo.fit import CalibrationOptions
+from core.stereo.point_uncertainty import parameter_covariance
 from core.stereo.file import (FORMAT, StereoFile, camera_info_yaml, read_stereo_yaml, stereo_json,
                               write_ros_camera_info, write_stereo_json, write_stereo_yaml)
 from tests.core.stereo_synth import BOARD, SIZE, synthetic_views
@@ -240,6 +241,8 @@ def test_json_export(tmp_path, result):
     assert data["calibration"]["pairs_used"] == 10
     assert len(data["views"]) == 10 and {"rms_left", "rms_right", "outlier"} <= set(data["views"][0])
     assert any(p["name"] == "baseline" and p["std"] > 0 for p in data["parameters"])
+    kept = parameter_covariance(path, result.file.K1, result.file.K2, result.file.T)     # read back for its own file
+    np.testing.assert_allclose(kept, result.covariance, rtol=1e-12)
     plain = stereo_json(result.file)
     assert "calibration" not in plain
 
