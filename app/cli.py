@@ -36,6 +36,7 @@ COMMANDS = {
     "sim-robot": "sim_robot",
     "report": "report",
     "check": "check",
+    "reidentify": "reidentify",
     "identify-tool": "identify_tool",
     "robustness": "robustness",
     "compensate": "compensate",

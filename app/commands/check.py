@@ -1,11 +1,21 @@
-"""`robocal check`: check a calibrated cell on the virtual lab, diagnose a change, re-identify.
+"""`robocal check`: check a calibrated cell at its check poses, diagnose a change, propose the
+poses that re-identify it.
 
-Exit code 0 when the check of the given robot is within its limits, 3 when it is out of limits
-(also when a re-identification then brought it back; 1 bad data, 2 usage).
+Where it measures, one of:
+- `--joints J.csv --images DIR --stereo S --marker M`: pairs captured at the check poses
+  (`DIR/left`, `DIR/right`, as `robocal measure` reads them);
+- `--measurements M.csv`: points measured by another instrument (or by `robocal measure`);
+- `--port PORT --profile P --cameras L,R --stereo S --marker M`: the connected cell, the robot
+  driven to each check pose (unattended: from cron or a systemd timer);
+- `--lab` (or any `--lab-…` / `--change` option): the virtual lab, for teaching.
+`--propose-poses P.csv` only writes the check poses (a joints file) and measures nothing.
+
+Exit code 0 when the check is within its limits, 3 when it is out of limits (also when a
+re-identification then brought it back; 1 bad data or a robot fault, 2 usage).
 """
 from __future__ import annotations
 
-from app.commands import CommandResult, ProgressLine
+from app.commands import CommandResult, ProgressLine, check_output
 from app.commands import options
 from core.bounds import Bound
 
@@ -14,83 +24,300 @@ OUT_OF_LIMITS = 3
 ALPHA = Bound(1e-4, 0.2, "", "a false-alarm probability")
 SIGMA = Bound(1e-4, 10.0, "mm", "a measurement noise per axis")
 
-INPUTS = ("robot", "poses", "stereo", "marker", "lab_robot")      # checked against OUTPUTS before the run (app/commands/paths.py)
-OUTPUTS = ("log", "out")
+INPUTS = ("robot", "poses", "stereo", "marker", "lab_robot", "joints", "images", "measurements")
+OUTPUTS = ("log", "out", "propose_poses", "reid_poses")
 
 
 def add_arguments(parser) -> None:
     parser.add_argument("--robot", required=True, metavar="CALIBRATED.json",
                         help="calibrated robot file (written by robocal identify or a previous re-identification)")
-    parser.add_argument("--log", required=True, metavar="CHECKS.csv", help="check log; every point is appended")
-    parser.add_argument("--poses", metavar="P.csv", help="check poses (default: chosen by observability)")
+    parser.add_argument("--log", metavar="CHECKS.csv", help="check log; every point is appended (needed to check)")
+    parser.add_argument("--propose-poses", metavar="POSES.csv",
+                        help="only write the check poses to this joints file (pose,q1..qn; deg / mm), chosen by "
+                             "observability; with --stereo only where both cameras see the marker")
+    parser.add_argument("--poses", metavar="P.csv", help="check poses for the lab or the connected robot "
+                        "(default: chosen by observability)")
     parser.add_argument("--count", type=options.pose_count, default=8,
-                        help="check poses to choose when --poses is not given (default 8)")
+                        help="check poses to choose when they are not given (default 8)")
     parser.add_argument("--tool", metavar="NAME",
                         help="the tool mounted, by its name in the robot file's \"tools\" (default: the first "
                              "calibrated tool); check poses, predictions and limits use its target")
-    parser.add_argument("--lab-seed", type=options.seed, default=0,
-                        help="seed of the virtual lab the robot was calibrated in (default 0)")
-    parser.add_argument("--lab-robot", metavar="ROBOT.json",
-                        help="robot file the virtual lab was built from (default: the educational 6R preset); "
-                             "the lab can mount the tools it defines")
-    parser.add_argument("--stereo", metavar="S", help="stereo calibration: measure through rendered images "
-                        "(with --marker); without it the lab's ideal measurements are used")
+    files = parser.add_argument_group("measured outside RoboCal: captured pairs or another instrument")
+    files.add_argument("--joints", metavar="POSES.csv", help="joint values of the captured check poses "
+                       "(pose,q1..qn), one per pair in --images")
+    files.add_argument("--images", metavar="DIR", help="folder with left/ and right/ image folders (with --joints)")
+    files.add_argument("--measurements", metavar="M.csv",
+                       help="measurements file of the check poses (robocal measure, or import-measurements)")
+    cell = parser.add_argument_group("the connected cell")
+    cell.add_argument("--port", metavar="PORT", help="the robot controller's serial port (e.g. /dev/ttyUSB0)")
+    cell.add_argument("--profile", metavar="NAME", default="robocal_v1",
+                      help="the controller's protocol profile (default robocal_v1; grbl_joint_arm, mecademic_meca500)")
+    cell.add_argument("--cameras", metavar="LEFT,RIGHT",
+                      help="the two cameras: device indices (0,1), device paths, video files or image folders")
+    parser.add_argument("--stereo", metavar="S", help="stereo calibration: locate the marker in the pairs (with "
+                        "--marker); with --propose-poses, keep poses both cameras see")
     parser.add_argument("--marker", metavar="M", help="marker training image, description or trained marker")
     parser.add_argument("--marker-size", type=options.size_mm, metavar="MM", help="marker outer square side (mm)")
-    parser.add_argument("--noise", type=options.number_in(SIGMA), default=0.05, metavar="MM",
-                        help="noise of the lab's ideal measurements, mm per axis (default 0.05)")
-    parser.add_argument("--change", metavar="SPEC",
-                        help="change the lab's true robot first: tool:MM, base:MM, jointK:DEG, linkK:MM, or "
-                             "mount:NAME (another tool mounted than --tool)")
+    lab = parser.add_argument_group("the virtual lab (teaching)")
+    lab.add_argument("--lab", action="store_true", help="measure on the virtual lab")
+    lab.add_argument("--lab-seed", type=options.seed, help="seed of the virtual lab the robot was calibrated in "
+                     "(default 0; implies --lab)")
+    lab.add_argument("--lab-robot", metavar="ROBOT.json",
+                     help="robot file the virtual lab was built from (default: the educational 6R preset; implies "
+                          "--lab); the lab can mount the tools it defines")
+    lab.add_argument("--noise", type=options.number_in(SIGMA), default=0.05, metavar="MM",
+                     help="noise of the lab's ideal measurements, mm per axis (default 0.05), without --stereo")
+    lab.add_argument("--change", metavar="SPEC",
+                     help="change the lab's true robot first (implies --lab): tool:MM, base:MM, jointK:DEG, linkK:MM, "
+                          "or mount:NAME (another tool mounted than --tool)")
     parser.add_argument("--alpha", type=options.number_in(ALPHA), default=0.01,
                         help="false-alarm probability of a check (default 0.01)")
+    parser.add_argument("--reid-poses", metavar="R.csv",
+                        help="when the check is out of limits and one change explains it: write the poses to "
+                             "measure for its re-identification (then robocal reidentify)")
     parser.add_argument("--out", metavar="UPDATED.json",
-                        help="when the check is out of limits and one change explains it: re-identify it from "
-                             "the proposed poses and write the updated calibrated robot here")
-    parser.add_argument("--seed", type=options.seed, default=0, help="random seed of measurements (default 0)")
+                        help="lab or connected robot: when one change explains the check, measure the proposed "
+                             "poses, re-identify it and write the updated calibrated robot here")
+    parser.add_argument("--seed", type=options.seed, default=0, help="random seed of choices and lab noise (default 0)")
+
+
+def _source(args) -> str:
+    """Which of the measuring inputs was given (UsageError when none or several)."""
+    lab = bool(args.lab or args.lab_seed is not None or args.lab_robot or args.change)
+    given = {"images": bool(args.images or args.joints), "measurements": bool(args.measurements),
+             "port": bool(args.port or args.cameras), "lab": lab}
+    chosen = [k for k, v in given.items() if v]
+    if args.propose_poses:
+        if chosen and chosen != ["lab"]:
+            raise _usage("--propose-poses only writes the check poses; measure them afterwards with --joints/--images, "
+                         "--measurements or --port")
+        return "propose"
+    if len(chosen) > 1:
+        raise _usage("give one place to measure: --joints/--images, --measurements, --port/--cameras or --lab")
+    if not chosen:
+        raise _usage("say where to measure: --joints J --images DIR (captured pairs), --measurements M.csv, "
+                     "--port P --cameras L,R (the connected cell) or --lab (the virtual lab); or --propose-poses "
+                     "to write the check poses")
+    return chosen[0]
+
+
+def _usage(text: str):
+    from core.errors import UsageError
+    return UsageError(text)
+
+
+def _validate(args, source: str) -> None:
+    if source != "propose" and not args.log:
+        raise _usage("--log CHECKS.csv is required to check (every point is appended to it)")
+    if source == "images" and not (args.images and args.joints and args.stereo and args.marker):
+        raise _usage("captured pairs need --joints, --images, --stereo and --marker together")
+    if source == "port" and not (args.port and args.cameras and args.stereo and args.marker):
+        raise _usage("the connected cell needs --port, --cameras, --stereo and --marker together")
+    if source == "lab" and bool(args.stereo) != bool(args.marker):
+        raise _usage("--stereo and --marker go together (images), or neither (ideal measurements)")
+    if source in ("images", "measurements") and args.out:
+        raise _usage("--out re-identifies by measuring the proposed poses, which needs the lab or the connected "
+                     "robot; with files write them with --reid-poses, then run robocal reidentify")
+    if source in ("images", "measurements", "propose") and args.poses:
+        raise _usage("--poses gives the poses to drive (lab or connected robot); captured pairs take theirs from "
+                     "--joints, a measurements file from its rows")
+    if source == "propose" and (args.reid_poses or args.out):
+        raise _usage("--propose-poses measures nothing, so there is nothing to re-identify")
 
 
 def run(args) -> CommandResult:
     from app.jobs import check as job
-    from app.lab import apply_change, build_lab, ideal_measure, image_measure, lab_options, parse_change
-    from core.errors import UsageError
-    from core.robot.file import read_robot
     from core.task import Monitor
 
-    if bool(args.stereo) != bool(args.marker):
-        raise UsageError("--stereo and --marker go together (images), or neither (ideal measurements)")
-    change = parse_change(args.change) if args.change else None
+    source = _source(args)
+    _validate(args, source)
     progress = ProgressLine("check")
     monitor = Monitor(progress)
     try:
-        lab = build_lab(read_robot(args.lab_robot) if args.lab_robot else None, args.lab_seed, 0.5)
-        opts = lab_options(lab)
-        cell = job.setup(args.robot, lab_options=opts, poses_path=args.poses, count=args.count, alpha=args.alpha,
-                         seed=args.seed, tool=args.tool, progress=monitor.sub(0.0, 0.3))
-        if cell.target not in lab.nominal_robot.targets:
-            raise UsageError(f"the virtual lab's robot has no target '{cell.target}' of the tool '{cell.tool}'",
-                             hint="Give --lab-robot the robot file that defines the tool.")
-        lab.target = cell.target                    # the technician mounted the tool checked
-        if change is not None:
-            apply_change(lab, change, seed=args.seed)
-        if args.stereo:
-            from app.commands.locate import setup_locator
-            measure = image_measure(lab, setup_locator(args)[0].locate, seed=args.seed)
+        if source == "propose":
+            return _propose(args, job, monitor)
+        if source == "lab":
+            run_check = _lab
+        elif source == "port":
+            run_check = _port
         else:
-            measure = ideal_measure(lab, sigma_mm=args.noise, seed=args.seed)
-        result, diagnosis = job.check(cell, measure, log=args.log, progress=monitor.sub(0.3, 0.7))
-        update = None
-        if diagnosis is not None and args.out and diagnosis.explained:
-            update = job.reidentify_from_proposed(cell, result, diagnosis, measure, args.out, lab_options=opts,
-                                                  log=args.log, seed=args.seed, progress=monitor.sub(0.7, 1.0))
+            run_check = _files
+        where, cell, result, diagnosis, update, options_ = run_check(args, job, monitor)
+        reid = None
+        if diagnosis is not None and diagnosis.explained and diagnosis.parameters and args.reid_poses:
+            from core.poses.file import write_poses
+            check_output(args.reid_poses, "--reid-poses")
+            reid = job.propose_reidentification(cell, result, diagnosis, options=options_, seed=args.seed,
+                                                progress=monitor.sub(0.9, 1.0))
+            write_poses(args.reid_poses, reid.q_file)
     finally:
         progress.close()
-    lines = [result.verdict()]
-    data = {"check": result.summary(), "tool": cell.tool, "change": str(change) if change else None}
+    return _result(args, where, cell, result, diagnosis, update, reid)
+
+
+def _propose(args, job, monitor) -> CommandResult:
+    from core.poses.file import write_poses
+    from app.jobs.check_sources import stereo_options
+
+    check_output(args.propose_poses, "--propose-poses")
+    opts = stereo_options(args.stereo, args.marker_size) if args.stereo else {}
+    if not args.stereo and (args.lab or args.lab_seed is not None or args.lab_robot):
+        opts = _lab_options(args)[1]
+    cell = job.setup(args.robot, lab_options=opts, count=args.count, alpha=args.alpha, seed=args.seed, tool=args.tool,
+                     progress=monitor)
+    write_poses(args.propose_poses, cell.model.q_to_file(cell.Q))
+    seen = ("both cameras of the stereo calibration see the marker" if args.stereo
+            else "the virtual lab's cameras see the marker" if opts else "no camera given: joint limits only")
+    return CommandResult(text=f"Wrote {len(cell.Q)} check poses for tool '{cell.tool}' to {args.propose_poses} "
+                              f"({seen}): capture a pair at each, then run robocal check with --joints and --images.",
+                         data={"poses": len(cell.Q), "propose_poses": str(args.propose_poses), "tool": cell.tool,
+                               "visibility": seen})
+
+
+def _lab_options(args):
+    from app.lab import build_lab, lab_options
+    from core.robot.file import read_robot
+    lab = build_lab(read_robot(args.lab_robot) if args.lab_robot else None, args.lab_seed or 0, 0.5)
+    return lab, lab_options(lab)
+
+
+def _locator(args):
+    from app.commands.locate import setup_locator
+    return setup_locator(args)[0]
+
+
+def _lab(args, job, monitor):
+    from app.lab import apply_change, ideal_measure, image_measure, parse_change
+    from core.errors import UsageError
+
+    change = parse_change(args.change) if args.change else None
+    lab, opts = _lab_options(args)
+    cell = job.setup(args.robot, lab_options=opts, poses_path=args.poses, count=args.count, alpha=args.alpha,
+                     seed=args.seed, tool=args.tool, progress=monitor.sub(0.0, 0.3))
+    if cell.target not in lab.nominal_robot.targets:
+        raise UsageError(f"the virtual lab's robot has no target '{cell.target}' of the tool '{cell.tool}'",
+                         hint="Give --lab-robot the robot file that defines the tool.")
+    lab.target = cell.target                    # the technician mounted the tool checked
+    if change is not None:
+        apply_change(lab, change, seed=args.seed)
+    if args.stereo:
+        measure = image_measure(lab, _locator(args).locate, seed=args.seed)
+        where = f"the virtual lab (seed {args.lab_seed or 0}), through rendered images"
+    else:
+        measure = ideal_measure(lab, sigma_mm=args.noise, seed=args.seed)
+        where = f"the virtual lab (seed {args.lab_seed or 0}), ideal measurements"
+    if change is not None:
+        where += f", after the change {change}"
+    result, diagnosis = job.check(cell, measure, log=args.log, progress=monitor.sub(0.3, 0.7))
+    update = None
+    if diagnosis is not None and args.out and diagnosis.explained and diagnosis.parameters:
+        update = _reidentified(lambda: job.reidentify_from_proposed(
+            cell, result, diagnosis, measure, args.out, lab_options=opts, log=args.log, seed=args.seed,
+            progress=monitor.sub(0.7, 0.9)))
+    return where, cell, result, diagnosis, update, opts
+
+
+def _reidentified(run):
+    """The Update of a re-identification, or the words why it wrote nothing (a RoboCalError other
+    than a robot fault, which ends the command)."""
+    from core.errors import RoboCalError
+    from core.robot.driver import RobotFault
+    try:
+        return run()
+    except RobotFault:
+        raise
+    except RoboCalError as exc:
+        return f"{exc.problem}. {exc.hint or ''}".strip()
+
+
+def _files(args, job, monitor):
+    from app.jobs import check_sources
+    from core.robot.file import read_robot
+
+    model = read_robot(args.robot)
+    if args.measurements:
+        unc = job.calibration_uncertainty(model, source=args.robot)
+        _, target = job.mounted_tool(model, unc, args.tool, args.robot)
+        poses = check_sources.measurement_file(model, args.measurements, target)
+        opts = {}
+    else:
+        locator = _locator(args)
+        poses = check_sources.image_files(model, args.joints, args.images, locator)
+        opts = check_sources.stereo_options(args.stereo, args.marker_size)
+    cell = job.setup(args.robot, Q=poses.Q, alpha=args.alpha, tool=args.tool, progress=monitor.sub(0.0, 0.1))
+    result, diagnosis = _check_poses(job, cell, poses, args.log, monitor)
+    return poses.where, cell, result, diagnosis, None, opts
+
+
+def _check_poses(job, cell, poses, log, monitor):
+    from core.monitoring.check import run_check
+    from core.monitoring.diagnosis import diagnose
+
+    result = run_check(cell.model, cell.unc, cell.Q, poses.measure, target=cell.target, tool=cell.tool,
+                       pose_ids=poses.ids, log=log, alpha=cell.limits.alpha, limits=cell.limits,
+                       progress=monitor.sub(0.1, 0.9))
+    diagnosis = diagnose(cell.model, cell.unc, result) if result.points and not result.within else None
+    return result, diagnosis
+
+
+def _port(args, job, monitor):
+    from app.jobs import check_sources
+
+    opts = check_sources.stereo_options(args.stereo, args.marker_size)
+    cell = job.setup(args.robot, lab_options=opts, poses_path=args.poses, count=args.count, alpha=args.alpha,
+                     seed=args.seed, tool=args.tool, progress=monitor.sub(0.0, 0.2))
+    locator = _locator(args)
+    cameras = check_sources.parse_cameras(args.cameras)
+    with check_sources.connected_cell(cell.model, cell.Q, args.port, args.profile, cameras, locator,
+                                      target=cell.target) as poses:
+        result, diagnosis = _check_poses(job, cell, poses, args.log, monitor)
+        update = None
+        if diagnosis is not None and args.out and diagnosis.explained and diagnosis.parameters:
+            update = _reidentified(lambda: job.reidentify_from_proposed(
+                cell, result, diagnosis, _driven(poses), args.out, lab_options=opts, log=args.log, seed=args.seed,
+                progress=monitor.sub(0.7, 0.9)))
+    return poses.where, cell, result, diagnosis, update, opts
+
+
+def _driven(poses):
+    """measure(q) of the connected cell that returns None where the marker was not found."""
+    from core.errors import RoboCalError
+    from core.robot.driver import RobotFault
+
+    def measure(q):
+        try:
+            return poses.measure(q)
+        except RobotFault:
+            raise
+        except RoboCalError:
+            return None
+    return measure
+
+
+def _result(args, where, cell, result, diagnosis, update, reid) -> CommandResult:
+    lines = [f"Measured on {where}.", result.verdict()]
+    change = "none"
+    if diagnosis is not None:
+        change = ("unexplained" if not diagnosis.explained or diagnosis.kind not in ("tool", "base", "joint")
+                  else f"joint{diagnosis.chosen.joint + 1}" if diagnosis.kind == "joint" else diagnosis.kind)
+    data = {"in_limits": result.within, "change": change, "measured_on": where, "tool": cell.tool,
+            "rms_mm": result.rms_mm, "rms_limit_mm": result.rms_limit_mm,
+            "poses": [{"pose": p.pose, "error_mm": p.error_mm, "limit_mm": p.limit_mm, "within": p.within}
+                      for p in result.points],
+            "check": result.summary(), "lab_change": args.change}
     if diagnosis is not None:
         lines.append(diagnosis.text)
         data["diagnosis"] = diagnosis.summary()
-    if update is not None:
+    if reid is not None:
+        lines.append(f"Wrote {len(reid.Q)} poses to measure for the re-identification to {args.reid_poses}: measure "
+                     f"them, then run robocal reidentify --change {change}.")
+        data["reid_poses"] = {"path": str(args.reid_poses), "poses": len(reid.Q)}
+    elif diagnosis is not None and args.reid_poses:
+        lines.append(f"{args.reid_poses} was not written: no single change explains the check.")
+    if isinstance(update, str):
+        lines.append(f"{args.out} was not written: {update}")
+        data["reidentification_refused"] = update
+    elif update is not None:
         lines.append(f"Re-identified {', '.join(update.reidentification.changed)} from {len(update.proposed)} "
                      f"proposed poses and the check: wrote {update.path}. Check of the updated robot: "
                      + update.after.verdict())

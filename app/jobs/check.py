@@ -18,7 +18,7 @@ from core.monitoring.check_poses import DEFAULT_CHECK_POSES, select_check_poses
 from core.monitoring.diagnosis import Diagnosis, diagnose
 from core.monitoring.reidentify import Reidentification, propose_poses, reidentify, write_reidentified
 from core.monitoring.tool_identification import calibrated_targets, calibrated_tools
-from core.monitoring.uncertainty import CalibrationUncertainty, calibration_uncertainty
+from core.monitoring.uncertainty import CalibrationUncertainty, calibration_uncertainty, statistics_sigma_mm
 from core.errors import RoboCalError
 from core.poses.file import read_poses
 from core.robot.file import read_robot
@@ -61,15 +61,17 @@ def mounted_tool(model: RobotModel, unc: CalibrationUncertainty, tool: str | Non
 
 def setup(robot_path, *, lab_options: dict | None = None, poses_path=None, count: int = DEFAULT_CHECK_POSES,
           alpha: float = 0.01, sigma_mm: float | None = None, seed: int = 0, tool: str | None = None,
-          progress=None, cancelled=None) -> CheckSetup:
-    """Read the calibrated robot, take the check poses from `poses_path` or choose `count` of them
-    (with the lab's cameras and marker in `lab_options`) for the mounted `tool` (None: the first
-    calibrated one), and compute their limits."""
+          Q=None, progress=None, cancelled=None) -> CheckSetup:
+    """Read the calibrated robot, take the check poses Q (rad / mm), or from `poses_path`, or
+    choose `count` of them (with the lab's or cell's cameras and marker in `lab_options`) for the
+    mounted `tool` (None: the first calibrated one), and compute their limits."""
     monitor = Monitor(progress, cancelled)
     model = read_robot(robot_path)
     unc = calibration_uncertainty(model, source=robot_path, sigma_mm=sigma_mm)
     tool, target = mounted_tool(model, unc, tool, robot_path)
-    if poses_path is not None:
+    if Q is not None:
+        Q = np.atleast_2d(np.asarray(Q, dtype=float))
+    elif poses_path is not None:
         Q = read_poses(poses_path, model).Q
     else:
         opts = {k: v for k, v in (lab_options or {}).items() if k != "robot"}
@@ -109,14 +111,17 @@ def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: D
                              progress=None, cancelled=None) -> Update:
     """Propose the few poses that, with the check's points (measured after the change), determine
     what changed, measure them, re-identify from them and the check's points with the calibration
-    as prior, check the updated model at the check poses, and only when all that succeeded: keep
-    the file at `out` in history/ (`archive`) and write `out` atomically. A failure leaves no
-    file behind."""
+    as prior, check the updated model at the check poses, and only when all that succeeded and
+    that check's overall RMS is within its limit: keep the file at `out` in history/ (`archive`)
+    and write `out` atomically. A failure, or an updated model still out of limits as a whole
+    (RoboCalError advising a full calibration), leaves no file behind; one point beyond its own
+    limit alone does not refuse it (the next check shows it)."""
     monitor = Monitor(progress, cancelled)
     opts = {k: v for k, v in (lab_options or {}).items() if k != "robot"}
     opts["target"] = cell.target
     proposal = propose_poses(cell.model, cell.unc, diagnosis.parameters, result.Q, candidates=CANDIDATES,
-                             seed=seed, progress=monitor.sub(0.0, 0.3), cancelled=cancelled, **opts)
+                             seed=seed, measured_scale=diagnosis.chosen.noise_scale, progress=monitor.sub(0.0, 0.3),
+                             cancelled=cancelled, **opts)
     Qs, xyz = [], []
     for k, q in enumerate(proposal.Q):
         monitor.step(0.3 + 0.3 * k / len(proposal.Q), f"measuring proposed pose {k + 1} of {len(proposal.Q)}")
@@ -138,6 +143,10 @@ def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: D
     updated = replace(cell, model=re.model, unc=unc, source=str(out),
                       limits=check_limits(re.model, unc, cell.Q, [cell.target] * len(cell.Q), cell.limits.alpha))
     after, _ = check(updated, measure, log=log, progress=monitor.sub(0.7, 1.0), cancelled=cancelled)
+    if not after.cancelled and after.points and after.rms_mm > after.rms_limit_mm:     # as a whole, not one point
+        raise RoboCalError(f"after re-identifying {', '.join(re.changed)} the check is still out of limits "
+                           f"({after.rms_mm:.3f} mm RMS, limit {after.rms_limit_mm:.3f} mm); {out.name} was not "
+                           "changed", hint="The change is not only what the diagnosis found: run a full calibration.")
     path = write_keeping_previous(re, out, kept)
     return Update(re, Path(path), proposal.Q, after, updated)
 
@@ -209,15 +218,16 @@ def reidentify_on_lab(cell: CheckSetup, result: CheckResult, diagnosis: Diagnosi
 
 def weighted_sigma_mm(path) -> float | None:
     """The measurement noise (mm per axis) of a calibration that weighted its points by their own
-    σ (its σ̂ is then a factor): its RMS 3D error after calibration per axis, corrected for the
-    parameters the fit absorbed: rms / √3 · √(3N / dof). None for an unweighted calibration (its
-    σ̂ is in mm and is used as it is)."""
+    σ (core.monitoring.uncertainty.statistics_sigma_mm); None for an unweighted calibration (its
+    σ̂ is in mm and is used as it is). Every check reads it itself now; kept for the callers that
+    pass it on."""
     stats = (read_robot(path).calibration or {}).get("statistics") or {}
-    rms, n, dof = stats.get("rms_after_mm"), stats.get("n_points"), stats.get("dof")
-    if stats.get("sigma_hat_unit", "mm") == "mm" or not isinstance(rms, (int, float)) or not rms > 0:
+    if not isinstance(stats, dict) or stats.get("sigma_hat_unit", "mm") == "mm":
         return None
-    absorbed = np.sqrt(3.0 * n / dof) if isinstance(n, int) and isinstance(dof, int) and 0 < dof <= 3 * n else 1.0
-    return float(rms) / np.sqrt(3.0) * float(absorbed)
+    try:
+        return statistics_sigma_mm(stats, path)
+    except RoboCalError:
+        return None
 
 
 def check_project(calibrated, lab, *, cell: CheckSetup | None = None, count: int = DEFAULT_CHECK_POSES,
@@ -232,3 +242,108 @@ def check_project(calibrated, lab, *, cell: CheckSetup | None = None, count: int
     result, diagnosis = check_on_lab(cell, lab, change, images=images, log=log, seed=seed,
                                      progress=monitor.sub(0.6, 1.0), cancelled=cancelled)
     return cell, result, diagnosis
+
+
+def propose_reidentification(cell: CheckSetup, result: CheckResult, diagnosis: Diagnosis, *,
+                             options: dict | None = None, seed: int = 0, progress=None, cancelled=None):
+    """The few poses (core.monitoring.reidentify.Proposal) that, with the check's points, determine
+    what `diagnosis` found; `options`: the cell's cameras and marker (core.poses.candidates)."""
+    opts = {k: v for k, v in (options or {}).items() if k not in ("robot", "target")}
+    return propose_poses(cell.model, cell.unc, diagnosis.parameters, result.Q, target=cell.target,
+                         candidates=CANDIDATES, seed=seed, measured_scale=diagnosis.chosen.noise_scale,
+                         progress=progress, cancelled=cancelled, **opts)
+
+
+def change_parameters(model: RobotModel, target: str, kind: str) -> list:
+    """The parameters a change of `kind` (tool, base or joint<k>, k from 1) moves, for the check's
+    `target`. RoboCalError for another kind."""
+    from core.monitoring.diagnosis import JOINT, candidate_sets
+
+    for k, _, params, joint in candidate_sets(model, target):
+        name = f"{JOINT}{joint + 1}" if k == JOINT else k
+        if name == kind and k in ("tool", "base", JOINT):
+            return list(params)
+    joints = ", ".join(f"joint{i + 1}" for i in range(model.dof))
+    raise RoboCalError(f"unknown change '{kind}'", field="--change",
+                       hint=f"Give the change the check's diagnosis named: tool, base or one of {joints}.")
+
+
+@dataclass
+class LoggedCheckPoints:
+    """The points of the last check in a log (the one the re-identification follows), as
+    Measurements of its target, with its tool and run name."""
+
+    run: str
+    target: str
+    tool: str
+    measurements: Measurements
+
+
+def last_check(log, model: RobotModel) -> LoggedCheckPoints:
+    """The last check in the check log `log` that has points. RoboCalError naming the log when none."""
+    from core.monitoring.log import read_check_log
+
+    checks = [c for c in read_check_log(log).checks if c.points]
+    if not checks:
+        raise RoboCalError("the check log holds no checked point", source=log,
+                           hint="Run robocal check with this log first.")
+    last = checks[-1]
+    if len(last.points[0].q_file) != model.dof:
+        raise RoboCalError(f"the log's checks have {len(last.points[0].q_file)} joints, the robot {model.dof}",
+                           source=log, field="header", hint="Give the check log of this robot.")
+    q_file = np.array([p.q_file for p in last.points])
+    Q = np.atleast_2d(model.q_from_file(q_file)).reshape(len(q_file), model.dof)
+    meas = Measurements(pose=np.array([p.pose for p in last.points]), target=[p.target for p in last.points],
+                        q_file=q_file, xyz=np.array([p.measured for p in last.points]), Q=Q, source=str(log))
+    return LoggedCheckPoints(last.run, last.points[0].target, last.tool, meas)
+
+
+@dataclass
+class FileUpdate:
+    """A re-identification from measured points: the result, the check of the updated robot at the
+    check's points, and the file written (None when the check after it was out of limits)."""
+
+    reidentification: Reidentification
+    after: CheckResult
+    path: Path | None
+    n_new: int
+
+
+def reidentify_measured(robot_path, log, kind: str, new: Measurements, out, *, alpha: float = 0.01,
+                        progress=None, cancelled=None) -> FileUpdate:
+    """Re-identify the change `kind` (tool, base, joint<k>) from the last check in `log` plus the
+    `new` points (measured after the change, e.g. at the proposed poses), the calibration in
+    `robot_path` as prior; check the updated robot at the check's points (appended to `log`), and
+    only when that check is within limits write `out` (a file there before is kept in history/)."""
+    monitor = Monitor(progress, cancelled)
+    logged = last_check(log, read_robot(robot_path))
+    cell = setup(robot_path, Q=logged.measurements.Q, alpha=alpha, tool=logged.tool or None,
+                 progress=monitor.sub(0.0, 0.1), cancelled=cancelled)
+    if logged.target != cell.target:
+        raise RoboCalError(f"the last check measured target '{logged.target}', the calibration's tool '{cell.tool}' "
+                           f"carries '{cell.target}'", source=log, field="target",
+                           hint="Give the calibrated robot file the check was made with.")
+    params = change_parameters(cell.model, cell.target, kind)
+    other = sorted(set(new.target) - {cell.target})
+    if other:
+        raise RoboCalError(f"the new points are of target(s) {', '.join(other)}, the check's of '{cell.target}'",
+                           source=new.source or None, field="target", hint="Measure the same tool's marker.")
+    new = new.with_robot(cell.model) if new.Q is None else new
+    Q = np.vstack([new.Q, logged.measurements.Q])
+    meas = Measurements(pose=np.arange(len(Q)), target=[cell.target] * len(Q),
+                        q_file=np.atleast_2d(cell.model.q_to_file(Q)).reshape(len(Q), cell.model.dof),
+                        xyz=np.vstack([new.xyz, logged.measurements.xyz]), Q=Q)
+    out = Path(out)
+    kept = history_path(out) if out.is_file() else None
+    reason = f"{kind} changed (check {logged.run}), re-identified from {len(new.Q)} new poses and the check"
+    re = reidentify(cell.model, cell.unc, params, meas, reason=reason, previous=str(robot_path),
+                    alpha=alpha, progress=monitor.sub(0.1, 0.8), cancelled=cancelled)
+    unc = calibration_uncertainty(re.model, source=out, sigma_mm=cell.unc.sigma_mm)
+    updated = replace(cell, model=re.model, unc=unc, source=str(out),
+                      limits=check_limits(re.model, unc, cell.Q, [cell.target] * len(cell.Q), alpha))
+    points = iter(logged.measurements.xyz)
+    after = run_check(updated.model, updated.unc, updated.Q, lambda q: next(points), target=cell.target,
+                      tool=cell.tool, pose_ids=logged.measurements.pose, log=log, alpha=alpha, limits=updated.limits,
+                      progress=monitor.sub(0.8, 1.0), cancelled=cancelled)
+    path = write_keeping_previous(re, out, kept) if after.within else None
+    return FileUpdate(re, after, None if path is None else Path(path), len(new.Q))

@@ -44,11 +44,19 @@ def identify_from_file(calibrated, tool: str, measurements, out, *, sigma_mm: fl
                        progress=None, cancelled=None) -> ToolUpdate:
     """Identify `tool` from a measurements file of its poses and write `out`."""
     model = read_robot(calibrated)
+    return identify_from_measurements(calibrated, tool, read_measurements(measurements, model), out,
+                                      sigma_mm=sigma_mm, progress=progress, cancelled=cancelled)
+
+
+def identify_from_measurements(calibrated, tool: str, meas: Measurements, out, *, sigma_mm: float | None = None,
+                               progress=None, cancelled=None) -> ToolUpdate:
+    """Identify `tool` from measured points of its targets (a file, captured pairs or the
+    connected cell: app.jobs.check_sources) and write `out` atomically."""
+    model = read_robot(calibrated)
     unc = calibration_uncertainty(model, source=calibrated, sigma_mm=sigma_mm)
-    meas = read_measurements(measurements, model)
     result = identify_tool(model, unc, tool, meas, previous=str(calibrated), progress=progress, cancelled=cancelled)
     path = write_reidentified(result.reidentification, out)
-    return ToolUpdate(result, Path(path), meas.with_robot(model).Q)
+    return ToolUpdate(result, Path(path), meas.with_robot(model).Q if meas.Q is None else meas.Q)
 
 
 def identify_on_lab(calibrated, tool: str, lab, out=None, *, change: str | None = None, images=None,

@@ -22,6 +22,7 @@ from core.errors import Cancelled, RoboCalError
 from core.identification.jacobian import predict_points
 from core.monitoring.log import CheckLogWriter
 from core.monitoring.uncertainty import CalibrationUncertainty, norm_limit, prediction_covariance
+from core.robot.driver import RobotFault
 from core.robot.model import RobotModel
 from core.task import Monitor
 
@@ -148,7 +149,9 @@ def run_check(model: RobotModel, unc: CalibrationUncertainty, Q, measure: Measur
     compare with `model`'s prediction, append every point to the check `log` at once (with the
     mounted `tool`'s name), and close the check with its overall row. `limits` (from check_limits for the same model, poses
     and alpha) saves computing them again. Cancel stops between poses: what was measured stays
-    in the log and the result comes back with `cancelled` (no overall row is written)."""
+    in the log and the result comes back with `cancelled` (no overall row is written). A pose
+    `measure` cannot measure (RoboCalError) is listed as missing; a robot fault (RobotFault) ends
+    the check with the points measured so far in the log and no overall row."""
     if not 0.0 < alpha < 0.5:
         raise RoboCalError(f"the false-alarm probability must be between 0 and 0.5, got {alpha}")
     monitor = Monitor(progress, cancelled)
@@ -180,6 +183,8 @@ def run_check(model: RobotModel, unc: CalibrationUncertainty, Q, measure: Measur
                 break
             try:
                 xyz = measure(Q[k])
+            except RobotFault:
+                raise                           # the robot stopped: what was measured stays in the log
             except RoboCalError as exc:
                 missing.append((int(ids[k]), exc.problem))
                 continue

@@ -72,6 +72,13 @@ class CandidateFit:
         return float(f_dist.sf(self.rss / dof, dof, self.sigma_dof))
 
     @property
+    def noise_scale(self) -> float:
+        """How much the check's points err beyond the predicted covariance once this change is
+        fitted: √(RSS / (3N − p)), at least 1 (1 when no degree of freedom is left)."""
+        dof = self.n - self.p
+        return max(1.0, math.sqrt(self.rss / dof)) if dof > 0 else 1.0
+
+    @property
     def names(self) -> list[str]:
         return [p.name for p in self.parameters]
 

@@ -44,6 +44,47 @@ class CalibrationUncertainty:
         return [p.name for p in self.parameters]
 
 
+MAX_SIGMA_MM = 1000.0          # a larger measurement noise is no calibration (and overflows the limits)
+MAX_VARIANCE = 1e12             # mm² / rad² of any identified parameter, for the same reason
+
+
+def statistics_sigma_mm(stats: dict, source=None) -> float:
+    """The measurement noise per axis (mm) of a calibration's `statistics`: its σ̂ when it is in mm;
+    for a calibration that weighted its points by their own σ (σ̂ is then a unitless factor, its
+    `sigma_hat_unit` not "mm"), the RMS 3D error after calibration per axis corrected for the
+    parameters the fit absorbed, rms_after_mm / √3 · √(3N / dof); in both cases at least the
+    error at the poses the calibration held out (held_out_sigma_mm). RoboCalError naming the
+    field when neither σ̂ nor the RMS error is there."""
+    if stats.get("sigma_hat_unit", "mm") == "mm":
+        sigma = stats.get("sigma_hat")
+        field = "calibration.statistics.sigma_hat"
+    else:
+        sigma = stats.get("rms_after_mm")
+        field = "calibration.statistics.rms_after_mm"
+    if not isinstance(sigma, (int, float)) or isinstance(sigma, bool) or not math.isfinite(sigma) or sigma <= 0:
+        raise RoboCalError("expected a positive number (mm)", source=source, field=field,
+                           hint="Use the calibrated robot file written by the Identification step (robocal identify).")
+    if stats.get("sigma_hat_unit", "mm") == "mm":
+        own = float(sigma)
+    else:
+        n, dof = stats.get("n_points"), stats.get("dof")
+        absorbed = math.sqrt(3.0 * n / dof) if isinstance(n, int) and isinstance(dof, int) and 0 < dof <= 3 * n else 1.0
+        own = float(sigma) / math.sqrt(3.0) * absorbed
+    return max(own, held_out_sigma_mm(stats))
+
+
+def held_out_sigma_mm(stats: dict) -> float:
+    """The calibration's error at the poses it held out (validation.after.rms_mm, 3D) per axis, mm;
+    0 without a validation. A point measured after the calibration at other poses is predicted
+    about that well: the error includes what the model cannot absorb (e.g. the stereo
+    calibration's error away from the calibration's poses), which σ̂ of the fitted points does not."""
+    after = ((stats.get("validation") or {}).get("after") or {}) if isinstance(stats.get("validation"), dict) else {}
+    rms = after.get("rms_mm") if isinstance(after, dict) else None
+    if not isinstance(rms, (int, float)) or isinstance(rms, bool) or not math.isfinite(rms) or rms <= 0:
+        return 0.0
+    return float(rms) / math.sqrt(3.0)
+
+
 def _field(cal: dict, key: str, source, field: str):
     if key not in cal:
         raise RoboCalError("missing", source=source, field=field,
@@ -55,8 +96,8 @@ def _field(cal: dict, key: str, source, field: str):
 def calibration_uncertainty(model: RobotModel, *, source: str | Path | None = None,
                             sigma_mm: float | None = None) -> CalibrationUncertainty:
     """The uncertainty a calibrated robot file records (its `calibration.covariance` and
-    `calibration.statistics.sigma_hat`). `sigma_mm` overrides the measurement noise (needed
-    when the calibration weighted its points, whose σ̂ is then a factor, not mm).
+    `calibration.statistics`, see statistics_sigma_mm: its σ̂ in mm, or for a calibration that
+    weighted its points the noise its own errors show). `sigma_mm` overrides the measurement noise.
     Raises RoboCalError naming the file and field for a file without them."""
     source = str(source) if source is not None else None
     cal = model.calibration
@@ -93,21 +134,18 @@ def calibration_uncertainty(model: RobotModel, *, source: str | Path | None = No
         stats = _field(cal, "statistics", source, "calibration.statistics")
         if not isinstance(stats, dict):
             raise RoboCalError("expected an object", source=source, field="calibration.statistics")
-        sigma = stats.get("sigma_hat")
-        if stats.get("sigma_hat_unit", "mm") != "mm":
-            raise RoboCalError("the calibration weighted its points by their own σ, so its σ̂ is not in mm",
-                               source=source, field="calibration.statistics.sigma_hat",
-                               hint="Give the measurement noise in mm (--sigma).")
-        if not isinstance(sigma, (int, float)) or isinstance(sigma, bool) or not math.isfinite(sigma) \
-                or sigma <= 0:
-            raise RoboCalError("expected a positive number (mm)", source=source,
-                               field="calibration.statistics.sigma_hat")
-        sigma_mm = float(sigma)
+        sigma_mm = statistics_sigma_mm(stats, source)
         given = stats.get("dof")
         if isinstance(given, int) and not isinstance(given, bool) and given > 0:
             dof = float(given)
-    if not sigma_mm > 0:
-        raise RoboCalError(f"the measurement noise must be positive, got {sigma_mm} mm")
+    if not 0.0 < sigma_mm <= MAX_SIGMA_MM:
+        raise RoboCalError(f"the measurement noise must be between 0 and {MAX_SIGMA_MM:g} mm, got {sigma_mm:g} mm",
+                           source=source, field="calibration.statistics.sigma_hat",
+                           hint="The calibration did not converge to a usable result: calibrate again.")
+    if float(np.max(np.abs(C), initial=0.0)) > MAX_VARIANCE:
+        raise RoboCalError(f"a parameter variance beyond {MAX_VARIANCE:g} (mm² or rad²): the calibration did not "
+                           "determine its parameters", source=source, field="calibration.covariance.matrix",
+                           hint="Calibrate again with more poses (robocal select-poses).")
     return CalibrationUncertainty([known[n] for n in names], 0.5 * (C + C.T), float(sigma_mm),
                                   source or "", dof)
 

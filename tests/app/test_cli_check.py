@@ -29,7 +29,7 @@ def run_json(capsys, argv):
 
 
 def test_no_change_is_within_limits(calibrated, tmp_path, capsys):
-    code, data, err = run_json(capsys, ["check", "--robot", str(calibrated), "--log", str(tmp_path / "c.csv")])
+    code, data, err = run_json(capsys, ["check", "--robot", str(calibrated), "--log", str(tmp_path / "c.csv"), "--lab"])
     assert code == 0, err
     assert data["check"]["within"] and "diagnosis" not in data
     assert len(read_check_log(tmp_path / "c.csv").checks[0].points) == 8
@@ -63,13 +63,13 @@ def test_bent_link_writes_nothing(calibrated, tmp_path, capsys):
                                             (["--alpha", "0.9"], "false-alarm"),
                                             (["--stereo", "s.yaml"], "--stereo and --marker")])
 def test_usage_errors(calibrated, tmp_path, capsys, extra, message):
-    code = main(["check", "--robot", str(calibrated), "--log", str(tmp_path / "c.csv")] + extra)
+    code = main(["check", "--robot", str(calibrated), "--log", str(tmp_path / "c.csv"), "--lab"] + extra)
     assert code == 2 and message in capsys.readouterr().err
 
 
 def test_uncalibrated_robot_is_one_line(tmp_path, capsys):
     from core.robot.model import robot_path
-    code = main(["check", "--robot", str(robot_path("educational_6r")), "--log", str(tmp_path / "c.csv")])
+    code = main(["check", "--robot", str(robot_path("educational_6r")), "--log", str(tmp_path / "c.csv"), "--lab"])
     err = capsys.readouterr().err
     assert code == 1 and "holds no calibration" in err and len(err.strip().splitlines()) == 1
 

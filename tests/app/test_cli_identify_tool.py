@@ -81,7 +81,7 @@ def test_poses_for_a_real_robot_then_identify_from_their_measurements(cell, tmp_
 def test_a_tool_the_lab_lacks_is_said(cell, tmp_path, capsys):
     calibrated, _ = cell
     code = main(["identify-tool", "--robot", str(calibrated), "--tool", "long_gripper", "--out",
-                 str(tmp_path / "u.json")])
+                 str(tmp_path / "u.json"), "--lab"])
     assert code in (1, 2) and "no target 'long_marker'" in capsys.readouterr().err
     assert not (tmp_path / "u.json").exists()
 
@@ -93,3 +93,39 @@ def test_poses_out_with_out_is_refused(cell, tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 2 and "--poses-out only proposes" in err and err.count("\n") == 1
     assert not (tmp_path / "p.csv").exists() and not (tmp_path / "u.json").exists()
+
+
+def test_a_tool_identified_from_pairs_captured_at_its_poses(cell, tmp_path, capsys):
+    """The poses proposed with the stereo calibration, the lab's pairs with the long gripper
+    mounted written as PNG files, read back through --joints --images."""
+    import cv2
+    from tests.app.virtual_inputs import true_stereo_yaml
+
+    calibrated, robot = cell
+    lab = build_lab(read_robot(robot), 0, 0.5)
+    stereo = true_stereo_yaml(lab, tmp_path / "stereo.yaml")
+    cv2.imwrite(str(tmp_path / "training.png"), lab.render_training_image())
+    poses = tmp_path / "tool_poses.csv"
+    assert main(["identify-tool", "--robot", str(calibrated), "--tool", "long_gripper", "--poses-out", str(poses),
+                 "--stereo", str(stereo)]) == 0
+    lab.target = "long_marker"
+    rng = np.random.default_rng(2)
+    for side in ("left", "right"):
+        (tmp_path / "pairs" / side).mkdir(parents=True)
+    for k, q in enumerate(read_robot(calibrated).q_from_file(read_poses(poses).q_file)):
+        left, right = lab.render_marker_pair(q, rng)
+        cv2.imwrite(str(tmp_path / "pairs" / "left" / f"{k:02d}.png"), left)
+        cv2.imwrite(str(tmp_path / "pairs" / "right" / f"{k:02d}.png"), right)
+    capsys.readouterr()
+    code, data, err = run_json(capsys, ["identify-tool", "--robot", str(calibrated), "--tool", "long_gripper",
+                                        "--joints", str(poses), "--images", str(tmp_path / "pairs"), "--stereo",
+                                        str(stereo), "--marker", str(tmp_path / "training.png"),
+                                        "--out", str(tmp_path / "u.json")])
+    assert code == 0, err
+    assert data["measured_on"] == f"image files in {tmp_path / 'pairs'}" and data["n_poses"] == 5
+    from_pairs = np.array(data["offsets_mm"]["long_marker"])
+    code, data, err = run_json(capsys, ["identify-tool", "--robot", str(calibrated), "--tool", "long_gripper",
+                                        "--lab-robot", str(robot), "--out", str(tmp_path / "u_lab.json")])
+    assert code == 0, err
+    np.testing.assert_allclose(from_pairs, data["offsets_mm"]["long_marker"], atol=0.15)   # measured: 0.05 mm apart
+    assert read_robot(tmp_path / "u.json").calibration["tools"] == ["gripper", "long_gripper"]

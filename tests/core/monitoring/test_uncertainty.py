@@ -63,3 +63,32 @@ def test_bad_calibration_names_file_and_field(tmp_path, edit, field):
         calibration_uncertainty(read_robot(path), source=path)
     assert err.value.source == str(path) and err.value.field == field
     assert str(path) in str(err.value)
+
+
+def test_the_noise_of_a_weighted_calibration_is_its_own_error_in_mm():
+    """σ̂ of a calibration that weighted its points is a factor: the noise is its RMS error per axis
+    with the fitted parameters' share put back (0.0067 mm RMS over 30 points, 63 dof)."""
+    from core.monitoring.uncertainty import statistics_sigma_mm
+    stats = {"sigma_hat": 0.688, "sigma_hat_unit": "1", "rms_after_mm": 0.0067, "n_points": 30, "dof": 63}
+    assert statistics_sigma_mm(stats) == pytest.approx(0.0067 / np.sqrt(3) * np.sqrt(90 / 63), rel=1e-12)
+    stats["validation"] = {"after": {"rms_mm": 0.0095}}      # the held-out poses' error is larger: it counts
+    assert statistics_sigma_mm(stats) == pytest.approx(0.0095 / np.sqrt(3), rel=1e-12)
+    assert statistics_sigma_mm({"sigma_hat": 0.049}) == 0.049
+    with pytest.raises(RoboCalError) as exc:
+        statistics_sigma_mm({"sigma_hat": 0.7, "sigma_hat_unit": "1"}, "c.json")
+    assert exc.value.field == "calibration.statistics.rms_after_mm"
+
+
+@pytest.mark.parametrize("key, value, field", [("sigma_hat", 1e308, "calibration.statistics.sigma_hat"),
+                                               ("covariance", 1e300, "calibration.covariance.matrix")])
+def test_a_calibration_that_did_not_converge_is_refused(key, value, field):
+    c = cell()
+    data = json.loads(json.dumps(robot_to_dict(c.model)))
+    if key == "sigma_hat":
+        data["calibration"]["statistics"]["sigma_hat"] = value
+    else:
+        data["calibration"]["covariance"]["matrix"][0][0] = value
+    from core.robot.file import robot_from_dict
+    with pytest.raises(RoboCalError) as exc:
+        calibration_uncertainty(robot_from_dict(data), source="c.json")
+    assert exc.value.field == field
