@@ -6,7 +6,8 @@ YAML/XML file, OpenCV stereo_calib's intrinsics.yml + extrinsics.yml, ROS camera
 MATLAB stereoParameters as JSON or as a MAT-file (.mat, toStruct saved with -v7), or a RoboCal
 stereo.yaml. E, F and the rectification are
 computed where the files leave them out; the reprojection errors and the checkerboard stay
-unknown. The output is written atomically.
+unknown. The output is written atomically. A rig the marker location cannot use (the cameras
+one above the other, or the 'right' camera on the left) is converted with a note saying so.
 """
 from __future__ import annotations
 
@@ -53,9 +54,10 @@ def add_arguments(parser) -> None:
 
 def run(args) -> CommandResult:
     from app.commands.paths import same_file
-    from core.errors import UsageError
+    from core.errors import RoboCalError, UsageError
     from core.stereo.file import stereo_json, write_stereo_yaml
     from core.stereo.importers import read_any_stereo
+    from core.stereo.rectification import StereoRectification
 
     check_output(args.out, "--out")
     imported = read_any_stereo(args.sources, image_size=args.image_size, mm_per_unit=UNITS_MM[args.unit])
@@ -70,6 +72,10 @@ def run(args) -> CommandResult:
              f"and checkerboard unknown." if sf.rms_stereo is None else
              f"Wrote {path} from {imported.kind}: {sf.image_size[0]}x{sf.image_size[1]} px, baseline "
              f"{sf.baseline_mm:.2f} mm, stereo RMS {sf.rms_stereo:.3f} px."]
+    try:
+        StereoRectification.from_calibration(sf)
+    except RoboCalError as exc:
+        imported.notes.append(f"the marker location will refuse this calibration: {exc.problem}. {exc.hint}")
     lines += [f"  note: {n}" for n in imported.notes]
     data = {"out": str(path), "source_format": imported.kind, "sources": [str(p) for p in imported.sources],
             "notes": imported.notes, "stereo": stereo_json(sf)}

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from core.bounds import LENGTH_MM, POSE_ID
+from core.bounds import ANGLE_DEG, LENGTH_MM, POSE_ID, Bound
 from core.errors import RoboCalError
 from core.files import atomic_write_text, read_text
 from core.robot.model import RobotModel
@@ -36,6 +36,10 @@ class PoseList:
 
     def __len__(self) -> int:
         return len(self.q_file)
+
+
+#: a joint value when the robot (and so the joint's unit) is not known
+JOINT_VALUE = Bound(-1e5, 1e5, "", "joint values are degrees or mm; 100 000 of either is no joint's")
 
 
 def format_poses(q_file, decimals: int = 3) -> str:
@@ -79,6 +83,8 @@ def read_poses(path: str | Path, robot: RobotModel | None = None) -> PoseList:
                                    f"'{robot.name}' has {robot.dof} joints", source=path,
                                    hint="Use the robot model these poses were selected for.")
             header = cells
+            bounds = ([ANGLE_DEG if j.revolute else LENGTH_MM for j in robot.joints] if robot is not None
+                      else [JOINT_VALUE] * n)
             continue
         if len(cells) != len(header):
             raise RoboCalError(f"line {line_no}: expected {len(header)} values, got {len(cells)}",
@@ -93,7 +99,8 @@ def read_poses(path: str | Path, robot: RobotModel | None = None) -> PoseList:
             if not math.isfinite(v):
                 raise RoboCalError(f"line {line_no}, column '{name}': expected a finite number",
                                    source=path)
-            (POSE_ID if name == "pose" else LENGTH_MM).check(v, source=path, field=f"line {line_no}, {name}")
+            (POSE_ID if name == "pose" else bounds[len(values) - 1]).check(v, source=path,
+                                                                           field=f"line {line_no}, {name}")
             values.append(v)
         poses.append(int(values[0]) if float(values[0]).is_integer() else -1)
         if poses[-1] < 0:

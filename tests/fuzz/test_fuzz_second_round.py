@@ -1,7 +1,8 @@
 """Fuzzing the commands added after the first round: robot-import (URDF files and link names),
 import-measurements (CSV files of other tools), stereo-import of OpenVINS / Kalibr IMU chains,
 identify-tool (calibrated robot files), check (check logs of another kind), and report (project
-files).
+files); compensate's and reidentify's inputs in the property below (their files are fuzzed in
+tests/fuzz/test_fuzz_compensation.py and tests/fuzz/test_fuzz_reidentify.py).
 
 The rule of tests/fuzz/test_fuzz_commands.py: exit 1 (bad data) or 2 (usage), exactly one line
 on stderr naming the file or the option, no traceback or "internal error", and no file created
@@ -23,6 +24,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from tests.fuzz.test_fuzz_commands import JUNK, ROBOT, assert_one_clear_line, mutate, robot_paths, run
+from tests.fuzz.test_fuzz_reidentify import cell  # noqa: F401  (the fixture: a check log to re-identify from)
 
 FAST = settings(derandomize=True, max_examples=40, deadline=None, database=None,
                 suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
@@ -290,12 +292,20 @@ def _commands(valid: dict) -> dict:
                             "{robot}", "--fixture", "{fixture}", "{out}", "--out", "{out}/p.json"],
                            ["stereo", "marker", "robot", "fixture"]),
         "export": (["export", "--robot", "{robot}", "--format", "urdf", "--out", "{out}/r.urdf"], ["robot"]),
+        "compensate": (["compensate", "--robot", "{robot}", "--targets", "{targets}", "--frame", "{fixture_pose}",
+                        "--position-only", "--out", "{out}/j.csv"], ["robot", "targets", "fixture_pose"]),
+        "compensate --program": (["compensate", "--robot", "{robot}", "--program", "{program}", "--nominal",
+                                  "{nominal}", "--position-only", "--format", "gcode", "--out", "{out}/p.gcode"],
+                                 ["robot", "program", "nominal"]),
+        "reidentify": (["reidentify", "--robot", "{calibrated}", "--log", "{log}", "--change", "base", "--measurements",
+                        "{new}", "--out", "{out}/u.json"], ["calibrated", "log", "new"]),
     }
 
 
 @pytest.fixture(scope="module")
-def valid_inputs(files, tracker_csv, tmp_path_factory):
+def valid_inputs(files, tracker_csv, cell, tmp_path_factory):
     from tests.core.stereo import foreign_files as ff
+    from tests.fuzz.test_fuzz_compensation import FIXTURE_POSE, FIXTURE_TARGETS, PROGRAM
     from core.virtual_lab.rig import default_rig
 
     folder = tmp_path_factory.mktemp("valid")
@@ -303,11 +313,15 @@ def valid_inputs(files, tracker_csv, tmp_path_factory):
             "meas": (files / "m.csv").read_bytes(),
             "stereo": ff.opencv_file(default_rig(0), folder / "stereo.yml").read_bytes(),
             "marker": _png(), "fixture": json.dumps({"format": "robocal.fixture-description/1", "points": [
-                {"name": n} for n in "ABC"]}).encode()}
+                {"name": n} for n in "ABC"]}).encode(),
+            "targets": FIXTURE_TARGETS.encode(), "fixture_pose": json.dumps(FIXTURE_POSE).encode(),
+            "program": PROGRAM.encode(), "nominal": Path(ROBOT).read_bytes(),
+            "calibrated": cell["calibrated"].encode(), "log": cell["log"].encode(), "new": cell["new"].encode()}
 
 
 SUFFIX = {"urdf": ".urdf", "csv": ".csv", "robot": ".json", "meas": ".csv", "stereo": ".yml", "marker": ".png",
-          "fixture": ".json"}
+          "fixture": ".json", "targets": ".csv", "fixture_pose": ".json", "program": ".csv", "nominal": ".json",
+          "calibrated": ".json", "log": ".csv", "new": ".csv"}
 
 
 @FAST
@@ -316,8 +330,37 @@ def test_no_refused_command_changes_an_input(valid_inputs, tmp_path_factory, com
     """One input of a command replaced by junk (the others valid): when the command refuses, the
     sha256 of every file in the work folder (all its inputs) is the same before and after, and no
     output appeared."""
+    _refusal_keeps_every_input(valid_inputs, tmp_path_factory.mktemp("inputs"), command, junk, which)
+
+
+EVERY_INPUT = [(command, which, junk) for command in ("compensate", "compensate --program", "reidentify")
+               for which in range(3) for junk in sorted(JUNK_FILES)]
+
+
+@pytest.mark.parametrize("command, which, junk", EVERY_INPUT)
+def test_refused_compensate_or_reidentify_changes_no_input(valid_inputs, tmp_path, command, which, junk):
+    """The same property for every input of `compensate` (robot, targets, fixture pose; robot,
+    program, nominal) and of `reidentify` (calibrated robot, check log, new measurements) and
+    every kind of junk: always refused, nothing changed or written."""
+    code = _refusal_keeps_every_input(valid_inputs, tmp_path, command, junk, which)
+    assert code != 0
+
+
+@pytest.mark.parametrize("command", ["compensate", "compensate --program", "reidentify"])
+def test_compensate_and_reidentify_with_the_valid_inputs_write_their_output(valid_inputs, tmp_path, command):
+    """The inputs the property damages one by one are valid together: the refusals come from the junk."""
     argv, names = _commands(valid_inputs)[command]
-    work = tmp_path_factory.mktemp("inputs")
+    paths = {name: tmp_path / f"{name}{SUFFIX[name]}" for name in names}
+    for name in names:
+        paths[name].write_bytes(valid_inputs[name])
+    (tmp_path / "out").mkdir()
+    code, err = run([a.format(out=tmp_path / "out", **paths) for a in argv], tmp_path)
+    assert code == 0, err
+    assert len(list((tmp_path / "out").iterdir())) == 1
+
+
+def _refusal_keeps_every_input(valid_inputs, work: Path, command: str, junk: str, which: int) -> int:
+    argv, names = _commands(valid_inputs)[command]
     bad = names[which % len(names)]
     paths = {}
     for name in names:
@@ -329,3 +372,4 @@ def test_no_refused_command_changes_an_input(valid_inputs, tmp_path_factory, com
     if code != 0:
         assert digests(work) == before
         assert_one_clear_line(code, err, [str(paths[bad]), str(work)])
+    return code

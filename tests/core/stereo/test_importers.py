@@ -465,3 +465,29 @@ def test_intrinsics_with_k1_k2_are_paired_with_their_extrinsics(tmp_path, rig):
         imported = read_any_stereo(given, image_size=rig.left.size)
         assert imported.kind == "OpenCV stereo_calib intrinsics + extrinsics"
         assert_same_pixels(imported, rig)
+
+
+def test_ros_pair_with_a_vertical_baseline_is_read_and_refused_for_location(tmp_path, rig, capsys):
+    """Cameras one above the other: P2's translation is in its second row (Ty). The pair is read
+    exactly (pose from the rectification and projection matrices); the marker location, which
+    searches along rows, refuses it in one line naming the files and what to do."""
+    from app.cli import main
+    from core.stereo.rig import StereoRig
+
+    below = StereoRig(rig.left, rig.right, rig.R, [rig.T[1], -rig.baseline, rig.T[2]])    # right camera below
+    left, right = ff.ros_pair(below, tmp_path)
+    P2 = ff.rectify(below)[3]
+    assert abs(P2[1, 3]) > 0 and P2[0, 3] == 0                       # what OpenCV writes for a vertical rig
+    imported = read_any_stereo([left, right])
+    assert_same_pixels(imported, below)
+    np.testing.assert_allclose(imported.file.T, below.T, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(imported.file.R, below.R, rtol=0, atol=1e-12)
+    with pytest.raises(RoboCalError, match=r"the cameras are one above the other \(vertical stereo\).*"
+                                           r"Mount the cameras side by side") as err:
+        load_rectification(tmp_path)
+    assert str(err.value).startswith(f"{tmp_path}: ") and "\n" not in str(err.value)
+    out = tmp_path / "stereo.yaml"
+    assert main(["stereo-import", str(left), str(right), "--out", str(out)]) == 0
+    assert "the marker location will refuse this calibration: the cameras are one above the other" in \
+        capsys.readouterr().out
+    np.testing.assert_allclose(read_any_stereo(out).file.T, below.T, rtol=0, atol=1e-9)

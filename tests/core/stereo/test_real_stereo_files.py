@@ -1,11 +1,14 @@
 """Stereo calibrations written by other people's tools (sources, commits and licences in
-tests/data/real/README.md), read by RoboCal and by pyyaml: the Kalibr camchain of the EuRoC MAV
-pair (equidistant lenses) and the ROS camera_info pair of a ZED camera."""
+tests/data/real/README.md), read by RoboCal and by an independent reader: the Kalibr camchain of
+the EuRoC MAV pair (equidistant lenses) and the ROS camera_info pair of a ZED camera by pyyaml,
+OpenCV stereo_calib's intrinsics.yml + extrinsics.yml of a structured-light scanner by
+cv2.FileStorage."""
 from __future__ import annotations
 
 import hashlib
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 import yaml
@@ -14,10 +17,12 @@ from app.cli import main
 from core.errors import RoboCalError
 from core.stereo.importers import read_any_stereo
 from core.stereo.importers.kalibr import _cam1_from_cam0
+from core.stereo.rectification import load_rectification
 
 REAL = Path(__file__).resolve().parents[2] / "data" / "real"
 EUROC = REAL / "euroc_camchain_equidistant.yaml"
 ZED = REAL / "ros_zed"
+UNLOOK = REAL / "opencv_unlook"
 
 
 def test_equidistant_lenses_are_refused_with_what_to_do(tmp_path, capsys):
@@ -69,3 +74,47 @@ def test_a_ros_camera_info_pair_printed_with_six_decimals(tmp_path):
                  str(tmp_path / "stereo.yaml")]) == 0
     back = read_any_stereo(tmp_path / "stereo.yaml").file
     np.testing.assert_allclose(back.T, sf.T, atol=1e-9)
+
+
+def _storage(path: Path) -> dict:
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    try:
+        return {k: fs.getNode(k).mat() for k in fs.root().keys()}
+    finally:
+        fs.release()
+
+
+def test_opencv_stereo_calib_pair_with_the_rational_model_and_swapped_cameras(tmp_path, capsys):
+    """stereo_calib's two files as a scanner's calibration tool wrote them (14 distortion
+    coefficients, k6 set; T_x > 0: the second camera on the left): RoboCal's numbers are
+    cv2.FileStorage's; the converted file says the marker location will refuse the rig, and
+    the location refuses it in one line naming the calibration and what to do."""
+    cams, pose = _storage(UNLOOK / "intrinsics.yml"), _storage(UNLOOK / "extrinsics.yml")
+    for given in (UNLOOK, [UNLOOK / "intrinsics.yml", UNLOOK / "extrinsics.yml"], UNLOOK / "extrinsics.yml"):
+        imported = read_any_stereo(given)
+        sf = imported.file
+        assert imported.kind == "OpenCV stereo_calib intrinsics + extrinsics"
+        np.testing.assert_array_equal(sf.K1, cams["M1"])
+        np.testing.assert_array_equal(sf.K2, cams["M2"])
+        np.testing.assert_array_equal(np.ravel(sf.D1), cams["D1"].ravel())
+        np.testing.assert_array_equal(np.ravel(sf.D2), cams["D2"].ravel())
+        for key in ("R", "R1", "R2", "P1", "P2", "Q"):
+            np.testing.assert_array_equal(getattr(sf, key), pose[key])
+        np.testing.assert_array_equal(sf.T, pose["T"].ravel())                        # mm, as calibrated
+        assert sf.baseline_mm == pytest.approx(np.linalg.norm(pose["T"]), rel=1e-12)
+        assert sf.image_size == (1280, 720) and any("no image size" in n for n in imported.notes)
+    assert pose["T"][0, 0] > 0 and pose["P2"][0, 3] > 0                            # the swapped rig, as written
+    with pytest.raises(RoboCalError, match=r"'right' camera is on the left.*Swap the left and right images"):
+        load_rectification(UNLOOK)
+    before = {p.name: p.read_bytes() for p in UNLOOK.iterdir()}
+    out = tmp_path / "stereo.yaml"
+    assert main(["stereo-import", str(UNLOOK), "--out", str(out), "--image-size", "1280x720"]) == 0
+    text = capsys.readouterr().out
+    assert "baseline 69.60 mm" in text and "the marker location will refuse this calibration" in text
+    np.testing.assert_array_equal(read_any_stereo(out).file.D1, read_any_stereo(UNLOOK).file.D1)
+    marker = Path(__file__).resolve().parents[3] / "resources" / "markers" / "default.png"   # a real image for every input
+    code = main(["locate", "--stereo", str(out), "--marker", str(marker), "--left", str(marker),
+                 "--right", str(marker)])
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert code == 1 and len(lines) == 1 and str(out) in lines[0] and "Swap the left and right" in lines[0]
+    assert {p.name: p.read_bytes() for p in UNLOOK.iterdir()} == before
