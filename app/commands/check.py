@@ -369,8 +369,9 @@ def _result(args, where, cell, result, diagnosis, update, reid, placed) -> Comma
         lines.append(f"{args.out} was not written: {update}")
         data["reidentification_refused"] = update
     elif update is not None:
-        lines.append(f"Re-identified {', '.join(update.reidentification.changed)} from {len(update.proposed)} "
-                     f"proposed poses and the check: wrote {update.path}. Check of the updated robot: "
+        n = len(update.proposed)
+        lines.append(f"Re-identified {', '.join(update.reidentification.changed)} from {n} proposed "
+                     f"pose{'s' if n != 1 else ''} and the check: wrote {update.path}. Check of the updated robot: "
                      + update.after.verdict())
         data["reidentification"] = update.reidentification.summary()
         data["after"] = update.after.summary()

@@ -12,6 +12,7 @@ import numpy as np
 
 from app.lab import apply_change, ideal_measure, image_measure, lab_options as lab_options_of
 from core.files import atomic_write_bytes
+from core.identification.jacobian import predict_points
 from core.measurement.file import Measurements
 from core.monitoring.check import CheckLimits, CheckResult, check_limits, run_check
 from core.monitoring.check_poses import DEFAULT_CHECK_POSES, select_check_poses
@@ -147,7 +148,7 @@ def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: D
     re = reidentify(cell.model, cell.unc, diagnosis.parameters, meas, reason=diagnosis.text,
                     previous=str(kept) if kept is not None else cell.source, progress=monitor.sub(0.6, 0.7),
                     cancelled=cancelled)
-    unc = calibration_uncertainty(re.model, source=out, sigma_mm=cell.unc.sigma_mm)
+    unc = updated_uncertainty(re, cell.unc, out)
     updated = replace(cell, model=re.model, unc=unc, source=str(out),
                       limits=check_limits(re.model, unc, cell.Q, [cell.target] * len(cell.Q), cell.limits.alpha))
     after, _ = check(updated, measure, log=log, progress=monitor.sub(0.7, 1.0), cancelled=cancelled)
@@ -324,6 +325,30 @@ class FileUpdate:
     n_new: int
 
 
+#: a new point this far (mm) from where the calibrated robot puts the marker is no small change
+GROSS_CHANGE_MM = 50.0
+
+
+def _refuse_gross_points(cell: CheckSetup, new: Measurements) -> None:
+    """A re-identification repairs small changes (a few mm, a fraction of a degree): a new point
+    tens of millimetres from the calibrated prediction is a wrong value (units, columns, a pose
+    mixed up) or a robot that changed beyond repair; refuse it, naming the file and pose."""
+    off = np.linalg.norm(new.xyz - predict_points(cell.model, new.Q, [cell.target] * len(new.Q)), axis=1)
+    worst = int(np.argmax(off)) if len(off) else 0
+    if len(off) and off[worst] > GROSS_CHANGE_MM:
+        raise RoboCalError(f"the new point of pose {int(new.pose[worst])} is {off[worst]:.0f} mm from where the "
+                           f"calibrated robot puts the marker; a change re-identification repairs moves it a few mm",
+                           source=new.source or None, field=f"pose {int(new.pose[worst])}",
+                           hint="Check that pose's joint values and position (units, column order); if the robot "
+                                "really changed this much, calibrate it again.")
+
+
+def updated_uncertainty(re: Reidentification, previous: CalibrationUncertainty, out) -> CalibrationUncertainty:
+    """The re-identified model's uncertainty, from the re-identification's own parameters and
+    covariance (not read back from the model: a fit far off may change the model's parametrisation)."""
+    return CalibrationUncertainty(list(re.parameters), re.covariance, previous.sigma_mm, str(out), previous.dof)
+
+
 def reidentify_measured(robot_path, log, kind: str, new: Measurements, out, *, alpha: float = 0.01,
                         progress=None, cancelled=None) -> FileUpdate:
     """Re-identify the change `kind` (tool, base, joint<k>) from the last check in `log` plus the
@@ -344,6 +369,7 @@ def reidentify_measured(robot_path, log, kind: str, new: Measurements, out, *, a
         raise RoboCalError(f"the new points are of target(s) {', '.join(other)}, the check's of '{cell.target}'",
                            source=new.source or None, field="target", hint="Measure the same tool's marker.")
     new = new.with_robot(cell.model) if new.Q is None else new
+    _refuse_gross_points(cell, new)
     Q = np.vstack([new.Q, logged.measurements.Q])
     meas = Measurements(pose=np.arange(len(Q)), target=[cell.target] * len(Q),
                         q_file=np.atleast_2d(cell.model.q_to_file(Q)).reshape(len(Q), cell.model.dof),
@@ -351,9 +377,15 @@ def reidentify_measured(robot_path, log, kind: str, new: Measurements, out, *, a
     out = Path(out)
     kept = history_path(out) if out.is_file() else None
     reason = f"{kind} changed (check {logged.run}), re-identified from {len(new.Q)} new poses and the check"
-    re = reidentify(cell.model, cell.unc, params, meas, reason=reason, previous=str(robot_path),
-                    alpha=alpha, progress=monitor.sub(0.1, 0.8), cancelled=cancelled)
-    unc = calibration_uncertainty(re.model, source=out, sigma_mm=cell.unc.sigma_mm)
+    try:
+        re = reidentify(cell.model, cell.unc, params, meas, reason=reason, previous=str(robot_path),
+                        alpha=alpha, progress=monitor.sub(0.1, 0.8), cancelled=cancelled)
+    except RoboCalError as exc:            # the new points cannot be fitted: name the file they came from
+        if exc.source is not None or not new.source:
+            raise
+        raise RoboCalError(exc.problem, source=new.source, field=exc.field,
+                           hint=f"Look at these new points first; {exc.hint or ''}".rstrip("; ")) from None
+    unc = updated_uncertainty(re, cell.unc, out)
     updated = replace(cell, model=re.model, unc=unc, source=str(out),
                       limits=check_limits(re.model, unc, cell.Q, [cell.target] * len(cell.Q), alpha))
     points = iter(logged.measurements.xyz)

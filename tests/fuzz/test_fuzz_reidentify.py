@@ -154,8 +154,6 @@ def test_change_values_that_name_nothing(cell, tmp_path, change):
     assert_one_clear_line(code, lines, ["--change"])
 
 
-@pytest.mark.xfail(strict=True, reason="reidentify: a wrong new point is refused without naming the new poses' file, "
-                                       "or with the updated robot's unwritten file and a parameter it lost")
 @pytest.mark.parametrize("line, column", [(2, 2), (2, 4)])
 def test_a_wrong_new_point_is_refused_naming_the_new_poses_file(cell, tmp_path, line, column):
     """One new point's q1 (2, 2) or x (2, 4) written as -1: the re-identification cannot fit it.
