@@ -321,20 +321,8 @@ def _driven(poses):
 
 def _payload(args, model) -> tuple[str | None, dict | None]:
     """One line comparing the declared payload (--payload) with the calibration's, and its JSON."""
-    if args.payload is None:
-        return None, None
-    recorded = (model.calibration or {}).get("payload_kg")
-    terms = model.compliance is not None and not model.compliance.is_zero
-    data = {"declared_kg": args.payload, "calibration_kg": recorded,
-            "differs": recorded is not None and abs(float(recorded) - args.payload) > 1e-9, "deflection_terms": terms}
-    if recorded is None:
-        return (f"Payload: {args.payload:g} kg declared; the calibration did not record the payload it was measured "
-                "with, so it cannot be compared.", data)
-    if not data["differs"]:
-        return None, data
-    why = (f"its deflection terms hold for {float(recorded):g} kg (a heavier tool bends the arm more)" if terms
-           else "the arm bends more under a heavier tool")
-    return f"Payload: {args.payload:g} kg declared, {float(recorded):g} kg during calibration: {why}.", data
+    from app.jobs.check import payload_comparison
+    return payload_comparison(args.payload, model)
 
 
 def _result(args, where, cell, result, diagnosis, update, reid, placed) -> CommandResult:

@@ -325,6 +325,26 @@ class FileUpdate:
     n_new: int
 
 
+def payload_comparison(declared_kg: float | None, model: RobotModel) -> tuple[str | None, dict | None]:
+    """One line comparing the payload mounted now (`declared_kg`, None: not said) with the one the
+    calibration recorded (`calibration.payload_kg`), None when nothing is worth saying, and its
+    JSON. The deflection terms of a calibration hold for its own payload."""
+    if declared_kg is None:
+        return None, None
+    recorded = (model.calibration or {}).get("payload_kg")
+    terms = model.compliance is not None and not model.compliance.is_zero
+    data = {"declared_kg": declared_kg, "calibration_kg": recorded,
+            "differs": recorded is not None and abs(float(recorded) - declared_kg) > 1e-9, "deflection_terms": terms}
+    if recorded is None:
+        return (f"Payload: {declared_kg:g} kg declared; the calibration did not record the payload it was measured "
+                "with, so it cannot be compared.", data)
+    if not data["differs"]:
+        return None, data
+    why = (f"its deflection terms hold for {float(recorded):g} kg (a heavier tool bends the arm more)" if terms
+           else "the arm bends more under a heavier tool")
+    return f"Payload: {declared_kg:g} kg declared, {float(recorded):g} kg during calibration: {why}.", data
+
+
 #: a new point this far (mm) from where the calibrated robot puts the marker is no small change
 GROSS_CHANGE_MM = 50.0
 

@@ -29,6 +29,14 @@ class CheckControls(QWidget):
         tl = QVBoxLayout(self.tool_box)
         tl.addWidget(self.tool_combo)
         tl.addWidget(self.identify_tool_button)
+        self.payload_check = QCheckBox("Payload now")
+        self.payload_check.setToolTip("Say the mass on the flange now: each check compares it with the payload "
+                                      "the calibration was measured with")
+        self.payload_spin = forms.double_spin(0.0, 0.0, 5000.0, decimals=2, step=0.5, name="payloadSpin",
+                                              suffix=" kg")
+        self.payload_spin.setEnabled(False)
+        self.payload_check.toggled.connect(self.payload_spin.setEnabled)
+        tl.addLayout(forms.row(self.payload_check, self.payload_spin))
         self.count_spin = forms.spin(8, 3, 20, name="checkPoseCount", suffix=" poses",
                                      tooltip="How many check poses to choose (by observability of the marker, "
                                              "base and joint zero offsets)")
@@ -117,6 +125,10 @@ class CheckControls(QWidget):
             self.change_combo.addItems([label for label, _ in changes])
             self.change_combo.blockSignals(False)
         self._change_kind_changed()
+
+    def payload_kg(self) -> float | None:
+        """The payload mounted now (kg), or None when not said."""
+        return float(self.payload_spin.value()) if self.payload_check.isChecked() else None
 
     def tool(self) -> str | None:
         """The tool chosen as mounted; None for a robot with one tool."""

@@ -268,8 +268,10 @@ class CheckPage(CellMixin, TeachMixin, WizardPage):
         self._show_result(self.result, self.diagnosis)
         self.refresh()
         fault = self._fault_words()
+        payload = job.payload_comparison(self.controls.payload_kg(), cell.model)[0]
         self._set_status(("✓ " if self.result.within and not fault else "⚠ ") + short_verdict(self.result)
-                         + " Points " + self._where + "." + fault, self.result.within and not fault)
+                         + " Points " + self._where + "." + fault + (" " + payload if payload else ""),
+                         self.result.within and not fault)
         self._finish_autopilot(bool(self.result.points), "" if self.result.points else self.result.verdict())
 
     def _show_result(self, result, diagnosis) -> None:

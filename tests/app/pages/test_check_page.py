@@ -14,7 +14,7 @@ from app.state import WizardState
 from app.worker import TaskRunner
 from core.identification.solver import identify, write_calibrated_model
 from core.monitoring.log import read_check_log
-from core.robot.file import read_robot
+from core.robot.file import read_robot, write_robot
 
 TIMEOUT = 120_000
 
@@ -70,6 +70,26 @@ def test_no_change_within_limits_and_logged(page, qtbot):
     assert len(log.checks) == 1 and len(log.checks[0].points) == 8 and log.checks[0].within
     assert page.results.overall_chart.beyond_count == 0 and len(page.results.pose_charts) == 8
     assert page.is_complete()
+
+
+def test_a_payload_other_than_the_calibrations_is_said_after_the_check(page, qtbot):
+    calibrate(page)
+    model = read_robot(page.calibrated_path())
+    model.calibration["payload_kg"] = 1.0
+    write_robot(model, page.calibrated_path())
+    page.refresh()
+    assert not page.controls.payload_spin.isEnabled() and page.controls.payload_kg() is None
+    run_check(page, qtbot)
+    assert "Payload" not in page.status.text()                      # not said: nothing to compare
+    page.controls.payload_check.setChecked(True)
+    page.controls.payload_spin.setValue(3.0)
+    assert page.controls.payload_kg() == 3.0
+    run_check(page, qtbot)
+    assert "Payload: 3 kg declared, 1 kg during calibration: the arm bends more under a heavier tool." \
+        in page.status.text()
+    page.controls.payload_spin.setValue(1.0)
+    run_check(page, qtbot)
+    assert "Payload" not in page.status.text()                      # the same payload: nothing to say
 
 
 def test_tool_change_found_reidentified_and_back_within(page, qtbot, tmp_path):
