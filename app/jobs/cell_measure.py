@@ -59,7 +59,9 @@ class CellMeasure:
             if not self.driver.stopped:        # a fault, not the Stop key (which already stopped it)
                 self.fault = exc.message
                 self.driver.stop()             # never raises; the robot stays stopped until Resume
-            raise
+            # a pose not measured (not a fault that ends the run at once: core.monitoring.check
+            # re-raises those), so the run ends through `cancelled()` with the points measured kept
+            raise RoboCalError(f"not measured: {exc.message}") from None
         self.moves += 1
         if self.settle_s > 0:
             time.sleep(self.settle_s)
