@@ -368,14 +368,14 @@ def find_disparity(rect: StereoRectification, left: np.ndarray, right: np.ndarra
                       f"{100 * res.mismatch:.0f} % of the window's contrast unexplained): the marker is hidden "
                       "or outside the right view, or the stereo calibration no longer fits the cameras")
         return res
-    if res.disparity - off <= 0:
-        res.reason = (f"disparity {res.disparity - off:.2f} px ≤ 0: the best match along the epipolar line "
-                      "lies at or beyond infinity, so it is not the marker")
-        return res
     if res.reliability > max_reliability:
         res.reason = (f"ambiguous SSD minimum: best / second-best = {res.reliability:.2f} (limit {max_reliability}), "
                       f"at d = {res.disparity:.1f} and {res.second_disparity:.1f} px: a repeated pattern or a second "
                       "marker-like object on the same line")
+        return res
+    if res.disparity - off <= 0:
+        res.reason = (f"disparity {res.disparity - off:.2f} px ≤ 0: the best match along the epipolar line "
+                      "lies at or beyond infinity, so it is not the marker")
         return res
     res.ok = True
     return res
