@@ -262,10 +262,10 @@ def test_window_title_follows_the_project(window, tmp_path):
     assert window.windowTitle() == "RoboCal — Cell 7"
 
 
-def test_stop_key_works_while_a_modal_dialog_is_open(ready_window, qtbot):
+def modal_dialog(window, qtbot):
+    """A modal dialog over `window` with a text field that has the keyboard: (dialog, field)."""
     from PySide6.QtWidgets import QDialog, QLineEdit, QVBoxLayout
-    robot = ready_window.state.robot_connection
-    dialog = QDialog(ready_window)
+    dialog = QDialog(window)
     field = QLineEdit(dialog)
     QVBoxLayout(dialog).addWidget(field)
     dialog.setModal(True)
@@ -275,6 +275,12 @@ def test_stop_key_works_while_a_modal_dialog_is_open(ready_window, qtbot):
     dialog.activateWindow()
     field.setFocus()
     qtbot.waitUntil(lambda: QApplication.activeModalWidget() is dialog, timeout=5000)
+    return dialog, field
+
+
+def test_stop_key_works_while_a_modal_dialog_is_open(ready_window, qtbot):
+    robot = ready_window.state.robot_connection
+    dialog, field = modal_dialog(ready_window, qtbot)
     qtbot.keyClick(field, Qt.Key.Key_Period, Qt.KeyboardModifier.ControlModifier)
     assert robot.stop_count == 1                      # once, although the key travels up to the dialog
     ready_window.resume_robot()
@@ -288,21 +294,11 @@ def test_stop_key_works_while_a_modal_dialog_is_open(ready_window, qtbot):
 
 def test_esc_in_a_dialog_stops_a_moving_robot(ready_window, qtbot):
     import threading
-    from PySide6.QtWidgets import QDialog, QLineEdit, QVBoxLayout
     robot = ready_window.state.robot_connection
     release = threading.Event()
     handle = ready_window.run_task(lambda progress=None, cancelled=None: release.wait(30), label="Moving")
     assert ready_window.motion_running()
-    dialog = QDialog(ready_window)
-    field = QLineEdit(dialog)
-    QVBoxLayout(dialog).addWidget(field)
-    dialog.setModal(True)
-    qtbot.addWidget(dialog)
-    dialog.show()
-    qtbot.waitExposed(dialog)
-    dialog.activateWindow()
-    field.setFocus()
-    qtbot.waitUntil(lambda: QApplication.activeModalWidget() is dialog, timeout=5000)
+    dialog, field = modal_dialog(ready_window, qtbot)
     qtbot.keyClick(field, Qt.Key.Key_Escape)          # while a motion runs, Esc stops it (and closes the dialog)
     assert robot.stopped and robot.stop_count == 1
     release.set()
