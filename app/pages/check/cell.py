@@ -63,9 +63,17 @@ class CellMixin:
         """How the real cell's poses are chosen: its calibrated cameras and measured depths."""
         return cell_options(stereo_source(self.state).rect, self.state.project.path("measurements"))
 
-    def _cell_measure(self) -> CellMeasure:
+    def _cell_measure(self, Q=()) -> CellMeasure | None:
+        """The `measure(q)` of a run on the cell, once the safety checks let the robot move (to the
+        poses Q, when known; internal units); None, with the reason on the page, when they do not."""
+        refused = motion_refused(self, self.state, Q)
+        if refused:
+            self._set_status(f"Nothing measured: {refused}", False)
+            return None
+        self._where = self.cell_words()
         trained, rect = self.images()
-        return CellMeasure(self.state.robot_connection, self.state.cameras, locator(trained, rect))
+        self._measure = CellMeasure(self.state.robot_connection, self.state.cameras, locator(trained, rect))
+        return self._measure
 
     def _check_cell(self) -> bool:
         """A check on the real cell: the check poses first when needed (on a worker), then the
@@ -84,13 +92,10 @@ class CellMixin:
         return self._drive_check(key)
 
     def _drive_check(self, key: tuple) -> bool:
-        refused = motion_refused(self, self.state, self.cell.Q)
-        if refused:
-            self._set_status(f"Nothing measured: {refused}", False)
-            self._finish_autopilot(False, refused)
+        measure = self._cell_measure(self.cell.Q)
+        if measure is None:
+            self._finish_autopilot(False, self.status.text())
             return False
-        self._where = self.cell_words()
-        measure = self._measure = self._cell_measure()
         return self.start(cell_check.check_cell, self.cell, measure, log=self.log_path(),
                           on_done=lambda value: self._checked((self.cell, *value), key),
                           status=f"Checking: {self._where}… Esc stops the robot.")

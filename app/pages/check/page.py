@@ -32,7 +32,6 @@ from app.pages.check.teach import TeachMixin
 from app.pages.check.teach_panel import TeachCheckPanel
 from app.pages.measurement_inputs import project_marker, stereo_source
 from app.pages.steps import Step
-from app.safety import motion_refused
 from core.errors import RoboCalError
 from core.monitoring.log import CheckLog, read_check_log
 
@@ -292,12 +291,9 @@ class CheckPage(CellMixin, TeachMixin, WizardPage):
                              "Measurement step's teach mode, then run robocal reidentify with that file.", False)
             return False
         if not self.state.virtual:
-            refused = motion_refused(self, self.state)
-            if refused:
-                self._set_status(f"Nothing measured: {refused}", False)
+            measure = self._cell_measure()
+            if measure is None:
                 return False
-            self._where = self.cell_words()
-            measure = self._measure = self._cell_measure()
             return self.start(cell_check.reidentify_cell, self.cell, self.result, self.diagnosis, measure,
                               self.calibrated_path(), self._cell_options(), log=self.log_path(),
                               on_done=self._reidentified,
@@ -369,12 +365,9 @@ class CheckPage(CellMixin, TeachMixin, WizardPage):
         if tool is None or not self._can_run():
             return False
         if not self.state.virtual:
-            refused = motion_refused(self, self.state)
-            if refused:
-                self._set_status(f"Nothing measured: {refused}", False)
+            measure = self._cell_measure()
+            if measure is None:
                 return False
-            self._where = self.cell_words()
-            measure = self._measure = self._cell_measure()
             return self.start(cell_check.identify_tool_cell, self.calibrated_path(), tool, measure,
                               self._cell_options(), on_done=self._tool_identified,
                               status=f"Identifying the tool '{tool}' from its proposed poses, {self._where}… Esc "
