@@ -13,7 +13,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from app.jobs import check as job
-from app.jobs.measurement_hardware import inside_limits, off_plan
+from app.jobs.measurement_hardware import off_plan, taught_joints
 from core.errors import RoboCalError
 from core.monitoring.check import check_limits
 from core.robot.driver import RobotDriver
@@ -35,14 +35,7 @@ def record_check_pose(cell: job.CheckSetup, index: int, cameras, locator, *, q_t
     (or `q_typed_file`, deg / mm), checked against the joint limits (RoboCalError naming the joint)
     and the planned pose (warnings), then a pair captured from `cameras` and the marker located."""
     model = cell.model
-    if driver is not None:
-        q = driver.current_joints()
-    elif q_typed_file is not None:
-        q = model.q_from_file(np.asarray(q_typed_file, dtype=float).reshape(-1))
-    else:
-        raise RoboCalError("no joint values: type them, or connect a controller whose joints can be read",
-                           field="joints")
-    q = inside_limits(model, q)
+    q = taught_joints(model, driver, q_typed_file)
     warnings = off_plan(model, model.q_to_file(q), model.q_to_file(cell.Q[index]))
     frames = cameras.capture()
     location = locator.locate(frames.left, frames.right)

@@ -127,14 +127,7 @@ def record_taught_pose(pose: int, q_planned_file, out: str | Path, trained, rect
     (or `q_typed_file`, deg / mm, when no driver can read them), checked against the joint
     limits (RoboCalError naming the joint) and against the plan (a warning per joint further
     than `tolerance`), then captured from `source`, located and written to `out`."""
-    if driver is not None:
-        q = driver.current_joints()
-    elif q_typed_file is not None:
-        q = model.q_from_file(np.asarray(q_typed_file, dtype=float).reshape(-1))
-    else:
-        raise RoboCalError("no joint values: connect a robot whose joints can be read, or type them",
-                           field="joints")
-    q = inside_limits(model, q)
+    q = taught_joints(model, driver, q_typed_file)
     out = Path(out)
     if out.is_file() and out.read_bytes().strip() and pose in {int(p) for p in read_measurements(out).pose}:
         raise RoboCalError(f"pose {pose} is already measured", source=out, hint="Go on with the next pose.")
@@ -146,6 +139,19 @@ def record_taught_pose(pose: int, q_planned_file, out: str | Path, trained, rect
                               progress=progress, cancelled=cancelled)
     outcome = result.outcomes[0] if result.outcomes else PoseOutcome(0, pose, q_file, "skipped", "cancelled")
     return TaughtPose(outcome, q_file, warnings, rec.thumbnail(outcome.status == "measured"))
+
+
+def taught_joints(model: RobotModel, driver: RobotDriver | None, q_typed_file=None) -> np.ndarray:
+    """Where the technician put the robot (internal units): the joints read from `driver`, or
+    else typed (`q_typed_file`, deg / mm); inside the joint limits (RoboCalError naming the joint)."""
+    if driver is not None:
+        q = driver.current_joints()
+    elif q_typed_file is not None:
+        q = model.q_from_file(np.asarray(q_typed_file, dtype=float).reshape(-1))
+    else:
+        raise RoboCalError("no joint values: connect a robot whose joints can be read, or type them",
+                           field="joints")
+    return inside_limits(model, q)
 
 
 def inside_limits(model: RobotModel, q) -> np.ndarray:
