@@ -325,7 +325,7 @@ def run_verification(lab: VirtualLab, locator: MarkerLocator, n: int, seed: int,
 
 def stereo_parameter_covariance(calibration: StereoFile | None, details: Path | None, result=None
                                 ) -> np.ndarray | None:
-    """The covariance of `calibration`'s parameters (core.stereo.uncertainty.TRIANGULATION_PARAMETERS):
+    """The covariance of `calibration`'s parameters (core.stereo.file.TRIANGULATION_PARAMETERS):
     from its details file (stereo.json) or the Stereo step's `result` in memory when that result is
     this calibration; None when unknown (imported from another tool, the virtual lab's true rig)."""
     if calibration is None:

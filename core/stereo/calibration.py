@@ -80,7 +80,7 @@ class StereoCalibrationResult:
     coverage: Coverage | None = None
     detections: DetectionResult | None = None
     warnings: list[str] = field(default_factory=list)
-    covariance: np.ndarray | None = None    # (14, 14) of uncertainty.TRIANGULATION_PARAMETERS: px, deg, mm
+    covariance: np.ndarray | None = None    # (14, 14) of file.TRIANGULATION_PARAMETERS: px, deg, mm
 
     @property
     def file(self) -> StereoFile:

@@ -44,6 +44,11 @@ from core.files import (atomic_write_json, atomic_write_many, atomic_write_text,
 from core.stereo.rig import StereoRig
 from core.validate import check_format
 
+# The parameters a triangulated point depends on most, in the order of the file's
+# "parameter_covariance" (core/stereo/uncertainty.py computes it):
+TRIANGULATION_PARAMETERS = (tuple(f"{n}_{side}" for side in ("left", "right") for n in ("fx", "fy", "cx", "cy"))
+                            + ("rx", "ry", "rz", "tx", "ty", "tz"))     # px, px, px, px (×2), deg (×3), mm (×3)
+
 FAMILY = "robocal.stereo"
 MAJOR = 1
 FORMAT = f"{FAMILY}/{MAJOR}"
@@ -411,7 +416,6 @@ def stereo_json(data, result=None) -> dict:
         d["parameters"] = [{"group": r.group, "name": r.name, "value": r.value, "std": r.std,
                             "unit": r.unit, "fixed": r.fixed} for r in result.parameters]
         if result.covariance is not None:
-            from core.stereo.uncertainty import TRIANGULATION_PARAMETERS
             d["parameter_covariance"] = {"names": list(TRIANGULATION_PARAMETERS), "units": "px, deg, mm",
                                          "matrix": np.asarray(result.covariance, float).tolist()}
         d["outlier_threshold_px"] = float(result.outlier_threshold)

@@ -9,7 +9,7 @@ measured with that stereo.yaml. Here it is propagated through triangulation:
     Σ_cal(X) = J · Σ_p · Jᵀ,    J = ∂X/∂p by central differences,
 
 over p = fx, fy, cx, cy of both cameras, the rotation vector (rx, ry, rz, deg) and T (tx, ty,
-tz, mm) between them (uncertainty.TRIANGULATION_PARAMETERS), Σ_p their covariance from the
+tz, mm) between them (file.TRIANGULATION_PARAMETERS), Σ_p their covariance from the
 joint fit with its correlations: the point is projected with the calibration, then
 triangulated again with one parameter moved. The distortion coefficients' uncertainty is not
 included (their effect depends on where in the images the point is seen).
@@ -26,7 +26,7 @@ import numpy as np
 
 from core.errors import RoboCalError
 from core.files import read_json
-from core.stereo.uncertainty import TRIANGULATION_PARAMETERS as PARAMETERS
+from core.stereo.file import TRIANGULATION_PARAMETERS as PARAMETERS
 
 STEREO = PARAMETERS[8:]
 _STEP = {"px": 0.5, "deg": 0.01, "mm": 0.05}        # central-difference steps (the fit is linear at this scale)

@@ -20,11 +20,10 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from core.stereo.file import TRIANGULATION_PARAMETERS
 from core.stereo.fit import CalibrationOptions, StereoFit
 
 DIST_NAMES = ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6")
-TRIANGULATION_PARAMETERS = (tuple(f"{n}_{side}" for side in ("left", "right") for n in ("fx", "fy", "cx", "cy"))
-                            + ("rx", "ry", "rz", "tx", "ty", "tz"))     # px, px, px, px (×2), deg (×3), mm (×3)
 
 
 @dataclass
