@@ -5,7 +5,7 @@
 - RoboCal's stereo.yaml (format: robocal.stereo/1);
 - an OpenCV FileStorage YAML/XML file with K1 (M1), D1, K2 (M2), D2, R, T;
 - OpenCV stereo_calib's intrinsics.yml + extrinsics.yml (either one: the other is taken from
-  beside it);
+  beside it); an extrinsics.yml with the rectification R1, R2, P1, P2 and no R, T too;
 - two ROS camera_info files (left, right), optionally with an OpenCV file holding R, T;
 - a Kalibr camchain.yaml (or an IMU-camera chain: Kalibr's T_cam_imu, OpenVINS' T_imu_cam);
 - MATLAB stereoParameters as JSON or as a MAT-file (.mat).
@@ -63,7 +63,7 @@ def _kind(path: Path) -> str:
     if "camera_matrix" in keys:
         return "ros"
     cameras = bool(keys & {"K1", "M1"})
-    pose = {"R", "T"} <= keys
+    pose = {"R", "T"} <= keys or {"R1", "R2", "P1", "P2"} <= keys        # the pose, or a rectification giving it
     if cameras and pose:
         return "opencv"
     if cameras:
