@@ -131,7 +131,7 @@ def test_a_multisense_pair_whose_pose_is_only_in_its_rectification(tmp_path, cap
     t1, t2 = (np.linalg.solve(rect[k][:, :3], rect[k][:, 3]) for k in ("P1", "P2"))
     R_expected = rect["R2"].T @ rect["R1"]
     T_expected_mm = rect["R2"].T @ (t2 - t1) * 1000.0
-    for given in ([intrinsics, extrinsics], extrinsics):
+    for given in ([intrinsics, extrinsics], extrinsics, MULTISENSE):
         imported = read_any_stereo(given, mm_per_unit=1000.0)
         sf = imported.file
         np.testing.assert_array_equal(sf.K1, cams["M1"])
