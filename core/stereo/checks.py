@@ -102,7 +102,7 @@ def _agree(given: np.ndarray, expected: np.ndarray, source, key: str, problem: s
                                 "export the calibration again.")
 
 
-def _projection(P: np.ndarray, source, key: str) -> np.ndarray:
+def projection_translation(P: np.ndarray, source, key: str) -> np.ndarray:
     """The translation of a rectified projection matrix K'·[I | t] (t in mm)."""
     P = np.asarray(P, float)
     if not (P[0, 0] > 0 and P[1, 1] > 0 and P[1, 0] == 0 and np.allclose(P[2, :3], [0, 0, 1], atol=1e-9)):
@@ -116,8 +116,8 @@ def _rectification(sf, T: np.ndarray, source, given) -> None:
     hint = "Remove R1, R2, P1, P2, Q from the file to have the rectification computed, or export it again."
     for key in ("R1", "R2"):
         _rotation(np.asarray(getattr(sf, key), float), source, key, "not a rectification rotation")
-    t1 = _projection(sf.P1, source, "P1")
-    t2 = _projection(sf.P2, source, "P2")
+    t1 = projection_translation(sf.P1, source, "P1")
+    t2 = projection_translation(sf.P2, source, "P2")
     baseline = t2 - t1                      # right camera minus left, rectified frame, mm
     if not np.linalg.norm(baseline[:2]) > 1e-9:
         raise RoboCalError("the rectified baseline is zero (P2 has no translation)", source=source, field="P2",

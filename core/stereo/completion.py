@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 
 from core.errors import RoboCalError
-from core.stereo.checks import check_cameras_and_pose, check_stereo, skew
+from core.stereo.checks import check_cameras_and_pose, check_stereo, projection_translation, skew
 from core.stereo.file import DIST_LENGTHS, StereoFile
 
 _RECTIFICATION = ("R1", "R2", "P1", "P2", "Q")
@@ -96,6 +96,16 @@ def complete_stereo(parts: StereoParts, source) -> tuple[StereoFile, list[str]]:
                     P2.reshape(3, 4), Q.reshape(4, 4), rectify_alpha=float(parts.rectify_alpha))
     check_stereo(sf, source, frozenset(given))
     return sf, computed
+
+
+def pose_from_rectification(R1, R2, P1, P2, source) -> tuple[np.ndarray, np.ndarray]:
+    """R and T of the right camera from a rectified pair alone: with P = K'·[I | t] for each
+    camera, X_rect = Rn·X_camera + t, so R = R2ᵀ·R1 and T = R2ᵀ·(t2 − t1), in the length unit
+    of P's last column. Side by side t2 − t1 = (−B, 0, 0); one camera above the other (0, −B, 0)."""
+    t1 = projection_translation(P1, source, "P1")
+    t2 = projection_translation(P2, source, "P2")
+    R1, R2 = np.asarray(R1, dtype=float).reshape(3, 3), np.asarray(R2, dtype=float).reshape(3, 3)
+    return R2.T @ R1, R2.T @ (t2 - t1)
 
 
 def _disparity_to_depth(P1: np.ndarray, P2: np.ndarray) -> np.ndarray:

@@ -5,15 +5,15 @@
 - RoboCal's stereo.yaml (format: robocal.stereo/1);
 - an OpenCV FileStorage YAML/XML file with K1 (M1), D1, K2 (M2), D2, R, T;
 - OpenCV stereo_calib's intrinsics.yml + extrinsics.yml (either one: the other is taken from
-  beside it);
+  beside it); an extrinsics.yml with the rectification R1, R2, P1, P2 and no R, T too;
 - two ROS camera_info files (left, right), optionally with an OpenCV file holding R, T;
 - a Kalibr camchain.yaml (or an IMU-camera chain: Kalibr's T_cam_imu, OpenVINS' T_imu_cam);
 - MATLAB stereoParameters as JSON or as a MAT-file (.mat).
 
-A folder stands for the calibration inside it: intrinsics + extrinsics, left.yaml + right.yaml,
-one camchain*.yaml or one stereo.yaml. What the files leave out is computed
-(core.stereo.completion), everything is checked (core.stereo.checks), and statistics the
-files do not hold stay unknown.
+A folder stands for the calibration inside it: intrinsics + extrinsics (or one pair of files
+named *intrinsics* and *extrinsics* alike), left.yaml + right.yaml, one camchain*.yaml or one
+stereo.yaml. What the files leave out is computed (core.stereo.completion), everything is
+checked (core.stereo.checks), and statistics the files do not hold stay unknown.
 """
 from __future__ import annotations
 
@@ -63,7 +63,7 @@ def _kind(path: Path) -> str:
     if "camera_matrix" in keys:
         return "ros"
     cameras = bool(keys & {"K1", "M1"})
-    pose = {"R", "T"} <= keys
+    pose = {"R", "T"} <= keys or {"R1", "R2", "P1", "P2"} <= keys        # the pose, or a rectification giving it
     if cameras and pose:
         return "opencv"
     if cameras:
@@ -91,12 +91,17 @@ def _folder(folder: Path) -> list[Path]:
                   ("intrinsics.xml", "extrinsics.xml"), ("left.yaml", "right.yaml"), ("stereo.yaml",)):
         if all((folder / n).is_file() for n in names):
             return [folder / n for n in names]
+    pairs = [(p, p.with_name(p.name.replace("intrinsics", "extrinsics")))
+             for p in sorted(folder.glob("*intrinsics*")) if p.suffix.lower() in (".yml", ".yaml", ".xml")]
+    pairs = [list(pair) for pair in pairs if pair[1].is_file()]
+    if len(pairs) == 1:                            # e.g. MultiSense's example_intrinsics.yml + example_extrinsics.yml
+        return pairs[0]
     chains = sorted(folder.glob("*camchain*.yaml"))
     if len(chains) == 1:
         return chains
-    raise RoboCalError("no stereo calibration found in this folder (looked for intrinsics.yml + extrinsics.yml, "
-                       "left.yaml + right.yaml, stereo.yaml, one *camchain*.yaml)", source=folder,
-                       hint="Give the calibration file(s) themselves.")
+    raise RoboCalError("no stereo calibration found in this folder (looked for intrinsics.yml + extrinsics.yml "
+                       "or one other *intrinsics* + *extrinsics* pair, left.yaml + right.yaml, stereo.yaml, one "
+                       "*camchain*.yaml)", source=folder, hint="Give the calibration file(s) themselves.")
 
 
 def read_any_stereo(paths, *, image_size: tuple[int, int] | None = None,

@@ -25,6 +25,8 @@ from core.stereo.completion import StereoParts, complete_stereo
 from core.stereo.importers.common import ImportedStereo, check_file, entry, load_yaml, numbers, whole
 
 M_TO_MM = 1000.0
+RECALIBRATE = ("Calibrate the pair again with Kalibr's pinhole-radtan model, or with `robocal stereo-calibrate` "
+               "on checkerboard images of these cameras.")
 
 
 def _camera(data, name: str, path) -> dict:
@@ -34,18 +36,16 @@ def _camera(data, name: str, path) -> dict:
     model = entry(cam, "camera_model", path, name + ".")
     if model != "pinhole":
         raise RoboCalError(f"camera model {model!r:.40} is not supported (only pinhole)", source=path,
-                           field=f"{name}.camera_model", hint="Calibrate with Kalibr's pinhole-radtan model.")
+                           field=f"{name}.camera_model", hint=RECALIBRATE)
     dist = entry(cam, "distortion_model", path, name + ".")
     if dist in ("equidistant", "equi", "fisheye"):
         raise RoboCalError("an equidistant (fisheye) lens model: RoboCal's marker location uses OpenCV's pinhole "
                            "model with radial-tangential distortion, and the two do not convert into each other "
-                           "exactly", source=path, field=f"{name}.distortion_model",
-                           hint="Calibrate the pair again with Kalibr's pinhole-radtan model, or with "
-                                "`robocal stereo-calibrate` on checkerboard images of these cameras.")
+                           "exactly", source=path, field=f"{name}.distortion_model", hint=RECALIBRATE)
     if dist not in ("radtan", "none"):
         raise RoboCalError(f"distortion model {dist!r:.40} is not supported (only radtan): OpenCV's pinhole "
                            "model has no equivalent", source=path, field=f"{name}.distortion_model",
-                           hint="Calibrate with Kalibr's pinhole-radtan model.")
+                           hint=RECALIBRATE)
     fu, fv, pu, pv = numbers(entry(cam, "intrinsics", path, name + "."), (4,), path, f"{name}.intrinsics")
     coeffs = (numbers(entry(cam, "distortion_coeffs", path, name + "."), (4,), path, f"{name}.distortion_coeffs")
               if dist == "radtan" else np.zeros(4))

@@ -3,7 +3,9 @@ format tag: one file with both cameras and their pose, or the pair intrinsics.ym
 extrinsics.yml that OpenCV's samples/cpp/stereo_calib.cpp writes.
 
 Fields (docs/file-formats.md): K1 (or M1), D1, K2 (or M2), D2, R, T; optional image_width,
-image_height, E, F, R1, R2, P1, P2, Q. Each an !!opencv-matrix or, as cv2.FileStorage reads
+image_height, E, F, R1, R2, P1, P2, Q. A file with the rectification R1, R2, P1, P2 and no R, T
+(as MultiSense's ImageCalUtility writes extrinsics.yml) gives the pose through it:
+R = R2ᵀ·R1, T = R2ᵀ·(t2 − t1) (core.stereo.completion.pose_from_rectification). Each an !!opencv-matrix or, as cv2.FileStorage reads
 them too, a plain list (T: [x, y, z]; a matrix as its rows, or its values row by row); a
 file that starts with a byte-order mark is read as without it. Lengths (T, the translations of P1, P2) are those of
 the checkerboard square the calibration was given: `mm_per_unit` converts them to mm.
@@ -18,7 +20,7 @@ import cv2
 import numpy as np
 
 from core.errors import RoboCalError
-from core.stereo.completion import StereoParts, complete_stereo, scale_lengths
+from core.stereo.completion import StereoParts, complete_stereo, pose_from_rectification, scale_lengths
 from core.stereo.file import node_int, node_matrix, open_storage
 from core.stereo.importers.common import ImportedStereo
 
@@ -26,6 +28,8 @@ CAMERA_KEYS = {"K1": "M1", "K2": "M2"}                 # RoboCal/OpenCV name -> 
 SHAPES = {"K1": (3, 3), "K2": (3, 3), "R": (3, 3), "T": (3, 1), "E": (3, 3), "F": (3, 3),
           "R1": (3, 3), "R2": (3, 3), "P1": (3, 4), "P2": (3, 4), "Q": (4, 4)}
 OPTIONAL = ("E", "F", "R1", "R2", "P1", "P2", "Q")
+RECTIFICATION = ("R1", "R2", "P1", "P2")              # enough for the pose when R, T are absent
+SHORTEST_BASELINE_MM = 1.0       # cameras closer than this are a length unit mistaken, not a stereo pair
 
 
 def storage_keys(path: Path) -> set[str] | None:
@@ -97,15 +101,39 @@ def infer_image_size(K1: np.ndarray) -> tuple[int, int]:
     return tuple(max(8, int(round(c / 8.0)) * 8) for c in centre)
 
 
+def _pose(mats: dict, path: Path, notes: list[str], mm_per_unit: float) -> str:
+    """R and T into `mats`: as the file gives them or, when it gives neither, from its
+    rectification R1, R2, P1, P2 (a note says so); the field the baseline came from."""
+    have = {"R", "T"} & mats.keys()
+    if have == {"R", "T"}:
+        return "T"
+    if not have and all(key in mats for key in RECTIFICATION):
+        R, T = pose_from_rectification(*(mats[key] for key in RECTIFICATION), path)
+        mats["R"], mats["T"] = R, T.reshape(3, 1)
+        notes.append("the right camera's pose from the rectification R1, R2, P1, P2 (the file holds no R, T): "
+                     f"baseline {np.linalg.norm(T) * mm_per_unit:.2f} mm")
+        return "P2"
+    raise RoboCalError("missing", source=path, field="T" if "R" in have else "R",
+                       hint="Give R and T (the right camera's pose), or the rectification R1, R2, P1, P2 it "
+                            "gives; see docs/file-formats.md.")
+
+
 def _import(parts_of: dict, size, paths: list[Path], kind: str, image_size, mm_per_unit: float,
-            source) -> ImportedStereo:
-    notes = []
+            source, notes: list[str], pose_field: str) -> ImportedStereo:
+    notes = list(notes)
     if image_size is not None:
         size = tuple(int(v) for v in image_size)
     elif size is None:
         size = infer_image_size(parts_of["K1"])
         notes.append(f"the file gives no image size: {size[0]}x{size[1]} px assumed (the common camera size "
                      "nearest twice the left principal point); give the image size if it differs")
+    baseline = float(np.linalg.norm(parts_of["T"])) * mm_per_unit
+    if 0 < baseline < SHORTEST_BASELINE_MM:
+        raise RoboCalError(f"the cameras are {baseline:.3g} mm apart, too close for a stereo pair: the file's "
+                           f"lengths are likely in another unit (in metres that is {baseline:.3g} m = "
+                           f"{baseline * 1000:.1f} mm)", source=source, field=pose_field,
+                           hint="Give the length unit the calibration used (robocal stereo-import --unit m, "
+                                "cm or in).")
     parts = StereoParts(size, parts_of["K1"], parts_of["D1"], parts_of["K2"], parts_of["D2"], parts_of["R"],
                         parts_of["T"].reshape(3), **{k: parts_of.get(k) for k in OPTIONAL})
     sf, computed = complete_stereo(scale_lengths(parts, mm_per_unit), source)
@@ -117,23 +145,28 @@ def _import(parts_of: dict, size, paths: list[Path], kind: str, image_size, mm_p
 def read_opencv(path, *, image_size=None, mm_per_unit: float = 1.0) -> ImportedStereo:
     """One OpenCV FileStorage file holding both cameras and their pose."""
     path = Path(path)
-    wanted = {"K1": True, "D1": True, "K2": True, "D2": True, "R": True, "T": True, **{k: False for k in OPTIONAL}}
+    wanted = {"K1": True, "D1": True, "K2": True, "D2": True, "R": False, "T": False,
+              **{k: False for k in OPTIONAL}}
     mats, size = _matrices(path, wanted)
-    return _import(mats, size, [path], "OpenCV FileStorage", image_size, mm_per_unit, path)
+    notes: list[str] = []
+    pose_field = _pose(mats, path, notes, mm_per_unit)
+    return _import(mats, size, [path], "OpenCV FileStorage", image_size, mm_per_unit, path, notes, pose_field)
 
 
 def read_opencv_pair(intrinsics, extrinsics, *, image_size=None, mm_per_unit: float = 1.0) -> ImportedStereo:
     """OpenCV's stereo_calib sample output: intrinsics.yml (M1, D1, M2, D2) and extrinsics.yml
-    (R, T, R1, R2, P1, P2, Q)."""
+    (R, T, R1, R2, P1, P2, Q; or, as MultiSense's ImageCalUtility writes it, R1, P1, R2, P2 alone)."""
     intrinsics, extrinsics = Path(intrinsics), Path(extrinsics)
     cams, size = _matrices(intrinsics, {"K1": True, "D1": True, "K2": True, "D2": True})
-    pose, size2 = _matrices(extrinsics, {"R": True, "T": True, **{k: False for k in OPTIONAL}})
+    pose, size2 = _matrices(extrinsics, {"R": False, "T": False, **{k: False for k in OPTIONAL}})
+    notes: list[str] = []
+    pose_field = _pose(pose, extrinsics, notes, mm_per_unit)
     if size is not None and size2 is not None and size != size2:
         raise RoboCalError(f"image size {size2[0]}x{size2[1]} differs from {size[0]}x{size[1]} in {intrinsics}",
                            source=extrinsics, field="image_width")
     return _import({**cams, **pose}, size or size2, [intrinsics, extrinsics],
                    "OpenCV stereo_calib intrinsics + extrinsics", image_size, mm_per_unit,
-                   f"{intrinsics} + {extrinsics.name}")
+                   f"{intrinsics} + {extrinsics.name}", notes, pose_field)
 
 
 def read_pose(path) -> tuple[np.ndarray, np.ndarray]:

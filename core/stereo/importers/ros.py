@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from core.errors import RoboCalError
-from core.stereo.completion import StereoParts, complete_stereo
+from core.stereo.completion import StereoParts, complete_stereo, pose_from_rectification
 from core.stereo.importers.common import ImportedStereo, check_file, entry, load_yaml, numbers, whole
 from core.stereo.importers.opencv import read_pose
 
@@ -101,8 +101,7 @@ def read_ros_pair(left, right, pose=None) -> ImportedStereo:
         paths.append(Path(pose))
         notes.append(f"the right camera's pose from {Path(pose).name}")
     elif np.linalg.norm(t2 - t1) > 1e-9:
-        R = b["R"].T @ a["R"]
-        T = b["R"].T @ (t2 - t1)
+        R, T = pose_from_rectification(a["R"], b["R"], a["P"], b["P"], source)
         notes.append("the right camera's pose from the rectification and projection matrices "
                      f"(baseline {np.linalg.norm(T):.2f} mm)")
     else:

@@ -6,14 +6,17 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 import scipy.io.matlab
 from scipy.io import loadmat, savemat
 
+from app.cli import main
 from core.errors import RoboCalError
 from core.stereo.file import read_stereo_yaml, write_stereo_yaml
 from core.stereo.importers import read_any_stereo
+from core.stereo.importers.kalibr import RECALIBRATE
 from core.stereo.rectification import load_rectification
 from tests.core.stereo import foreign_files as ff
 from tests.core.stereo_synth import REAL_DATA, real_pairs
@@ -85,6 +88,49 @@ def test_stereo_calib_intrinsics_and_extrinsics(tmp_path, rig):
     np.testing.assert_allclose(half.file.P2[0, 3], ff.rectify(rig)[3][0, 3] / 2, rtol=1e-12)
 
 
+def _rewrite_extrinsics(path: Path, keep: tuple[str, ...], scale: float = 1.0) -> None:
+    """extrinsics.yml again with only the `keep` keys (P's last column and T times `scale`)."""
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    mats = {k: fs.getNode(k).mat() for k in keep}
+    fs.release()
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+    for key, m in mats.items():
+        m = m.copy()
+        if key in ("P1", "P2"):
+            m[:, 3] *= scale
+        elif key == "T":
+            m *= scale
+        fs.write(key, m)
+    fs.release()
+
+
+@pytest.mark.parametrize("vertical", [False, True])
+def test_stereo_calib_extrinsics_with_only_the_rectification(tmp_path, rig, vertical):
+    """R1, P1, R2, P2 without R, T (MultiSense's ImageCalUtility writes them so): the pose is
+    R2ᵀ·R1, R2ᵀ·(t2 − t1), side by side or one camera above the other."""
+    from core.stereo.rig import StereoRig
+
+    pair = StereoRig(rig.left, rig.right, rig.R, [rig.T[1], -rig.baseline, rig.T[2]]) if vertical else rig
+    intrinsics, extrinsics = ff.stereo_calib_pair(pair, tmp_path)
+    _rewrite_extrinsics(extrinsics, ("R1", "P1", "R2", "P2"))
+    imported = read_any_stereo([intrinsics, extrinsics], image_size=(1280, 1024))
+    np.testing.assert_allclose(imported.file.R, pair.R, atol=1e-12)
+    np.testing.assert_allclose(imported.file.T, pair.T, rtol=1e-12, atol=1e-9)
+    assert any("from the rectification R1, R2, P1, P2" in n for n in imported.notes)
+
+
+def test_stereo_calib_extrinsics_in_metres_or_without_t_are_refused(tmp_path, rig, capsys):
+    intrinsics, extrinsics = ff.stereo_calib_pair(rig, tmp_path)
+    _rewrite_extrinsics(extrinsics, ("R", "T", "R1", "R2", "P1", "P2"), scale=1e-3)    # square size in m
+    with pytest.raises(RoboCalError, match=r"field 'T': the cameras are 0.\d+ mm apart, too close .*--unit m"):
+        read_any_stereo(tmp_path)
+    metres = read_any_stereo(tmp_path, mm_per_unit=1000.0)
+    assert metres.file.baseline_mm == pytest.approx(rig.baseline, rel=1e-12)
+    _rewrite_extrinsics(extrinsics, ("R", "R1", "R2", "P1", "P2"))
+    with pytest.raises(RoboCalError, match=r"extrinsics.yml: field 'T': missing\. Give R and T"):
+        read_any_stereo(tmp_path)
+
+
 def test_stereo_calib_intrinsics_alone_is_refused(tmp_path, rig):
     intrinsics, extrinsics = ff.stereo_calib_pair(rig, tmp_path)
     extrinsics.unlink()
@@ -135,13 +181,18 @@ def test_kalibr_camchain(tmp_path, rig):
 @pytest.mark.parametrize("kwargs, field", [({"model": "equidistant"}, "cam0.distortion_model"),
                                            ({"model": "fov"}, "cam0.distortion_model"),
                                            ({"camera_model": "omni"}, "cam0.camera_model")])
-def test_kalibr_refuses_other_models(tmp_path, rig, kwargs, field):
+def test_kalibr_refuses_other_models(tmp_path, rig, capsys, kwargs, field):
+    """One line naming the camchain, the camera's field and what to do: calibrate again with
+    pinhole-radtan, in Kalibr or in RoboCal."""
     path = ff.kalibr_camchain(rig, tmp_path / "camchain.yaml", **kwargs)
     with pytest.raises(RoboCalError) as err:
         read_any_stereo(path)
     says = "equidistant (fisheye) lens model" if kwargs.get("model") == "equidistant" else "not supported"
     assert err.value.field == field and says in err.value.message and "pinhole" in err.value.message
-    assert "\n" not in err.value.message
+    assert err.value.hint == RECALIBRATE
+    assert main(["stereo-import", str(path), "--out", str(tmp_path / "stereo.yaml")]) == 1
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and str(path) in lines[0] and f"'{field}'" in lines[0] and RECALIBRATE in lines[0]
 
 
 @pytest.mark.parametrize("units", ["mm", "meters"])
@@ -471,7 +522,6 @@ def test_ros_pair_with_a_vertical_baseline_is_read_and_refused_for_location(tmp_
     """Cameras one above the other: P2's translation is in its second row (Ty). The pair is read
     exactly (pose from the rectification and projection matrices); the marker location, which
     searches along rows, refuses it in one line naming the files and what to do."""
-    from app.cli import main
     from core.stereo.rig import StereoRig
 
     below = StereoRig(rig.left, rig.right, rig.R, [rig.T[1], -rig.baseline, rig.T[2]])    # right camera below

@@ -1,8 +1,8 @@
 """Stereo calibrations written by other people's tools (sources, commits and licences in
 tests/data/real/README.md), read by RoboCal and by an independent reader: the Kalibr camchain of
 the EuRoC MAV pair (equidistant lenses) and the ROS camera_info pair of a ZED camera by pyyaml,
-OpenCV stereo_calib's intrinsics.yml + extrinsics.yml of a structured-light scanner by
-cv2.FileStorage."""
+OpenCV stereo_calib's intrinsics.yml + extrinsics.yml of a structured-light scanner and the
+rectification-only pair of MultiSense's ImageCalUtility by cv2.FileStorage."""
 from __future__ import annotations
 
 import hashlib
@@ -23,6 +23,7 @@ REAL = Path(__file__).resolve().parents[2] / "data" / "real"
 EUROC = REAL / "euroc_camchain_equidistant.yaml"
 ZED = REAL / "ros_zed"
 UNLOOK = REAL / "opencv_unlook"
+MULTISENSE = REAL / "multisense_imagecal"
 
 
 def test_equidistant_lenses_are_refused_with_what_to_do(tmp_path, capsys):
@@ -118,3 +119,40 @@ def test_opencv_stereo_calib_pair_with_the_rational_model_and_swapped_cameras(tm
     lines = capsys.readouterr().err.strip().splitlines()
     assert code == 1 and len(lines) == 1 and str(out) in lines[0] and "Swap the left and right" in lines[0]
     assert {p.name: p.read_bytes() for p in UNLOOK.iterdir()} == before
+
+
+def test_a_multisense_pair_whose_pose_is_only_in_its_rectification(tmp_path, capsys):
+    """ImageCalUtility writes M1 D1 M2 D2 (8 coefficients) and R1 P1 R2 P2 with no R, T, lengths
+    in metres: RoboCal's pose is R2ᵀ·R1 and R2ᵀ·(t2 − t1) of cv2.FileStorage's matrices; read as
+    millimetres the 0.07 mm baseline is refused in one line naming the file, P2 and --unit."""
+    intrinsics, extrinsics = MULTISENSE / "example_intrinsics.yml", MULTISENSE / "example_extrinsics.yml"
+    cams, rect = _storage(intrinsics), _storage(extrinsics)
+    assert not {"R", "T"} & rect.keys()
+    t1, t2 = (np.linalg.solve(rect[k][:, :3], rect[k][:, 3]) for k in ("P1", "P2"))
+    R_expected = rect["R2"].T @ rect["R1"]
+    T_expected_mm = rect["R2"].T @ (t2 - t1) * 1000.0
+    for given in ([intrinsics, extrinsics], extrinsics, MULTISENSE):
+        imported = read_any_stereo(given, mm_per_unit=1000.0)
+        sf = imported.file
+        np.testing.assert_array_equal(sf.K1, cams["M1"])
+        np.testing.assert_array_equal(sf.K2, cams["M2"])
+        np.testing.assert_array_equal(np.ravel(sf.D1), cams["D1"].ravel())
+        np.testing.assert_array_equal(np.ravel(sf.D2), cams["D2"].ravel())
+        np.testing.assert_array_equal(sf.R1, rect["R1"])
+        np.testing.assert_array_equal(sf.R2, rect["R2"])
+        np.testing.assert_array_equal(sf.P2[:, :3], rect["P2"][:, :3])
+        np.testing.assert_allclose(sf.P2[:, 3], rect["P2"][:, 3] * 1000.0, rtol=1e-15)
+        np.testing.assert_allclose(sf.R, R_expected, atol=1e-15)
+        np.testing.assert_allclose(sf.T, T_expected_mm, rtol=1e-12)
+        assert sf.baseline_mm == pytest.approx(41.660152435302734 / 594.46551513671875 * 1000, rel=1e-6)
+        assert any("from the rectification R1, R2, P1, P2" in n for n in imported.notes)
+    before = {p.name: p.read_bytes() for p in MULTISENSE.iterdir()}
+    out = tmp_path / "stereo.yaml"
+    assert main(["stereo-import", str(intrinsics), str(extrinsics), "--out", str(out)]) == 1
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and str(intrinsics) in lines[0] and "'P2'" in lines[0] and "--unit m" in lines[0]
+    assert not out.exists()
+    assert main(["stereo-import", str(intrinsics), str(extrinsics), "--out", str(out), "--unit", "m"]) == 0
+    assert "baseline 70.08 mm" in capsys.readouterr().out
+    np.testing.assert_allclose(read_any_stereo(out).file.T, T_expected_mm, rtol=1e-12)
+    assert {p.name: p.read_bytes() for p in MULTISENSE.iterdir()} == before
