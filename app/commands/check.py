@@ -47,7 +47,8 @@ def add_arguments(parser) -> None:
                              "recorded, for which its deflection terms hold")
     parser.add_argument("--place", metavar="ONCE.csv",
                         help="measurements file of targets the robot file lacks, each measured in one pose: they are "
-                             "placed on the tool before the check; by the model alone unless --relative-to is given")
+                             "placed on the tool before the check (by the model alone unless --relative-to is given) "
+                             "and the check measures the first of them, its limits with the placement's uncertainty")
     parser.add_argument("--relative-to", type=options.target_names, metavar="TARGETS",
                         help="with --place: calibrated target(s) measured in the same pose as each new one "
                              "(comma-separated); the new target is placed from the difference of the two "
@@ -146,16 +147,17 @@ def run(args) -> CommandResult:
     progress = ProgressLine("check")
     monitor = Monitor(progress)
     robot, placed = _robot(args)
+    target = placed[0].name if placed else None         # the check measures the target placed
     try:
         if source == "propose":
-            return _propose(args, job, monitor, robot)
+            return _propose(args, job, monitor, robot, target)
         if source == "lab":
             run_check = _lab
         elif source == "port":
             run_check = _port
         else:
             run_check = _files
-        where, cell, result, diagnosis, update, options_ = run_check(args, job, monitor, robot)
+        where, cell, result, diagnosis, update, options_ = run_check(args, job, monitor, robot, target)
         reid = None
         if diagnosis is not None and diagnosis.explained and diagnosis.parameters and args.reid_poses:
             from core.poses.file import write_poses
@@ -169,18 +171,21 @@ def run(args) -> CommandResult:
 
 
 def _robot(args):
-    """The calibrated robot, with the targets of --place placed on the tool (and how each was)."""
+    """The calibrated robot, with the targets of --place placed on the tool with their uncertainty
+    (and how each was)."""
     from core.identification.placement import place_targets
     from core.measurement.file import read_measurements
+    from core.monitoring.uncertainty import calibration_uncertainty
     from core.robot.file import read_robot
 
     robot = read_robot(args.robot)
     if not args.place:
         return robot, []
-    return place_targets(robot, read_measurements(args.place, robot), references=args.relative_to or ())
+    return place_targets(robot, read_measurements(args.place, robot), references=args.relative_to or (),
+                         uncertainty=calibration_uncertainty(robot, source=args.robot))
 
 
-def _propose(args, job, monitor, robot) -> CommandResult:
+def _propose(args, job, monitor, robot, target) -> CommandResult:
     from core.poses.file import write_poses
     from app.jobs.check_sources import stereo_options
 
@@ -189,7 +194,7 @@ def _propose(args, job, monitor, robot) -> CommandResult:
     if not args.stereo and (args.lab or args.lab_seed is not None or args.lab_robot):
         opts = _lab_options(args)[1]
     cell = job.setup(args.robot, lab_options=opts, count=args.count, alpha=args.alpha, seed=args.seed, tool=args.tool,
-                     model=robot, progress=monitor)
+                     model=robot, target=target, progress=monitor)
     write_poses(args.propose_poses, cell.model.q_to_file(cell.Q))
     seen = ("both cameras of the stereo calibration see the marker" if args.stereo
             else "the virtual lab's cameras see the marker" if opts else "no camera given: joint limits only")
@@ -211,14 +216,14 @@ def _locator(args):
     return setup_locator(args)[0]
 
 
-def _lab(args, job, monitor, robot):
+def _lab(args, job, monitor, robot, target):
     from app.lab import apply_change, ideal_measure, image_measure, parse_change
     from core.errors import UsageError
 
     change = parse_change(args.change) if args.change else None
     lab, opts = _lab_options(args)
     cell = job.setup(args.robot, lab_options=opts, poses_path=args.poses, count=args.count, alpha=args.alpha,
-                     seed=args.seed, tool=args.tool, model=robot, progress=monitor.sub(0.0, 0.3))
+                     seed=args.seed, tool=args.tool, model=robot, target=target, progress=monitor.sub(0.0, 0.3))
     if cell.target not in lab.nominal_robot.targets:
         raise UsageError(f"the virtual lab's robot has no target '{cell.target}' of the tool '{cell.tool}'",
                          hint="Give --lab-robot the robot file that defines the tool.")
@@ -255,20 +260,20 @@ def _reidentified(run):
         return f"{exc.problem}. {exc.hint or ''}".strip()
 
 
-def _files(args, job, monitor, robot):
+def _files(args, job, monitor, robot, target):
     from app.jobs import check_sources
 
     model = robot
     if args.measurements:
         unc = job.calibration_uncertainty(model, source=args.robot)
-        _, target = job.mounted_tool(model, unc, args.tool, args.robot)
+        _, target = job.mounted_tool(model, unc, args.tool, args.robot, target)
         poses = check_sources.measurement_file(model, args.measurements, target)
         opts = {}
     else:
         locator = _locator(args)
         poses = check_sources.image_files(model, args.joints, args.images, locator)
         opts = check_sources.stereo_options(args.stereo, args.marker_size)
-    cell = job.setup(args.robot, Q=poses.Q, alpha=args.alpha, tool=args.tool, model=robot,
+    cell = job.setup(args.robot, Q=poses.Q, alpha=args.alpha, tool=args.tool, model=robot, target=target,
                      progress=monitor.sub(0.0, 0.1))
     result, diagnosis = _check_poses(job, cell, poses, args.log, monitor)
     return poses.where, cell, result, diagnosis, None, opts
@@ -285,12 +290,12 @@ def _check_poses(job, cell, poses, log, monitor):
     return result, diagnosis
 
 
-def _port(args, job, monitor, robot):
+def _port(args, job, monitor, robot, target):
     from app.jobs import check_sources
 
     opts = check_sources.stereo_options(args.stereo, args.marker_size)
     cell = job.setup(args.robot, lab_options=opts, poses_path=args.poses, count=args.count, alpha=args.alpha,
-                     seed=args.seed, tool=args.tool, model=robot, progress=monitor.sub(0.0, 0.2))
+                     seed=args.seed, tool=args.tool, model=robot, target=target, progress=monitor.sub(0.0, 0.2))
     locator = _locator(args)
     cameras = check_sources.parse_cameras(args.cameras)
     with check_sources.connected_cell(cell.model, cell.Q, args.port, args.profile, cameras, locator,
@@ -341,7 +346,8 @@ def _result(args, where, cell, result, diagnosis, update, reid, placed) -> Comma
         lines.insert(1, payload)
     for p in placed:
         lines.append(f"{p.name} placed {p.how} from pose {', '.join(str(i) for i in p.poses)}: "
-                     f"({', '.join(f'{v:.3f}' for v in p.offset)}) mm on the tool")
+                     f"({', '.join(f'{v:.3f}' for v in p.offset)}) mm on the tool, σ {p.sigma_mm:.3f} mm per axis"
+                     + (" (the target checked)" if p.name == cell.target else ""))
     if placed:
         data["placed"] = [p.summary() for p in placed]
     if diagnosis is not None:

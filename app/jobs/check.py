@@ -49,9 +49,19 @@ class CheckSetup:
     tool: str = ""              # the tool mounted (its target is `target`)
 
 
-def mounted_tool(model: RobotModel, unc: CalibrationUncertainty, tool: str | None, source) -> tuple[str, str]:
-    """(tool, target) a check measures: `tool` (None: the first calibrated one) and its calibrated
-    target. Raises RoboCalError for a tool not identified since the calibration."""
+def mounted_tool(model: RobotModel, unc: CalibrationUncertainty, tool: str | None, source,
+                 target: str | None = None) -> tuple[str, str]:
+    """(tool, target) a check measures: `tool` (None: the first calibrated one, or the one that
+    carries `target`) and its first calibrated target, or `target` (e.g. one placed on the tool
+    with its covariance, core.identification.placement). Raises RoboCalError for a tool not
+    identified since the calibration, or a `target` without a covariance."""
+    if target is not None:
+        tool = tool or model.tool_of(target)
+        if target not in calibrated_targets(model, unc, tool):
+            raise RoboCalError(f"the target '{target}' of the tool '{tool}' has no calibration covariance to set "
+                               "the check's limits", source=source, field="calibration.covariance",
+                               hint="Place it with its uncertainty (robocal check --place), or identify the tool.")
+        return tool, target
     if tool is None:
         tools = calibrated_tools(model, unc)
         if not tools:
@@ -69,15 +79,17 @@ def mounted_tool(model: RobotModel, unc: CalibrationUncertainty, tool: str | Non
 
 def setup(robot_path, *, lab_options: dict | None = None, poses_path=None, count: int = DEFAULT_CHECK_POSES,
           alpha: float = 0.01, sigma_mm: float | None = None, seed: int = 0, tool: str | None = None,
-          Q=None, model: RobotModel | None = None, progress=None, cancelled=None) -> CheckSetup:
+          Q=None, model: RobotModel | None = None, target: str | None = None, progress=None, cancelled=None
+          ) -> CheckSetup:
     """Read the calibrated robot (or take `model`, read from it and changed, e.g. with targets
     placed), take the check poses Q (rad / mm), or from `poses_path`, or
     choose `count` of them (with the lab's or cell's cameras and marker in `lab_options`) for the
-    mounted `tool` (None: the first calibrated one), and compute their limits."""
+    mounted `tool` (None: the first calibrated one) and its `target` (None: its first calibrated
+    one; see mounted_tool), and compute their limits."""
     monitor = Monitor(progress, cancelled)
     model = read_robot(robot_path) if model is None else model
     unc = calibration_uncertainty(model, source=robot_path, sigma_mm=sigma_mm)
-    tool, target = mounted_tool(model, unc, tool, robot_path)
+    tool, target = mounted_tool(model, unc, tool, robot_path, target)
     if Q is not None:
         Q = np.atleast_2d(np.asarray(Q, dtype=float))
     elif poses_path is not None:

@@ -2,7 +2,8 @@
 identification section: what identification chose and why (calibration.statistics.compliance),
 the payload mounted during calibration, and — when the calibrated model has deflection terms —
 the joint-angle corrections δq2 and δq3 (deg) it applies at each measured pose, against the
-pose number and against q2 (deg)."""
+pose number and against q2 (deg), and how far they move the tool point measured at each pose
+(mm, measurement frame): the length of the displacement and its part along gravity (down)."""
 from __future__ import annotations
 
 import numpy as np
@@ -42,6 +43,17 @@ def deflection_blocks(calibration: dict, model: RobotModel, meas) -> list:
     return blocks
 
 
+def _tool_displacement(model: RobotModel, Q: np.ndarray, targets: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    """How far the deflection moves each tool point: (length (N,), part along gravity, down
+    positive (N,)), mm, in the measurement frame — the calibrated model's point with its
+    deflection minus the same model's rigid point at the same joint values Q (N, n; rad)."""
+    rigid = model.copy()
+    rigid.compliance = None
+    delta = np.array([model.target_position(q, t) - rigid.target_position(q, t) for q, t in zip(Q, targets)])
+    down = model.base[:3, :3] @ model.compliance.gravity
+    return np.linalg.norm(delta, axis=1), delta @ (down / np.linalg.norm(down))
+
+
 def _figure(model: RobotModel, meas) -> Figure:
     if meas is None:
         return Figure(FIGURE, "Joint-angle corrections of the deflection", "",
@@ -54,15 +66,23 @@ def _figure(model: RobotModel, meas) -> Figure:
     q2 = np.rad2deg(Q[:, 1])
     x = [int(p) for p in ids]
     order = np.argsort(q2)
+    points = [meas.target[i] if meas.target[i] in model.targets else next(iter(model.targets)) for i in rows]
+    length, sag = _tool_displacement(model, Q, points)
+    named = ", ".join(dict.fromkeys(points))
     return Figure(
-        FIGURE, "Joint-angle corrections of the deflection",
+        FIGURE, "Joint-angle corrections of the deflection and the tool point's displacement",
         "How far the shoulder (J2) and elbow (J3) stand from the angles the controller reports because the arm "
         "bends under its weight and payload, as the calibrated model's deflection terms give it, at each pose of "
-        f"the calibration's measurements ({len(x)} poses). Left: against the pose number; right: against the "
-        "shoulder angle q2.",
+        f"the calibration's measurements ({len(x)} poses). Left: against the pose number; middle: against the "
+        f"shoulder angle q2; right: how far these corrections move the tool point measured at each pose ({named}) "
+        f"— the length of the displacement (largest {float(length.max()):.3f} mm) and its part along gravity "
+        "(positive: down).",
         [panel("points", "by pose", "pose", "correction (deg)",
                [series("δq2 (shoulder J2)", x, dq[:, 1], color=0),
                 series("δq3 (elbow J3)", x, dq[:, 2], color=1, symbol="t")], hlines=((0.0, "rigid arm"),)),
          panel("points", "against the shoulder angle", "q2 (deg)", "correction (deg)",
                [series("δq2 (shoulder J2)", q2[order], dq[order, 1], color=0),
-                series("δq3 (elbow J3)", q2[order], dq[order, 2], color=1, symbol="t")], hlines=((0.0, "rigid arm"),))])
+                series("δq3 (elbow J3)", q2[order], dq[order, 2], color=1, symbol="t")], hlines=((0.0, "rigid arm"),)),
+         panel("points", "tool point displacement", "pose", "displacement (mm)",
+               [series("length |Δp| (mm)", x, length, color=2),
+                series("along gravity, down (mm)", x, sag, color=3, symbol="s")], hlines=((0.0, "rigid arm"),))])

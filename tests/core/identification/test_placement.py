@@ -1,4 +1,5 @@
-"""Placing a once-measured target on the tool: relative to calibrated targets, or from the model."""
+"""Placing a once-measured target on the tool: relative to calibrated targets, or from the model;
+its covariance propagated from the calibration's and the measurements' noise."""
 from __future__ import annotations
 
 import numpy as np
@@ -6,10 +7,15 @@ import pytest
 
 from core import transforms as tf
 from core.errors import RoboCalError
+from core.identification.jacobian import all_parameters, predict_points
 from core.identification.placement import place_targets
+from core.identification.solver import identify
 from core.measurement.file import Measurements
+from core.monitoring.uncertainty import CalibrationUncertainty, calibration_uncertainty, prediction_covariance
 from core.robot.file import read_robot
 from core.robot.model import robot_path
+from core.virtual_lab.lab import VirtualLab
+from core.virtual_lab.synthetic import simulate_measurements
 
 
 @pytest.fixture
@@ -73,3 +79,73 @@ def test_refusals_name_the_pose_and_the_target(robot):
     reference_only = Measurements(pose=np.array([7]), target=["p1"], q_file=np.zeros((1, 6)), xyz=meas.xyz[1:2])
     with pytest.raises(RoboCalError, match="no target to place"):
         place_targets(robot, reference_only)
+
+
+def uncertainty(model, blocks: dict[str, np.ndarray], sigma_mm: float = 0.05) -> CalibrationUncertainty:
+    """The calibration uncertainty of `model` with only the given parameters' covariance blocks
+    ({"p1": 3×3, "base": 3×3 of base.x/y/z}) non-zero."""
+    params = all_parameters(model, list(model.targets))
+    C = np.zeros((len(params), len(params)))
+    for name, block in blocks.items():
+        idx = [i for i, p in enumerate(params) if p.name in {f"{name}.{k}" for k in "xyz"}]
+        C[np.ix_(idx, idx)] = block
+    return CalibrationUncertainty(params, C, sigma_mm)
+
+
+def test_a_relative_placement_carries_the_reference_s_covariance_and_both_measurements_noise(robot):
+    meas = once(robot, np.array([10.0, -20.0, 15.0, 30.0, 40.0, -50.0]))
+    Cp1 = np.diag([0.01, 0.02, 0.03]) + 0.004
+    placed_robot, placed = place_targets(robot, meas, references=["p1"], uncertainty=uncertainty(robot, {"p1": Cp1}))
+    # t = t_p1 + R(q)ᵀ(x_t1 − x_p1): ∂t/∂t_p1 = I, and the two measurements' noise 2σ² per axis
+    np.testing.assert_allclose(placed[0].covariance, Cp1 + 2 * 0.05 ** 2 * np.eye(3), atol=1e-9)
+    assert placed[0].sigma_mm == pytest.approx(np.sqrt(np.trace(Cp1 + 0.005 * np.eye(3)) / 3))
+    assert placed[0].summary()["sigma_mm"] == placed[0].sigma_mm
+    # the copy's calibration holds the probe as parameters, correlated with p1 through it
+    unc = calibration_uncertainty(placed_robot, sigma_mm=0.05)
+    names = unc.names
+    t1, p1 = [names.index(f"t1.{k}") for k in "xyz"], [names.index(f"p1.{k}") for k in "xyz"]
+    np.testing.assert_allclose(unc.covariance[np.ix_(t1, p1)], Cp1, atol=1e-9)
+    np.testing.assert_allclose(unc.covariance[np.ix_(t1, t1)], placed[0].covariance, atol=1e-12)
+    assert "t1" not in (robot.calibration or {}).get("covariance", {}).get("parameters", [])
+
+
+def test_an_absolute_placement_carries_the_base_s_covariance_turned_into_the_tool_frame(robot):
+    q_deg = np.array([10.0, -20.0, 15.0, 30.0, 40.0, -50.0])
+    Cb = np.diag([0.04, 0.01, 0.09])
+    _, placed = place_targets(robot, once(robot, q_deg), names=["t1"], uncertainty=uncertainty(robot, {"base": Cb}))
+    R = robot.fk(np.deg2rad(q_deg))[:3, :3]
+    # t = R(q)ᵀ(x − o(q)): a base shift moves o(q), so ∂t/∂base.xyz = −R(q)ᵀ; one measurement's noise
+    np.testing.assert_allclose(placed[0].covariance, R.T @ Cb @ R + 0.05 ** 2 * np.eye(3), atol=1e-9)
+
+
+def test_two_references_average_the_noise(robot):
+    meas = once(robot, np.zeros(6))
+    _, placed = place_targets(robot, meas, references=["p1", "p2"], uncertainty=uncertainty(robot, {}))
+    # (t_p1 + Rᵀ(x − x_p1) + t_p2 + Rᵀ(x − x_p2)) / 2: x's noise whole, each reference's halved
+    np.testing.assert_allclose(placed[0].covariance, 1.5 * 0.05 ** 2 * np.eye(3), atol=1e-12)
+
+
+def test_a_check_of_a_placed_target_is_as_wide_as_its_errors_on_the_virtual_lab():
+    """Calibrate on the marker, place a probe 37 mm away relative to it from one pose, predict it
+    at 4 new poses: over 40 calibrations the errors' Mahalanobis distance under the propagated
+    covariance averages 3, a χ² with 3 degrees of freedom (150 trials gave 3.06 ± 0.16)."""
+    sigma = 0.05
+    lab = VirtualLab.create(read_robot(robot_path("abb_irb120")), seed=0)
+    true = lab.true_robot.copy()
+    true.targets["probe"] = true.targets["marker"] + np.array([30.0, -20.0, 10.0])
+    q0 = np.deg2rad([10.0, 20.0, -10.0, 30.0, 40.0, 50.0])
+    distances = []
+    for trial in range(40):
+        rng = np.random.default_rng(trial)
+        model = identify(lab.nominal_robot, simulate_measurements(true, 25, sigma_mm=sigma, targets=["marker"],
+                                                                  rng=rng)).model
+        unc = calibration_uncertainty(model, sigma_mm=sigma)
+        meas = simulate_measurements(true, 1, sigma_mm=sigma, targets=["probe", "marker"], rng=rng, Q=q0[None])
+        placed_robot, placed = place_targets(model, meas, references=["marker"], uncertainty=unc)
+        assert placed[0].sigma_mm > np.sqrt(2.0) * sigma          # the two measurements' noise and more
+        check = simulate_measurements(true, 4, sigma_mm=sigma, targets=["probe"], rng=rng)
+        e = check.xyz - predict_points(placed_robot, check.Q, ["probe"] * 4)
+        S = prediction_covariance(placed_robot, calibration_uncertainty(placed_robot, sigma_mm=sigma), check.Q,
+                                  ["probe"] * 4)
+        distances += [e[i] @ np.linalg.solve(S[3 * i:3 * i + 3, 3 * i:3 * i + 3], e[i]) for i in range(4)]
+    assert np.mean(distances) == pytest.approx(3.0, abs=0.9)       # ±3 standard errors of 40 trials

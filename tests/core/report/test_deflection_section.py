@@ -1,6 +1,6 @@
 """The report's deflection part of the identification section: a calibration with deflection
-terms gives the verdict, the payload and the δq2/δq3 figure (its arrays checked against the
-model); a rigid calibration gives one line; none considered and no payload give nothing."""
+terms gives the verdict, the payload and the figure of δq2/δq3 and of the tool point's displacement
+(its arrays checked against the model); a rigid calibration gives one line; none considered and no payload give nothing."""
 from __future__ import annotations
 
 import numpy as np
@@ -50,7 +50,7 @@ def test_terms_give_the_verdict_the_payload_and_the_corrections_per_pose(lab_dat
     assert "Payload during calibration: 2.5 kg — the deflection terms hold for this payload" in text
     fig = next(f for f in section.figures() if f.key == FIGURE)
     assert fig.unavailable is None
-    by_pose, by_q2 = fig.panels
+    by_pose, by_q2, moved = fig.panels
     ids = [int(p) for p in meas.pose_ids]
     first = [int(np.flatnonzero(meas.pose == p)[0]) for p in ids]
     dq = np.rad2deg(model.compliance.deflection(meas.Q[first]))
@@ -60,6 +60,21 @@ def test_terms_give_the_verdict_the_payload_and_the_corrections_per_pose(lab_dat
     assert sorted(by_q2["series"][0]["x"]) == pytest.approx(np.sort(np.rad2deg(meas.Q[first, 1])))
     # the lab's arm bends by a few hundredths of a degree: the corrections are not all zero
     assert np.abs(dq[:, 1]).max() > 1e-3
+    # the tool point's displacement: the rigid arm at the deflected joint values q + δq against q
+    rigid = model.copy()
+    rigid.compliance = None
+    Q = meas.Q[first]
+    bent = np.array([rigid.target_position(q, t) for q, t in zip(Q + model.compliance.deflection(Q),
+                                                                  [meas.target[i] for i in first])])
+    straight = np.array([rigid.target_position(q, meas.target[i]) for q, i in zip(Q, first)])
+    delta = bent - straight
+    down = model.base[:3, :3] @ np.array([0.0, 0.0, -1.0])
+    assert moved["xlabel"] == "pose" and moved["ylabel"] == "displacement (mm)"
+    assert [s["name"] for s in moved["series"]] == ["length |Δp| (mm)", "along gravity, down (mm)"]
+    assert moved["series"][0]["x"] == ids
+    assert moved["series"][0]["y"] == pytest.approx(np.linalg.norm(delta, axis=1), abs=1e-9)
+    assert moved["series"][1]["y"] == pytest.approx(delta @ down, abs=1e-9)
+    assert np.linalg.norm(delta, axis=1).max() > 0.01
 
 
 def test_a_rigid_calibration_says_it_in_one_line(lab_data, tmp_path):
