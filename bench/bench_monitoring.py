@@ -20,7 +20,7 @@ from core.monitoring.reidentify import propose_poses, reidentify
 from core.monitoring.uncertainty import calibration_uncertainty
 from core.measurement.file import Measurements
 from core.identification.solver import error_stats
-from core.identification.jacobian import predict_points
+from core.kinematics.jacobian import predict_points
 from core.virtual_lab.changes import apply_change
 from core.virtual_lab.ideal_measurements import ideal_lab_measurements, ideal_measure
 from core.virtual_lab.lab import VirtualLab, lab_options

@@ -5,8 +5,8 @@ first order, Δx = J_g·Δg (eq. 5); stacking all points gives Δx = Φ·Δg (eq
 squares correction Δg = (ΦᵀΦ)⁻¹Φᵀ·Δx (eq. 9–10), repeated until it converges (Gauss–Newton).
 Here:
 
-* parameters and the analytic Jacobian: core.identification.jacobian; identifiability and
-  observability indices: core.identification.identifiability;
+* parameters and the analytic Jacobian: core.kinematics.jacobian; identifiability and
+  observability indices: core.kinematics.identifiability;
 * start: the base pose is found by a rigid registration (Kabsch/Umeyama, SVD) of the nominal
   model's predictions onto the measurements, so nobody types a guess of where the robot
   stands in the camera frame;
@@ -18,7 +18,7 @@ Here:
 * two phases: the first fit estimates the parameters identifiable at the nominal geometry;
   identifiability is then analysed again at that estimate (a real robot has none of the
   nominal's special values, e.g. a marker exactly on the last axis), parameters the data
-  barely determine are kept at nominal (core.identification.identifiability.practical_identifiability), and
+  barely determine are kept at nominal (core.kinematics.identifiability.practical_identifiability), and
   the fit is refined with the final set — the per-iteration records carry the stage;
 * optional robust loss: Huber weights by iteratively reweighted least squares; points whose
   error is beyond `outlier_k` robust standard deviations are flagged as outliers;
@@ -43,18 +43,19 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from core import transforms as tf
-from core.identification.jacobian import (COMPLIANCE, Parameter, all_parameters, apply_step, calibration_jacobian,
-                                          compliance_value, log_so3, predict_points, resolve_names)
+from core.kinematics.jacobian import (COMPLIANCE, Parameter, all_parameters, apply_step, calibration_jacobian,
+                                      compliance_value, log_so3, predict_points, resolve_names)
 from core.errors import RoboCalError, UsageError
 from core.files import strict_json
 from core.identification.prior import (DOMINATED_SHARE, EMPIRICAL_BAYES, PRIOR_DOMINATED, Linearised, PriorOptions,
                                        PriorReport, PriorTerm, Weights, choose_weights, data_share, reach_mm)
-from core.identification.identifiability import (FIXED_BY_USER, Identifiability, ObservabilityIndices, analyse,
-                                  check_data, column_scales, observability_indices,
-                                  practical_identifiability, qr_r, small_factor)
-from core.identification.orientation import (STRUCTURAL_ROW_SCALE, OrientationReport, determined_text,
-                                             orientation_errors_deg, orientation_jacobian, orientation_residuals,
-                                             orientation_weights, require_orientations, with_measured_rotations)
+from core.kinematics.identifiability import (FIXED_BY_USER, Identifiability, ObservabilityIndices, analyse,
+                                             check_data, column_scales, observability_indices,
+                                             practical_identifiability, qr_r, small_factor)
+from core.identification.orientation import (OrientationReport, determined_text, orientation_errors_deg,
+                                             orientation_residuals, orientation_weights, require_orientations,
+                                             with_measured_rotations)
+from core.kinematics.orientation import STRUCTURAL_ROW_SCALE, orientation_jacobian
 from core.identification.orientation import rms as orientation_rms
 from core.identification.compliance_selection import AUTO, MODES, OFF, ON, ComplianceChoice, cross_validate, decide
 from core.identification.compliance_selection import FOLDS as COMPLIANCE_FOLDS

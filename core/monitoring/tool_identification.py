@@ -20,7 +20,7 @@ from typing import Sequence
 import numpy as np
 
 from core.errors import RoboCalError
-from core.identification.jacobian import Parameter, all_parameters
+from core.kinematics.jacobian import Parameter, all_parameters
 from core.identification.solver import IDENTIFIED, display_value
 from core.measurement.file import Measurements
 from core.monitoring.reidentify import Reidentification, reidentify

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from core.errors import RoboCalError
-from core.identification.identifiability import random_configurations
-from core.identification.identifiability import NOT_DETERMINED
+from core.kinematics.identifiability import random_configurations
+from core.kinematics.identifiability import NOT_DETERMINED
 from core.identification.prior import EMPIRICAL_BAYES, PRIOR_DOMINATED, PriorOptions, log_evidence
 from core.identification.solver import display_value, evaluate, fit_model, identify
 from core.robot.file import read_robot

@@ -27,10 +27,10 @@ Parameter vector g
   transform itself stays fixed: the target points carry the tool offset.
 * with compliance (core.robot.compliance), the deflection coefficients the model holds,
   `Ji.<shape>` (e.g. `J2.cos_q2`, rad per unit shape value): δq_i = Σ c_ik·f_k(q).
-* with measured orientations (core.identification.orientation), the orientation of each such
+* with measured orientations (core.kinematics.orientation), the orientation of each such
   target's frame on the tool, `<target>.rx/.ry/.rz`: small rotations (rad) about the tool
   frame's axes, applied on the left of `RobotModel.target_rotations[target]`. They do not move
-  points (zero columns here); their orientation rows are in core.identification.orientation.
+  points (zero columns here); their orientation rows are in core.kinematics.orientation.
 
 Estimation works in corrections δg at the current model (the Jacobian is exact at δg = 0);
 `apply_step` adds them (base rotation through the exponential map).
