@@ -77,6 +77,8 @@ def test_import_linter_contracts_are_kept():
     assert "Layers: app -> widgets -> core KEPT" in out
     assert "core never imports Qt or pyqtgraph KEPT" in out
     assert "Only the virtual lab's own package, and app.lab, import the virtual lab KEPT" in out
+    assert "Inside core: a step imports only the steps below it, and the shared pieces KEPT" in out
+    assert "app.jobs imports no Qt and no widgets KEPT" in out
 
 
 def test_importing_all_of_core_does_not_load_qt():
