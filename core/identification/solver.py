@@ -44,13 +44,13 @@ import numpy as np
 
 from core import transforms as tf
 from core.kinematics.jacobian import (COMPLIANCE, Parameter, all_parameters, apply_step, calibration_jacobian,
-                                      compliance_value, log_so3, predict_points, resolve_names)
+                                      compliance_value, display_value, predict_points, resolve_names)
 from core.errors import RoboCalError, UsageError
 from core.files import strict_json
 from core.identification.prior import (DOMINATED_SHARE, EMPIRICAL_BAYES, PRIOR_DOMINATED, Linearised, PriorOptions,
                                        PriorReport, PriorTerm, Weights, choose_weights, data_share, reach_mm)
-from core.kinematics.identifiability import (FIXED_BY_USER, Identifiability, ObservabilityIndices, analyse,
-                                             check_data, column_scales, observability_indices,
+from core.kinematics.identifiability import (FIXED_BY_USER, IDENTIFIED, Identifiability, ObservabilityIndices,
+                                             analyse, check_data, column_scales, observability_indices,
                                              practical_identifiability, qr_r, small_factor)
 from core.identification.orientation import (OrientationReport, determined_text, orientation_errors_deg,
                                              orientation_residuals, orientation_weights, require_orientations,
@@ -67,7 +67,6 @@ from core.robot.file import read_robot, write_robot
 from core.task import Monitor
 
 CHI3_MEDIAN = 1.5382              # median of the χ distribution with 3 degrees of freedom
-IDENTIFIED = "identified"
 MAX_LENGTH_CORRECTION_MM = 50.0   # beyond max(this, 25 % of the reach) the fit has diverged
 MAX_ANGLE_CORRECTION_DEG = 20.0
 
@@ -723,24 +722,6 @@ def _check_blow_up(nominal: RobotModel, model: RobotModel, free: Sequence[Parame
 
 
 # -- the parameter table -------------------------------------------------------------------
-def display_value(model: RobotModel, prm: Parameter) -> float:
-    """The value of parameter `prm` of `model` as the parameter table shows it (mm / deg; the
-    base as its origin and roll, pitch, yaw)."""
-    if prm.group == "joint":
-        return getattr(model.joints[prm.joint], prm.kind) * prm.to_display
-    if prm.group == "target":
-        return float(model.targets[prm.target]["xyz".index(prm.kind)])
-    if prm.group == COMPLIANCE:        # degrees of joint deflection per unit shape value
-        return float(np.rad2deg(compliance_value(model, prm))) + 0.0
-    if prm.group == "orientation":     # the rotation vector of the marker's orientation on the tool
-        R = model.target_rotations.get(prm.target, np.eye(3))
-        return float(np.rad2deg(log_so3(R)["xyz".index(prm.kind[1])])) + 0.0
-    xyz, rpy = tf.matrix_to_pose(model.base)
-    if len(prm.kind) == 1:
-        return float(xyz["xyz".index(prm.kind)]) + 0.0
-    return float(np.rad2deg(rpy["xyz".index(prm.kind[1])])) + 0.0   # + 0.0: no "-0.0" on screen
-
-
 def _rpy_jacobian(R: np.ndarray) -> np.ndarray:
     """∂(roll, pitch, yaw)/∂ω for R ← Exp(ω)·R at ω = 0 (central differences)."""
     h = 1e-7

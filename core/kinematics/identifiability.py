@@ -60,6 +60,8 @@ RANK_TOL = 1e-9          # relative singular value below which a direction is st
 DATA_RANK_TOL = 1e-8     # … or not determined by the measured poses
 STRUCTURAL_POSES = 60    # random configurations for the structural analysis
 
+# a parameter's status in the parameter table
+IDENTIFIED = "identified"
 FIXED_BY_USER = "fixed by user"
 HAYATI = "fixed (Hayati)"
 NOT_IDENTIFIABLE = "not identifiable"

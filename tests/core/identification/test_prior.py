@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 
 from core.errors import RoboCalError
-from core.kinematics.identifiability import random_configurations
-from core.kinematics.identifiability import NOT_DETERMINED
+from core.kinematics.identifiability import NOT_DETERMINED, random_configurations
+from core.kinematics.jacobian import display_value
 from core.identification.prior import EMPIRICAL_BAYES, PRIOR_DOMINATED, PriorOptions, log_evidence
-from core.identification.solver import display_value, evaluate, fit_model, identify
+from core.identification.solver import evaluate, fit_model, identify
 from core.robot.file import read_robot
 from core.robot.model import robot_path
 from core.virtual_lab.synthetic import perturbed_model, simulate_measurements
