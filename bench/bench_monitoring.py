@@ -19,7 +19,7 @@ from core.monitoring.diagnosis import diagnose
 from core.monitoring.reidentify import propose_poses, reidentify
 from core.monitoring.uncertainty import calibration_uncertainty
 from core.measurement.file import Measurements
-from core.identification.solver import error_stats
+from core.identification.fit import error_stats
 from core.kinematics.jacobian import predict_points
 from core.virtual_lab.changes import apply_change
 from core.virtual_lab.ideal_measurements import ideal_lab_measurements, ideal_measure

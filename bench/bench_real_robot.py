@@ -21,7 +21,8 @@ from scipy.spatial.transform import Rotation
 
 from core.identification.placement import place_targets
 from core.identification.prior import PriorOptions
-from core.identification.solver import evaluate, identify
+from core.identification.fit import evaluate
+from core.identification.solver import identify
 from core.measurement.file import Measurements
 from core.measurement.importer import import_measurements
 from core.robot.file import read_robot

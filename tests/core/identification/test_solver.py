@@ -15,8 +15,8 @@ from core.kinematics.jacobian import (all_parameters, apply_step, calibration_ja
 from core.errors import Cancelled, RoboCalError, UsageError
 from core.kinematics.identifiability import (FIXED_BY_USER, HAYATI, NOT_IDENTIFIABLE, analyse, check_data,
                                              observability_indices, observation_matrix, random_configurations)
-from core.identification.solver import (error_stats, evaluate, identify, identify_files, kfold_poses,
-                                 register_base, split_poses, write_calibrated_model)
+from core.identification.fit import error_stats, evaluate, register_base
+from core.identification.solver import identify, identify_files, kfold_poses, split_poses, write_calibrated_model
 from core.robot.model import PRISMATIC, Joint, RobotModel, robot_path
 from core.measurement.file import write_measurements
 from core.robot.file import read_robot
