@@ -42,18 +42,17 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from core import transforms as tf
-from core.errors import RoboCalError, UsageError
-from core.identification.compliance_selection import AUTO, MODES, OFF, ON, ComplianceChoice, cross_validate, decide
-from core.identification.compliance_selection import FOLDS as COMPLIANCE_FOLDS
-from core.identification.compliance_selection import fixed_choice
-from core.identification.fit import (Fit, coordinate_weights, error_stats, fit_model, linearised, register_base,
-                                     with_joint_values)
+from core.errors import UsageError
+from core.identification.compliance_selection import AUTO, MODES, OFF, ON, fixed_choice
+from core.identification.fit import Fit, coordinate_weights, error_stats, fit_model, linearised, with_joint_values
 from core.identification.orientation import (OrientationReport, determined_text, orientation_errors_deg,
                                              with_measured_rotations)
 from core.identification.orientation import rms as orientation_rms
 from core.identification.prior import (DOMINATED_SHARE, EMPIRICAL_BAYES, PRIOR_DOMINATED, PriorOptions, PriorReport,
                                        Weights, choose_weights, reach_mm)
-from core.identification.result import IdentificationResult, ParameterRow, Validation, merge_stats
+from core.identification.result import IdentificationResult, ParameterRow
+from core.identification.validation import (holdout_validation, kfold_poses, kfold_validation, select_compliance,
+                                            split_poses)
 from core.kinematics.identifiability import IDENTIFIED, analyse, practical_identifiability
 from core.kinematics.jacobian import COMPLIANCE, all_parameters, display_value, resolve_names
 from core.measurement.file import Measurements, check_against_robot, read_measurements
@@ -61,29 +60,6 @@ from core.robot.compliance import DEFAULT_TERMS, Compliance, check_vertical_arm
 from core.robot.file import read_robot, write_robot
 from core.robot.model import RobotModel
 from core.task import Monitor
-
-
-
-def split_poses(pose_ids: Sequence[int], fraction: float, seed: int = 0) -> tuple[list[int], list[int]]:
-    """(training, test) pose ids: a seeded random `fraction` of the poses is held out."""
-    ids = list(pose_ids)
-    if not 0.0 < fraction < 1.0:
-        raise UsageError(f"the held-out fraction must be between 0 and 1, got {fraction}")
-    n_test = int(round(fraction * len(ids)))
-    n_test = min(max(n_test, 1), len(ids) - 1)
-    rng = np.random.default_rng(seed)
-    test = set(rng.choice(len(ids), size=n_test, replace=False).tolist())
-    return [p for k, p in enumerate(ids) if k not in test], [p for k, p in enumerate(ids) if k in test]
-
-
-def kfold_poses(pose_ids: Sequence[int], folds: int, seed: int = 0) -> list[list[int]]:
-    """The pose ids split into `folds` seeded random groups of (nearly) equal size."""
-    ids = list(pose_ids)
-    if folds < 2 or folds > len(ids):
-        raise UsageError(f"k-fold needs 2 ≤ k ≤ number of poses ({len(ids)}), got {folds}")
-    order = np.random.default_rng(seed).permutation(len(ids))
-    return [[ids[k] for k in sorted(part)] for part in np.array_split(order, folds)]
-
 
 
 # -- the parameter table -------------------------------------------------------------------
@@ -213,7 +189,7 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
     if compliance == AUTO:
         fit_off, w_off = fit_full(False, main.sub(0.0, 0.2))
         fit_on, w_on = fit_full(True, main.sub(0.2, 0.5))
-        compliance_choice = _select_compliance(rigid, robot, train, kw, w_off, w_on, seed, main.sub(0.5, 1.0))
+        compliance_choice = select_compliance(rigid, robot, train, kw, w_off, w_on, seed, main.sub(0.5, 1.0))
         fit, weights = (fit_on, w_on) if compliance_choice.kept else (fit_off, w_off)
     else:
         fit, weights = fit_full(compliance == ON, main)
@@ -222,29 +198,9 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
     if not compliance_choice.kept:
         robot = rigid
     if holdout is not None:
-        before = error_stats(register_base(robot, train), test)
-        validation = Validation("holdout", before=before, after=error_stats(fit.model, test),
-                                test_poses=[int(p) for p in test_ids], fraction=float(holdout), seed=seed)
+        validation = holdout_validation(robot, fit.model, train, test, test_ids, fraction=holdout, seed=seed)
     elif kfold is not None:
-        befores, afters, rms = [], [], []
-        rest = monitor.sub(main_share, 1.0)
-        for k, test_ids in enumerate(folds):
-            sub = rest.sub(k / kfold, (k + 1) / kfold)
-            sub.step(0.0, f"cross validation: fold {k + 1} of {kfold}")
-            tr = meas.select_poses([p for p in meas.pose_ids if p not in set(test_ids)])
-            te = meas.select_poses(test_ids)
-            try:
-                f = fit_model(robot, tr, monitor=sub, **kw)
-            except RoboCalError as exc:
-                raise RoboCalError(f"cross validation fold {k + 1} of {kfold}: {exc.problem}",
-                                   source=exc.source, hint=exc.hint or
-                                   "Use fewer folds or measure more poses.") from exc
-            befores.append(error_stats(register_base(robot, tr), te))
-            afters.append(error_stats(f.model, te))
-            rms.append(afters[-1].rms_mm)
-        validation = Validation("kfold", before=merge_stats(befores), after=merge_stats(afters),
-                                test_poses=[int(p) for p in meas.pose_ids], folds=int(kfold), seed=seed,
-                                fold_rms_mm=rms)
+        validation = kfold_validation(robot, meas, folds, kw, monitor.sub(main_share, 1.0), seed=seed)
 
     rows, std_int = _parameter_rows(fit, robot)
     orientation_report = (_orientation_report(robot, train, fit, fixed, prior is not None, rows,
@@ -308,26 +264,6 @@ def _compliance_robots(robot: RobotModel, mode: str) -> tuple[RobotModel, RobotM
     with_terms.compliance = (Compliance.zero(robot.dof) if robot.compliance is None
                              else robot.compliance.with_terms(DEFAULT_TERMS))
     return with_terms, rigid
-
-
-def _select_compliance(rigid: RobotModel, robot: RobotModel, train: Measurements, kw: dict, w_off: Weights,
-                       w_on: Weights, seed: int, monitor: Monitor) -> ComplianceChoice:
-    """Cross validation grouped by pose of the fits without and with the deflection terms (their
-    weights kept), decided by the one-standard-error rule."""
-    n = len(train.pose_ids)
-    try:
-        folds = kfold_poses(train.pose_ids, min(COMPLIANCE_FOLDS, n), seed)
-        off, on = cross_validate(
-            lambda tr, m: fit_model(rigid, tr, monitor=m, prior_weights=w_off, **kw).model,
-            lambda tr, m: fit_model(robot, tr, monitor=m, prior_weights=w_on, compliance=True, **kw).model,
-            train, folds, monitor=monitor)
-    except (RoboCalError, UsageError) as exc:
-        return ComplianceChoice(AUTO, False, f"Too few poses to test the deflection terms ({n}: "
-                                f"{exc.problem}); geometry only.")
-    if len(off) < 3:
-        return ComplianceChoice(AUTO, False, f"Too few poses to test the deflection terms ({len(off)} could be "
-                                f"predicted); geometry only.")
-    return decide(off, on, len(folds), w_on.compliance)
 
 
 def _orientation_report(robot: RobotModel, train: Measurements, fit: Fit, fixed: Sequence[str], with_prior: bool,
