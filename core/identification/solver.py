@@ -41,20 +41,19 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from core import transforms as tf
 from core.errors import UsageError
 from core.identification.compliance_selection import AUTO, MODES, OFF, ON, fixed_choice
 from core.identification.fit import Fit, coordinate_weights, error_stats, fit_model, linearised, with_joint_values
 from core.identification.orientation import (OrientationReport, determined_text, orientation_errors_deg,
                                              with_measured_rotations)
 from core.identification.orientation import rms as orientation_rms
-from core.identification.prior import (DOMINATED_SHARE, EMPIRICAL_BAYES, PRIOR_DOMINATED, PriorOptions, PriorReport,
-                                       Weights, choose_weights, reach_mm)
+from core.identification.prior import EMPIRICAL_BAYES, PriorOptions, PriorReport, Weights, choose_weights, reach_mm
+from core.identification.parameter_table import parameter_rows
 from core.identification.result import IdentificationResult, ParameterRow
 from core.identification.validation import (holdout_validation, kfold_poses, kfold_validation, select_compliance,
                                             split_poses)
-from core.kinematics.identifiability import IDENTIFIED, analyse, practical_identifiability
-from core.kinematics.jacobian import COMPLIANCE, all_parameters, display_value, resolve_names
+from core.kinematics.identifiability import analyse, practical_identifiability
+from core.kinematics.jacobian import all_parameters, resolve_names
 from core.measurement.file import Measurements, check_against_robot, read_measurements
 from core.robot.compliance import DEFAULT_TERMS, Compliance, check_vertical_arm
 from core.robot.file import read_robot, write_robot
@@ -62,61 +61,6 @@ from core.robot.model import RobotModel
 from core.task import Monitor
 
 
-# -- the parameter table -------------------------------------------------------------------
-def _rpy_jacobian(R: np.ndarray) -> np.ndarray:
-    """∂(roll, pitch, yaw)/∂ω for R ← Exp(ω)·R at ω = 0 (central differences)."""
-    h = 1e-7
-    E = np.zeros((3, 3))
-    for k in range(3):
-        w = np.zeros(3)
-        w[k] = h
-        d = tf.matrix_to_rpy(tf.rot_vec(w) @ R) - tf.matrix_to_rpy(tf.rot_vec(-w) @ R)
-        E[:, k] = ((d + np.pi) % (2 * np.pi) - np.pi) / (2 * h)
-    return E
-
-
-def _parameter_rows(fit: Fit, nominal: RobotModel) -> tuple[list[ParameterRow], np.ndarray]:
-    ident, model = fit.ident, fit.model
-    free_index = {p.name: k for k, p in enumerate(ident.free)}
-    std_int = np.sqrt(np.clip(np.diag(fit.covariance), 0.0, None))
-    rot_free = [k for k, p in enumerate(ident.free) if p.group == "base" and len(p.kind) == 2]
-    rpy_std = {}
-    if rot_free:
-        E = _rpy_jacobian(model.base[:3, :3])
-        cols = ["xyz".index(ident.free[k].kind[1]) for k in rot_free]
-        C = fit.covariance[np.ix_(rot_free, rot_free)]
-        Es = E[:, cols]
-        var = np.diag(Es @ C @ Es.T)
-        rpy_std = {axis: float(np.rad2deg(np.sqrt(max(v, 0.0)))) for axis, v in zip("xyz", var)}
-    rows = []
-    for prm in ident.params:
-        k = free_index.get(prm.name)
-        excl = ident.exclusion(prm.name)
-        if k is not None:
-            if prm.group == "base" and len(prm.kind) == 2:
-                std = rpy_std.get(prm.kind[1])
-            else:
-                std = float(std_int[k] * prm.to_display)
-        else:
-            std = None
-        share = (fit.shares.get(prm.name) if fit.shares is not None and prm.group in ("joint", COMPLIANCE)
-                 else None)
-        status = IDENTIFIED if k is not None else excl.status
-        explanation = "" if excl is None else excl.explanation
-        if share is not None and share < DOMINATED_SHARE:
-            status = PRIOR_DOMINATED
-            explanation = (f"The measurements determine {share:.0%} of {prm.name}; the prior toward its "
-                           f"nominal value determines the rest.")
-        rows.append(ParameterRow(
-            name=prm.name, group=prm.group, kind=prm.kind, unit=prm.unit,
-            nominal=display_value(nominal, prm), initial=display_value(fit.initial, prm),
-            identified=display_value(model, prm), std=std, identifiable=k is not None,
-            status=status, explanation=explanation,
-            partners=() if excl is None else excl.partners, data_share=share))
-    return rows, std_int
-
-
-# -- the whole step ------------------------------------------------------------------------
 def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (),
              huber: float | None = None, holdout: float | None = None, kfold: int | None = None,
              seed: int = 0, outlier_k: float = 4.0, max_iterations: int = 100, damping: float = 1e-3,
@@ -202,7 +146,7 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
     elif kfold is not None:
         validation = kfold_validation(robot, meas, folds, kw, monitor.sub(main_share, 1.0), seed=seed)
 
-    rows, std_int = _parameter_rows(fit, robot)
+    rows, std_int = parameter_rows(fit, robot)
     orientation_report = (_orientation_report(robot, train, fit, fixed, prior is not None, rows,
                                               test if holdout is not None else None) if orientation else None)
     cov = fit.covariance
