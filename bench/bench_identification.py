@@ -38,7 +38,8 @@ from core.kinematics.jacobian import (apply_step, calibration_jacobian, hayati_j
 from core.kinematics.identifiability import random_configurations
 from core.identification.prior import PriorOptions
 from core.identification.fit import evaluate
-from core.identification.solver import identify, identify_files
+from core.identification.file import identify_files
+from core.identification.solver import identify
 from core.robot.model import robot_path
 from core.measurement.file import read_measurements, write_measurements
 from core.robot.file import read_robot, write_robot

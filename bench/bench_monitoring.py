@@ -149,7 +149,7 @@ def _image_cell(tmp):
     arm calibrated from IMAGE_POSES poses measured through rendered images (25 % held out, as the
     README's chain), written to tmp/calibrated.json."""
     import cv2
-    from core.identification.solver import write_calibrated_model
+    from core.identification.file import write_calibrated_model
     from core.marker.location import MarkerLocator
     from core.marker.training import train_marker
     from core.stereo.rectification import StereoRectification

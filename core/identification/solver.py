@@ -36,7 +36,6 @@ from __future__ import annotations
 
 import math
 from datetime import datetime, timezone
-from pathlib import Path
 from typing import Iterable, Sequence
 
 import numpy as np
@@ -54,9 +53,8 @@ from core.identification.validation import (holdout_validation, kfold_poses, kfo
                                             split_poses)
 from core.kinematics.identifiability import analyse, practical_identifiability
 from core.kinematics.jacobian import all_parameters, resolve_names
-from core.measurement.file import Measurements, check_against_robot, read_measurements
+from core.measurement.file import Measurements, check_against_robot
 from core.robot.compliance import DEFAULT_TERMS, Compliance, check_vertical_arm
-from core.robot.file import read_robot, write_robot
 from core.robot.model import RobotModel
 from core.task import Monitor
 
@@ -255,24 +253,5 @@ def with_unknown_targets(robot: RobotModel, meas: Measurements) -> tuple[RobotMo
     for name in unknown:
         robot.targets[name] = np.zeros(3)
     return robot, unknown
-
-
-def write_calibrated_model(result: IdentificationResult, path: str | Path) -> Path:
-    """Write the calibrated robot file (robot format + `calibration` section) atomically."""
-    model = result.model.copy()
-    model.calibration = result.calibration_section()
-    return write_robot(model, path)
-
-
-def identify_files(robot_path: str | Path, measurements_path: str | Path, out_path: str | Path | None = None,
-                   **options) -> IdentificationResult:
-    """File to result: read the robot and the measurements, identify, and (with `out_path`)
-    write the calibrated model — only after everything succeeded."""
-    robot = read_robot(robot_path)
-    meas = read_measurements(measurements_path, robot)
-    result = identify(robot, meas, **options)
-    if out_path is not None:
-        write_calibrated_model(result, out_path)
-    return result
 
 

@@ -28,7 +28,7 @@ from app.pages.steps import Step
 from core.errors import RoboCalError
 from core.identification.exports import export_model
 from core.identification.result import IdentificationResult
-from core.identification.solver import write_calibrated_model
+from core.identification.file import write_calibrated_model
 from core.measurement.file import read_measurements
 from core.measurement.synthetic import synthetic_description
 from core.provenance import changed_inputs, changed_since, fingerprint, record_inputs

@@ -16,7 +16,8 @@ from core.errors import Cancelled, RoboCalError, UsageError
 from core.kinematics.identifiability import (FIXED_BY_USER, HAYATI, NOT_IDENTIFIABLE, analyse, check_data,
                                              observability_indices, observation_matrix, random_configurations)
 from core.identification.fit import error_stats, evaluate, register_base
-from core.identification.solver import identify, identify_files, write_calibrated_model
+from core.identification.file import identify_files, write_calibrated_model
+from core.identification.solver import identify
 from core.identification.validation import kfold_poses, split_poses
 from core.robot.model import PRISMATIC, Joint, RobotModel, robot_path
 from core.measurement.file import write_measurements
