@@ -3,29 +3,26 @@
 The chapter's differential model (eq. 4–10): the position error of a measured point is, to
 first order, Δx = J_g·Δg (eq. 5); stacking all points gives Δx = Φ·Δg (eq. 6–7) and the least
 squares correction Δg = (ΦᵀΦ)⁻¹Φᵀ·Δx (eq. 9–10), repeated until it converges (Gauss–Newton).
-Here:
+Here, `identify(robot, measurements)` runs the whole step from pieces beside it:
 
 * parameters and the analytic Jacobian: core.kinematics.jacobian; identifiability and
   observability indices: core.kinematics.identifiability;
-* start: the base pose is found by a rigid registration (Kabsch/Umeyama, SVD) of the nominal
-  model's predictions onto the measurements, so nobody types a guess of where the robot
-  stands in the camera frame;
-* estimation: Levenberg–Marquardt on the column-scaled problem (our own short loop rather than
-  scipy.optimize.least_squares: it reports every iteration's cost for the GUI, checks Cancel
-  between iterations, and updates the base rotation through the exponential map at each step
-  so the analytic Jacobian stays exact — scipy can do none of the three). With damping λ = 0
-  a step is exactly eq. (9–10);
-* two phases: the first fit estimates the parameters identifiable at the nominal geometry;
-  identifiability is then analysed again at that estimate (a real robot has none of the
-  nominal's special values, e.g. a marker exactly on the last axis), parameters the data
-  barely determine are kept at nominal (core.kinematics.identifiability.practical_identifiability), and
-  the fit is refined with the final set — the per-iteration records carry the stage;
-* optional robust loss: Huber weights by iteratively reweighted least squares; points whose
-  error is beyond `outlier_k` robust standard deviations are flagged as outliers;
-* uncertainty: σ̂² = RSS/(m − p), covariance σ̂²(ΦᵀWΦ)⁻¹ of the estimated parameters, standard
-  deviations, correlation matrix, condition number and observability indices of the final Φ;
+* one fit (core.identification.fit): the base pose found by a rigid registration
+  (Kabsch/Umeyama, SVD) of the nominal model's predictions onto the measurements, so nobody
+  types a guess of where the robot stands in the camera frame; two phases — the parameters
+  identifiable at the nominal geometry first, then identifiability analysed again at that
+  estimate (a real robot has none of the nominal's special values, e.g. a marker exactly on
+  the last axis), parameters the data barely determine kept at nominal
+  (core.kinematics.identifiability.practical_identifiability) and the fit refined with the final
+  set; optional Huber weights by iteratively reweighted least squares, points beyond `outlier_k`
+  robust standard deviations flagged as outliers; σ̂² = RSS/(m − p) and the covariance
+  σ̂²(ΦᵀWΦ)⁻¹ of the estimated parameters;
+* estimation: Levenberg–Marquardt on the column-scaled problem (core.identification.lm); with
+  damping λ = 0 a step is exactly eq. (9–10);
 * validation: held-out poses (a seeded random fraction) or k-fold cross validation, errors
-  before and after calibration.
+  before and after calibration, and the deflection terms' test (core.identification.validation);
+* the parameter table (core.identification.parameter_table) and the result with its statistics
+  (core.identification.result); the calibrated robot file (core.identification.file).
 
 Error statistics ("RMS") are over 3D error norms: rms = sqrt(mean |x_measured − x_model|²).
 With isotropic noise σ per axis a perfect model has an expected RMS of σ·√3 on new points.
