@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from core.stereo.board import Board
-from core.stereo.checkerboard import (Coverage, BoardDetectionOptions, board_in_view, board_symmetries, coverage,
-                               detect_corners, detect_folders, detect_pair, detect_pairs, grid_deviation,
-                               match_order, pair_images, param_distance, screen_pairs, summarize_rejections,
-                               view_params)
+from core.stereo.checkerboard import (BoardDetectionOptions, Coverage, board_in_view, board_symmetries, coverage,
+                                      detect_corners, detect_folders, detect_pair, detect_pairs, grid_deviation,
+                                      match_order, param_distance, screen_pairs, summarize_rejections, view_params)
+from core.stereo.image_files import pair_images
 from core.images import decode_gray, load_gray
 from core.errors import Cancelled, RoboCalError
 from tests.core.stereo_synth import REAL_DATA, real_pairs
