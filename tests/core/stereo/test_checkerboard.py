@@ -7,9 +7,10 @@ import numpy as np
 import pytest
 
 from core.stereo.board import Board
-from core.stereo.checkerboard import (BoardDetectionOptions, Coverage, board_in_view, board_symmetries, coverage,
-                                      detect_corners, detect_folders, detect_pair, detect_pairs, grid_deviation,
-                                      match_order, param_distance, screen_pairs, summarize_rejections, view_params)
+from core.stereo.checkerboard import (BoardDetectionOptions, Coverage, board_in_view, coverage, detect_corners,
+                                      detect_folders, detect_pair, detect_pairs, grid_deviation, param_distance,
+                                      screen_pairs, summarize_rejections, view_params)
+from core.stereo.corner_order import board_symmetries, match_order
 from core.stereo.image_files import pair_images
 from core.images import decode_gray, load_gray
 from core.errors import Cancelled, RoboCalError
