@@ -38,7 +38,8 @@ import numpy as np
 from core.errors import RoboCalError, UsageError
 from core.files import strict_json
 from core.stereo.board import Board
-from core.stereo.checkerboard import MIN_PAIRS_TO_CALIBRATE, Coverage, DetectionResult, coverage, summarize_rejections
+from core.stereo.checkerboard import DetectionResult, summarize_rejections
+from core.stereo.coverage import MIN_PAIRS_TO_CALIBRATE, Coverage, coverage
 from core.stereo.detection import PairDetection
 from core.stereo.corner_order import board_symmetries
 from core.stereo.cross_validation import MIN_VIEWS_PER_HALF, CrossValidation, cross_validate

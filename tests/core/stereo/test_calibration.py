@@ -205,7 +205,8 @@ def test_too_few_usable_pairs_names_files():
 
 def _fake_detections(left, right):
     """A DetectionResult built from corner lists (no images)."""
-    from core.stereo.checkerboard import DetectionResult, coverage, view_params
+    from core.stereo.checkerboard import DetectionResult
+    from core.stereo.coverage import coverage, view_params
     from core.stereo.detection import Detection, PairDetection
     pairs = []
     for i, (a, b) in enumerate(zip(left, right)):
