@@ -176,7 +176,7 @@ def test_the_check_takes_the_lowest_aic_among_the_sets_the_f_test_keeps():
 def test_both_guides_give_the_same_epipolar_figure_and_real_cameras_meet_it():
     from core.stereo.board import Board
     from core.stereo.calibration import calibrate_stereo
-    from core.stereo.checkerboard import detect_pairs
+    from core.stereo.screening import detect_pairs
     from tests.core.stereo_synth import REAL_DATA, real_pairs
     words = "below about 0.3 px RMS"
     assert words in plain("stereo.html")

@@ -16,7 +16,7 @@ from core.errors import RoboCalError
 from core.files import atomic_write_bytes
 from core.images import load_gray
 from core.stereo.board import Board
-from core.stereo.checkerboard import detect_pair
+from core.stereo.screening import detect_pair
 from core.stereo.detection import PairDetection
 from core.task import Monitor
 from core.thumbnails import compose_pair_thumbnail

@@ -38,7 +38,7 @@ import numpy as np
 from core.errors import RoboCalError, UsageError
 from core.files import strict_json
 from core.stereo.board import Board
-from core.stereo.checkerboard import DetectionResult, summarize_rejections
+from core.stereo.screening import DetectionResult, summarize_rejections
 from core.stereo.coverage import MIN_PAIRS_TO_CALIBRATE, Coverage, coverage
 from core.stereo.detection import PairDetection
 from core.stereo.corner_order import board_symmetries
@@ -140,7 +140,7 @@ class StereoCalibrationResult:
 
 def calibrate_stereo(detections: DetectionResult, options: CalibrationOptions = CalibrationOptions(), *,
                      exclude: Sequence[int] = (), progress=None, cancelled=None) -> StereoCalibrationResult:
-    """Calibrate from `core.stereo.checkerboard.detect_pairs` output, without the pairs in `exclude`.
+    """Calibrate from `core.stereo.screening.detect_pairs` output, without the pairs in `exclude`.
 
     `exclude` holds pair indices (0-based, as `PairDetection.index`). Raises RoboCalError
     when fewer than `MIN_PAIRS_TO_CALIBRATE` usable pairs remain, naming the rejected files.

@@ -4,7 +4,7 @@ The left corners are put in a canonical order (`canonical_order`: board x along 
 x-ish, rows downwards, board z away from the camera), then the right corners are relabelled
 with the board symmetry (180° for a non-square board, also 90° turns for a square one) whose
 row and column directions agree best with the left image (`match_order`). A pair whose
-directions disagree by more than 60° is rejected with a reason (core.stereo.checkerboard). The
+directions disagree by more than 60° is rejected with a reason (core.stereo.screening). The
 calibration checks the order once more against the stereo geometry of all pairs, which also
 covers a camera mounted upside down, with `board_symmetries`. Corners are (N, 2) px, rows of
 `board.cols` corners.

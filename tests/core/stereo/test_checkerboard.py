@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from core.stereo.board import Board
-from core.stereo.checkerboard import detect_folders, detect_pair, detect_pairs, screen_pairs, summarize_rejections
+from core.stereo.screening import detect_folders, detect_pair, detect_pairs, screen_pairs, summarize_rejections
 from core.stereo.coverage import Coverage, coverage, param_distance, view_params
 from core.stereo.detection import BoardDetectionOptions, board_in_view, detect_corners, grid_deviation
 from core.stereo.corner_order import board_symmetries, match_order

@@ -1,5 +1,11 @@
-"""Checkerboard detection for stereo calibration: corners, per-pair acceptance, coverage
-(the image files are listed and paired by core.stereo.image_files).
+"""Checkerboard pairs for stereo calibration screened: each pair detected and accepted or
+rejected with a reason (`detect_pair`), then the checks across pairs (`screen_pairs`), for a
+batch of pairs (`detect_pairs`) or two folders (`detect_folders`, the files paired by
+core.stereo.image_files), and the rejections summarised in one line.
+
+Acceptance of a pair, in this order: both images readable, same size, board found in both, not
+at the border, not blurred, corner order consistent between the two images; across pairs: the
+most frequent image size, and not too similar to an earlier accepted pair.
 
 Detection of one image: core.stereo.detection.
 Corner order: core.stereo.corner_order; a pair whose row and column directions disagree between
@@ -20,11 +26,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
 
+from core.images import load_gray, to_gray8
 from core.stereo.board import Board
 from core.stereo.corner_order import match_order
 from core.stereo.coverage import Coverage, coverage, param_distance, view_params
 from core.stereo.detection import BoardDetectionOptions, Detection, PairDetection, detect_corners
-from core.images import load_gray, to_gray8
 from core.stereo.image_files import pair_images
 from core.task import Monitor
 
