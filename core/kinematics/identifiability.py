@@ -20,7 +20,7 @@ Which parameters are identified (`analyse`), in three layers:
    the kept ones).
 The structural analysis holds at the geometry it is done at; a nominal model has special
 values (a marker exactly on the last axis, a = 0 exactly) that create dependencies a real robot
-does not have. `core.identification.solver` therefore analyses twice: at the start (the nominal
+does not have. `core.identification.fit` therefore analyses twice: at the start (the nominal
 model, a safe reduced set for the first fit) and again at that first estimate, where
 `practical_identifiability` also removes parameters the measurements determine so poorly that
 their expected standard deviation exceeds 1° or 5 mm (e.g. the last joint's angle when the
