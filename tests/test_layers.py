@@ -51,6 +51,12 @@ def test_widgets_never_import_app():
     assert violations("widgets", {"app"}) == []
 
 
+def test_jobs_never_import_qt_or_widgets():
+    """app/jobs run on worker threads and are tested without a window."""
+    assert sources("app/jobs")
+    assert violations("app/jobs", QT_MODULES | {"widgets"}) == []
+
+
 def test_the_ast_check_sees_imports(tmp_path):
     f = tmp_path / "m.py"
     f.write_text("import os\nfrom PySide6.QtCore import Qt\nimport importlib\n"
