@@ -44,7 +44,7 @@ from app.worker import TaskRunner
 from core import project as projects
 from core.errors import RoboCalError
 from core.identification.model_comparison import TruthAccuracy
-from core.identification.solver import IdentificationResult
+from core.identification.result import IdentificationResult
 from core.marker.training import TrainedMarker
 from core.poses.selection import PoseSelectionResult
 from core.measurement.capture import CameraIdentity

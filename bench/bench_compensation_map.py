@@ -11,7 +11,8 @@ from pathlib import Path
 import numpy as np
 
 from app.jobs.compensation import load_cell, measure_accuracy_map, robot_measure
-from core.identification.solver import identify, write_calibrated_model
+from core.identification.file import write_calibrated_model
+from core.identification.solver import identify
 from core.marker.training import train_marker
 from core.measurement.capture import RenderedSource
 from core.robot.serial_robot import SerialRobot

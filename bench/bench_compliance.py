@@ -13,7 +13,8 @@ import time
 
 import numpy as np
 
-from core.identification.solver import error_stats, identify
+from core.identification.fit import error_stats
+from core.identification.solver import identify
 from core.robot.file import read_robot
 from core.robot.model import robot_path
 from core.virtual_lab.ideal_measurements import ideal_lab_measurements

@@ -28,7 +28,7 @@ from core.measurement.file import read_measurements
 from core.measurement.run import poses_from_internal, run_measurements
 from core.poses.selection import select_poses
 from core.stereo.calibration import calibrate_stereo
-from core.stereo.checkerboard import detect_pairs
+from core.stereo.screening import detect_pairs
 from core.stereo.file import read_stereo_yaml, write_stereo_yaml
 from core.virtual_lab.lab import VirtualLab, lab_options
 

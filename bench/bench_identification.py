@@ -33,11 +33,13 @@ import numpy as np
 
 from scipy.optimize import least_squares
 
-from core.identification.jacobian import (apply_step, calibration_jacobian, hayati_joints, parameter_difference,
-                                          predict_points)
-from core.identification.identifiability import random_configurations
+from core.kinematics.jacobian import (apply_step, calibration_jacobian, hayati_joints, parameter_difference,
+                                      predict_points)
+from core.kinematics.identifiability import random_configurations
 from core.identification.prior import PriorOptions
-from core.identification.solver import evaluate, identify, identify_files
+from core.identification.fit import evaluate
+from core.identification.file import identify_files
+from core.identification.solver import identify
 from core.robot.model import robot_path
 from core.measurement.file import read_measurements, write_measurements
 from core.robot.file import read_robot, write_robot

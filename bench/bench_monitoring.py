@@ -19,8 +19,8 @@ from core.monitoring.diagnosis import diagnose
 from core.monitoring.reidentify import propose_poses, reidentify
 from core.monitoring.uncertainty import calibration_uncertainty
 from core.measurement.file import Measurements
-from core.identification.solver import error_stats
-from core.identification.jacobian import predict_points
+from core.identification.fit import error_stats
+from core.kinematics.jacobian import predict_points
 from core.virtual_lab.changes import apply_change
 from core.virtual_lab.ideal_measurements import ideal_lab_measurements, ideal_measure
 from core.virtual_lab.lab import VirtualLab, lab_options
@@ -149,7 +149,7 @@ def _image_cell(tmp):
     arm calibrated from IMAGE_POSES poses measured through rendered images (25 % held out, as the
     README's chain), written to tmp/calibrated.json."""
     import cv2
-    from core.identification.solver import write_calibrated_model
+    from core.identification.file import write_calibrated_model
     from core.marker.location import MarkerLocator
     from core.marker.training import train_marker
     from core.stereo.rectification import StereoRectification

@@ -16,7 +16,7 @@ Definitions
   nominal model (core.identification.solver.identify). Parameter error: the estimate minus the truth
   expressed in the same parameterisation (a noise-free fit to 400 full-range poses of the true
   robot with the same parameters kept at nominal), in "mm at the tool" (lengths in mm, angles
-  in rad × the robot's reach, core.identification.identifiability.characteristic_scales), over the joint and
+  in rad × the robot's reach, core.kinematics.identifiability.characteristic_scales), over the joint and
   target parameters the selection optimised (identifiable at the nominal geometry; the base is
   re-registered anyway); RMS over those parameters and RUNS runs (each run: new noise, and for
   random poses a new random selection of 30 from the same candidates). The identification
@@ -44,8 +44,8 @@ import time
 
 import numpy as np
 
-from core.identification.jacobian import parameter_difference, predict_points
-from core.identification.identifiability import analyse, characteristic_scales
+from core.kinematics.jacobian import parameter_difference, predict_points
+from core.kinematics.identifiability import analyse, characteristic_scales
 from core.identification.solver import identify
 from core.robot.model import robot_path
 from core.poses.selection import scaled_blocks, select_poses

@@ -23,8 +23,9 @@ from scipy.spatial.transform import Rotation
 
 from core.identification.placement import place_targets
 from core.identification.prior import PriorOptions
-from core.identification.jacobian import predict_points
-from core.identification.solver import evaluate, identify
+from core.kinematics.jacobian import predict_points
+from core.identification.fit import evaluate
+from core.identification.solver import identify
 from core.measurement.file import Measurements
 from core.measurement.importer import import_measurements
 from core.monitoring.uncertainty import calibration_uncertainty, norm_limit, prediction_covariance

@@ -29,7 +29,7 @@ import cv2
 import numpy as np
 
 from core.stereo.board import Board
-from core.stereo.checkerboard import detect_folders, detect_pair, detect_pairs
+from core.stereo.screening import detect_folders, detect_pair, detect_pairs
 from core.stereo.calibration import calibrate_stereo
 from core.stereo.fit import CalibrationOptions
 from core.stereo.file import read_stereo_yaml, write_stereo_yaml

@@ -91,7 +91,7 @@ def lab_fit():
 
 
 def test_covariance_and_sigma_hat_are_the_weighted_ones_the_page_shows(lab_fit):
-    from core.identification.jacobian import calibration_jacobian, predict_points
+    from core.kinematics.jacobian import calibration_jacobian, predict_points
     lab, meas, result = lab_fit
     text = plain("identification.html")
     assert "Δg = (ΦTWΦ + λ · D²)−1 ΦTW ΔX" in text
@@ -114,8 +114,8 @@ def test_covariance_and_sigma_hat_are_the_weighted_ones_the_page_shows(lab_fit):
 
 # -- 4. the two condition numbers --------------------------------------------------------------
 def test_the_fit_kappa_and_the_pose_set_kappa_are_named_apart(lab_fit):
-    from core.identification.identifiability import observability_indices
-    from core.identification.jacobian import calibration_jacobian
+    from core.kinematics.identifiability import observability_indices
+    from core.kinematics.jacobian import calibration_jacobian
     from core.poses.selection import scaled_blocks
     lab, meas, result = lab_fit
     w = np.sqrt(1.0 / meas.sigma ** 2).reshape(-1)
@@ -176,7 +176,7 @@ def test_the_check_takes_the_lowest_aic_among_the_sets_the_f_test_keeps():
 def test_both_guides_give_the_same_epipolar_figure_and_real_cameras_meet_it():
     from core.stereo.board import Board
     from core.stereo.calibration import calibrate_stereo
-    from core.stereo.checkerboard import detect_pairs
+    from core.stereo.screening import detect_pairs
     from tests.core.stereo_synth import REAL_DATA, real_pairs
     words = "below about 0.3 px RMS"
     assert words in plain("stereo.html")
@@ -189,7 +189,7 @@ def test_both_guides_give_the_same_epipolar_figure_and_real_cameras_meet_it():
 
 
 def test_hayati_beta_replaces_the_d_of_its_own_joint():
-    from core.identification.identifiability import HAYATI
+    from core.kinematics.identifiability import HAYATI
     from core.identification.solver import identify
     from core.robot.file import read_robot
     from core.robot.model import RobotModel

@@ -51,6 +51,12 @@ def test_widgets_never_import_app():
     assert violations("widgets", {"app"}) == []
 
 
+def test_jobs_never_import_qt_or_widgets():
+    """app/jobs run on worker threads and are tested without a window."""
+    assert sources("app/jobs")
+    assert violations("app/jobs", QT_MODULES | {"widgets"}) == []
+
+
 def test_the_ast_check_sees_imports(tmp_path):
     f = tmp_path / "m.py"
     f.write_text("import os\nfrom PySide6.QtCore import Qt\nimport importlib\n"
@@ -77,6 +83,8 @@ def test_import_linter_contracts_are_kept():
     assert "Layers: app -> widgets -> core KEPT" in out
     assert "core never imports Qt or pyqtgraph KEPT" in out
     assert "Only the virtual lab's own package, and app.lab, import the virtual lab KEPT" in out
+    assert "Inside core: a step imports only the steps below it, and the shared pieces KEPT" in out
+    assert "app.jobs imports no Qt and no widgets KEPT" in out
 
 
 def test_importing_all_of_core_does_not_load_qt():

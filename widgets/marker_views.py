@@ -11,12 +11,9 @@
 `show_detection(...)` takes plain arrays (None hides a layer); `zoom_to(box)` frames a region.
 
 `TrainingImageView` adds a crop rectangle (pg.RectROI) for the training image.
-`marker_pair_thumbnail` draws a small left | right picture with the outlines and the
-reference points (plain numpy/OpenCV, safe on a worker thread).
 """
 from __future__ import annotations
 
-import cv2
 import numpy as np
 import pyqtgraph as pg
 from PySide6.QtCore import QPointF, Qt, Signal
@@ -199,41 +196,3 @@ class TrainingImageView(MarkerImageView):
         x1 = int(np.clip(round(pos.x() + size.x()), x0 + 1, w))
         y1 = int(np.clip(round(pos.y() + size.y()), y0 + 1, h))
         return x0, y0, x1, y1
-
-
-# -- thumbnails (no Qt: safe on a worker thread) -------------------------------------------------
-
-def _side(gray, outline, reference, ok: bool, width: int, height: int) -> np.ndarray:
-    if gray is None:
-        return np.full((height, width, 3), 235, np.uint8)
-    img = gray if gray.ndim == 2 else cv2.cvtColor(gray, cv2.COLOR_BGR2GRAY)
-    h, w = img.shape[:2]
-    scale = min(width / w, height / h)
-    nw, nh = max(1, int(round(w * scale))), max(1, int(round(h * scale)))
-    small = cv2.cvtColor(cv2.resize(img, (nw, nh), interpolation=cv2.INTER_AREA), cv2.COLOR_GRAY2BGR)
-    colour = (83, 168, 52) if ok else (37, 48, 217)        # BGR of INLIER / OUTLIER
-    if outline is not None:
-        pts = np.round((np.asarray(outline, float).reshape(-1, 2) + 0.5) * scale - 0.5).astype(np.int32)
-        cv2.polylines(small, [pts.reshape(-1, 1, 2)], True, colour, 1, cv2.LINE_AA)
-    if reference is not None:
-        x, y = ((np.asarray(reference, float).reshape(2) + 0.5) * scale - 0.5)
-        r = max(6, int(0.03 * nw))
-        cv2.line(small, (int(x - r), int(y)), (int(x + r), int(y)), (37, 48, 217), 1, cv2.LINE_AA)
-        cv2.line(small, (int(x), int(y - r)), (int(x), int(y + r)), (37, 48, 217), 1, cv2.LINE_AA)
-    out = np.full((height, width, 3), 235, np.uint8)
-    y0, x0 = (height - nh) // 2, (width - nw) // 2
-    out[y0:y0 + nh, x0:x0 + nw] = small
-    return out
-
-
-def marker_pair_thumbnail(left, right, left_outline=None, right_outline=None, left_reference=None,
-                          right_reference=None, *, ok: bool = True, width: int = 320, gap: int = 4) -> np.ndarray:
-    """Left | right reduced to `width` px each, with the marker outlines (green when located,
-    red when not) and the reference points. Row-major RGB uint8."""
-    ref = left if left is not None else right
-    aspect = (ref.shape[0] / ref.shape[1]) if ref is not None else 0.8
-    height = max(1, int(round(width * aspect)))
-    a = _side(left, left_outline, left_reference, ok, width, height)
-    b = _side(right, right_outline, right_reference, ok, width, height)
-    sep = np.full((height, gap, 3), 255, np.uint8)
-    return np.ascontiguousarray(np.concatenate([a, sep, b], axis=1)[:, :, ::-1])

@@ -1,6 +1,6 @@
 """A read-only table of estimated parameters: nominal → identified ± σ, in mm and degrees.
 
-`set_rows(rows)` takes objects with the attributes of core.identification.solver.ParameterRow
+`set_rows(rows)` takes objects with the attributes of core.identification.result.ParameterRow
 (name, group, unit, nominal, initial, identified, std, identifiable, status, explanation).
 For the base pose (group "base") the reference is the registered start `initial`, not the
 robot file's base (which is not expressed in the measurement frame). Parameters that

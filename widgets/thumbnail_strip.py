@@ -1,7 +1,7 @@
 """A horizontal strip of image thumbnails, each with a caption, a tool tip and an optional
 badge (a coloured band with a short text, e.g. why a checkerboard pair was rejected).
 
-The pictures of stereo pairs come from widgets.pair_thumbnail (plain numpy/OpenCV, made on
+The pictures of stereo pairs come from core.thumbnails (plain numpy/OpenCV, made on
 a worker thread). The strip takes row-major RGB (or grey) uint8 arrays and knows nothing of where
 they come from. Items are addressed by a key of the caller's choice.
 """

@@ -29,7 +29,7 @@ def add_arguments(parser) -> None:
 def run(args) -> CommandResult:
     from core.errors import UsageError
     from core.identification.placement import place_targets
-    from core.identification.solver import evaluate
+    from core.identification.fit import evaluate
     from core.measurement.file import read_measurements
     from core.robot.file import read_robot
 

@@ -83,7 +83,7 @@ def _answer_key(lab, Q, seed: int) -> dict:
     """The truth of a lab seed in file units (mm, deg), with the reasons some parameters
     cannot be compared."""
     from core.identification.grading import ABSORBED_BY_BASE, BASE_OR_MARKER, LAST_JOINT
-    from core.identification.jacobian import all_parameters
+    from core.kinematics.jacobian import all_parameters
     from core.robot.file import robot_to_dict
 
     true, nominal = lab.true_robot, lab.nominal_robot

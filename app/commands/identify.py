@@ -52,7 +52,8 @@ def add_arguments(parser) -> None:
 def run(args) -> CommandResult:
     from core.errors import UsageError
     from core.identification.prior import PriorOptions
-    from core.identification.solver import identify, write_calibrated_model
+    from core.identification.file import write_calibrated_model
+    from core.identification.solver import identify
     from core.measurement.file import read_measurements
     from core.provenance import forget_inputs
     from core.robot.file import read_robot

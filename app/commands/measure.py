@@ -40,7 +40,7 @@ def add_arguments(parser) -> None:
 def run(args) -> CommandResult:
     from app.commands.locate import setup_locator
     from core.images import read_camera_image
-    from core.stereo.checkerboard import pair_images
+    from core.stereo.image_files import pair_images
     from core.errors import RoboCalError, UsageError
     from core.measurement.run import rejects_path_for, run_measurements
     from core.poses.file import read_poses

@@ -13,7 +13,7 @@ from pathlib import Path
 from app.commands import CommandResult, ProgressLine, check_output
 from app.commands import options
 from core.stereo.board import Board
-from core.stereo.checkerboard import detect_folders
+from core.stereo.screening import detect_folders
 from core.errors import UsageError
 from core.task import Monitor
 from core.stereo.calibration import StereoCalibrationResult, calibrate_stereo

@@ -12,7 +12,7 @@ import numpy as np
 
 from app.lab import apply_change, ideal_measure, image_measure, lab_options as lab_options_of
 from core.files import atomic_write_bytes
-from core.identification.jacobian import predict_points
+from core.kinematics.jacobian import predict_points
 from core.measurement.file import Measurements
 from core.monitoring.check import CheckLimits, CheckResult, check_limits, run_check
 from core.monitoring.check_poses import DEFAULT_CHECK_POSES, select_check_poses

@@ -106,7 +106,7 @@ def image_files(model: RobotModel, joints, images, locator, *, target: str = "ma
     `locator` (core.marker.location.MarkerLocator)."""
     from core.images import read_camera_image
     from core.poses.file import read_poses
-    from core.stereo.checkerboard import pair_images
+    from core.stereo.image_files import pair_images
 
     poses = read_poses(joints, model)
     images = Path(images)

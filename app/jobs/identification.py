@@ -12,7 +12,8 @@ import numpy as np
 from app.lab import DEFAULT_POSES, DEFAULT_SIGMA_MM, ideal_lab_measurements, write_ideal_measurements
 from core.identification.prior import PriorOptions
 from core.identification.model_comparison import TruthAccuracy, identification_accuracy
-from core.identification.solver import IdentificationResult, identify
+from core.identification.result import IdentificationResult
+from core.identification.solver import identify
 from core.measurement.file import Measurements, read_measurements
 from core.measurement.synthetic import synthetic_description
 from core.robot.model import RobotModel

@@ -20,7 +20,7 @@ from core.measurement.run import (JOINT_TOLERANCE, MeasurementRunResult, PoseOut
 from core.poses.candidates import arm_polyline
 from core.poses.file import PoseList, read_pose_list
 from core.poses.selection import minimum_poses
-from widgets.marker_views import marker_pair_thumbnail
+from core.thumbnails import marker_pair_thumbnail
 
 THUMB_WIDTH = 400            # px per camera in the live thumbnail
 MEASURED, REJECTED, PENDING, RUNNING = "measured", "rejected", "pending", "running"

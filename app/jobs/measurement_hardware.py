@@ -35,7 +35,7 @@ from core.measurement.run import MeasurementRunResult, PoseOutcome, poses_from_i
 from core.poses.file import PoseList
 from core.robot.driver import RobotDriver, check_joint_values
 from core.robot.model import RobotModel
-from widgets.marker_views import marker_pair_thumbnail
+from core.thumbnails import marker_pair_thumbnail
 
 THUMB_WIDTH = 400            # px per camera in the thumbnail handed to `report`
 TEACH_TOLERANCE = 1.0        # deg / mm: a taught pose further than this from the plan is warned about

@@ -16,9 +16,10 @@ from core.errors import RoboCalError
 from core.files import atomic_write_bytes
 from core.images import load_gray
 from core.stereo.board import Board
-from core.stereo.checkerboard import PairDetection, detect_pair
+from core.stereo.screening import detect_pair
+from core.stereo.detection import PairDetection
 from core.task import Monitor
-from widgets.pair_thumbnail import compose_pair_thumbnail
+from core.thumbnails import compose_pair_thumbnail
 
 THUMB_WIDTH = 100           # px per camera in a thumbnail
 PNG_PARAMS = [cv2.IMWRITE_PNG_COMPRESSION, 1]

@@ -9,7 +9,8 @@ from app.lab import build_lab
 from app.jobs.identification import TRUTH_POSES
 from core.errors import RoboCalError
 from core.identification.model_comparison import TruthAccuracy, accuracy_against_truth
-from core.identification.solver import register_base, split_poses
+from core.identification.fit import register_base
+from core.identification.validation import split_poses
 from core.measurement.file import read_measurements
 from core.project import VIRTUAL_LAB, Project, load_robot
 from core.robot.file import read_robot

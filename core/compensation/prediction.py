@@ -1,7 +1,7 @@
 """The error a calibrated model predicts for a tool point it is sent to: the identified
 parameters' covariance C (core.monitoring.uncertainty) propagated to the point,
 S_i = Φ_i·C·Φ_iᵀ (3x3, mm², measurement frame), Φ_i the calibration Jacobian at the point's
-joints (core.identification.jacobian). Only the model's part: the cameras' noise is not in it.
+joints (core.kinematics.jacobian). Only the model's part: the cameras' noise is not in it.
 
 Per point: σ = √trace(S_i) (the RMS length of the error, mm) and the length the error stays below
 with `probability`: the quantile of a weighted χ² (as core.monitoring.uncertainty.norm_limit,
@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.compensation.ik import TOOL_TCP, tcp_in_tool
-from core.identification.jacobian import calibration_jacobian
+from core.kinematics.jacobian import calibration_jacobian
 from core.monitoring.uncertainty import CalibrationUncertainty, calibration_uncertainty
 from core.robot.model import RobotModel
 

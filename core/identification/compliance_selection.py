@@ -21,7 +21,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from core.identification.jacobian import predict_points
+from core.kinematics.jacobian import predict_points
 from core.measurement.file import Measurements
 from core.robot.model import RobotModel
 from core.task import Monitor

@@ -32,8 +32,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from core.errors import RoboCalError
-from core.identification.jacobian import (Parameter, all_parameters, apply_step, calibration_jacobian,
-                                         predict_points)
+from core.kinematics.jacobian import (Parameter, all_parameters, apply_step, calibration_jacobian,
+                                      predict_points)
 from core.identification.model_comparison import compare_models
 from core.robot.model import RobotModel
 from core.transforms import kabsch, transform_points

@@ -124,6 +124,6 @@ def accuracy_against_truth(truth: RobotModel, nominal: RobotModel, calibrated: R
 def identification_accuracy(truth: RobotModel, result, Q, targets: Sequence[str] | None = None) -> TruthAccuracy:
     """What an identification gained against the true robot at configurations Q ((N, n), rad /
     mm) it never measured: the nominal model with its base registered (`result.initial`) and
-    the calibrated model (`result.model`) of a core.identification.solver.IdentificationResult,
+    the calibrated model (`result.model`) of a core.identification.result.IdentificationResult,
     each after the best rigid alignment (mm)."""
     return accuracy_against_truth(truth, result.initial, result.model, Q, targets)

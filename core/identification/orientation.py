@@ -1,16 +1,9 @@
 """Orientation residuals for identification: the measured marker frame against the model's.
 
-The model predicts the marker frame in the measurement frame as R = R_tool(q) · R_target, with
-R_target = `RobotModel.target_rotations[target]` (identity when absent) the marker's orientation
-on the tool, estimated as the parameters `<target>.rx/.ry/.rz` (core.identification.jacobian).
-The residual of a point is the rotation vector e = log(R_measured · Rᵀ) (rad, measurement frame),
-weighted by the measured standard deviations about the measurement frame's axes.
-
-Rows of the Jacobian: a parameter change turns the predicted frame by a small rotation ω
-(measurement frame), e ← e − ω to first order, with (frames as in core.identification.jacobian)
-    ∂ω/∂θ_i = z_(i-1)      ∂ω/∂α_i = x'_i      ∂ω/∂β_i = y_i      ∂ω/∂d_i = ∂ω/∂a_i = 0
-    ∂ω/∂base.r(x,y,z) = e_(x,y,z)    ∂ω/∂base.(x,y,z) = ∂ω/∂target.(x,y,z) = 0
-    ∂ω/∂target.r(x,y,z) = the tool frame's x, y, z axis.
+The model's predicted frame and its Jacobian rows are in core.kinematics.orientation. The residual
+of a point is the rotation vector e = log(R_measured · Rᵀ) (rad, measurement frame), weighted by
+the measured standard deviations about the measurement frame's axes; a parameter change that
+turns the predicted frame by ω changes it to e − ω to first order.
 
 Why it matters: a marker on the last joint's axis does not move when that joint turns, so the
 points alone cannot tell its zero (`J6.theta` of a 6-axis arm); its measured frame does turn.
@@ -28,61 +21,9 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from core.errors import RoboCalError
-from core.identification.jacobian import Parameter
+from core.kinematics.orientation import predict_rotations
 from core.measurement.file import Measurements
 from core.robot.model import RobotModel
-
-# Orientation rows in the structural analysis (no measured sigmas there): 1 mrad counts as 1 mm.
-STRUCTURAL_ROW_SCALE = 1000.0
-
-
-def target_rotation(model: RobotModel, target: str) -> np.ndarray:
-    return np.asarray(model.target_rotations.get(target, np.eye(3)), dtype=float)
-
-
-def predict_rotations(model: RobotModel, Q, point_targets: Sequence[str]) -> np.ndarray:
-    """(N, 3, 3) predicted marker frames in the measurement frame."""
-    T = model.fk_many(np.atleast_2d(np.asarray(Q, dtype=float)))
-    R_t = np.array([target_rotation(model, t) for t in point_targets]).reshape(-1, 3, 3)
-    return T[:, :3, :3] @ R_t
-
-
-def has_orientation_parameters(params: Sequence[Parameter]) -> bool:
-    return any(p.group == "orientation" for p in params)
-
-
-def orientation_jacobian(model: RobotModel, Q, point_targets: Sequence[str],
-                         params: Sequence[Parameter]) -> np.ndarray:
-    """(3N, p) ∂ω/∂(correction of each parameter), rows stacked point by point."""
-    Q = np.atleast_2d(np.asarray(Q, dtype=float))
-    N, n = Q.shape
-    F = model.frames_many(Q)
-    tool_R = F[:, n + 1, :3, :3]
-    beta = np.array([j.beta for j in model.joints])
-    out = np.zeros((N, 3, len(params)))
-    eye = np.eye(3)
-    for k, prm in enumerate(params):
-        if prm.group == "joint":
-            i = prm.joint
-            if prm.kind == "theta":
-                col = F[:, i, :3, 2]
-            elif prm.kind == "alpha":
-                col = F[:, i + 1, :3, :3] @ np.array([np.cos(beta[i]), 0.0, np.sin(beta[i])])
-            elif prm.kind == "beta":
-                col = F[:, i + 1, :3, 1]
-            else:
-                continue
-        elif prm.group == "base":
-            if len(prm.kind) == 1:
-                continue
-            col = np.broadcast_to(eye["xyz".index(prm.kind[1])], (N, 3))
-        elif prm.group == "orientation":
-            col = tool_R[:, :, "xyz".index(prm.kind[1])] * np.array(
-                [t == prm.target for t in point_targets], dtype=float)[:, None]
-        else:
-            continue
-        out[:, :, k] = col
-    return out.reshape(3 * N, len(params))
 
 
 def orientation_residuals(model: RobotModel, meas: Measurements) -> np.ndarray:

@@ -32,7 +32,7 @@ from typing import Protocol, Sequence
 import numpy as np
 
 from core.errors import RoboCalError
-from core.identification.jacobian import Parameter, apply_step
+from core.kinematics.jacobian import Parameter, apply_step
 from core.measurement.file import Measurements
 from core.robot.model import RobotModel
 

@@ -1,7 +1,7 @@
 """A prior toward the nominal geometry: Tikhonov (ridge) regularisation of the DH corrections.
 
 Without a prior, identification keeps at nominal the parameters the measurements barely
-determine (core.identification.identifiability.practical_identifiability). With a prior,
+determine (core.kinematics.identifiability.practical_identifiability). With a prior,
 every structurally identifiable joint parameter is estimated instead, and the least-squares
 cost gets a penalty that pulls the corrections toward the nominal values:
 
@@ -66,8 +66,8 @@ from scipy.optimize import minimize
 
 from core.errors import RoboCalError
 from core.bounds import Bound
-from core.identification.identifiability import column_scales
-from core.identification.jacobian import COMPLIANCE, Parameter, compliance_value
+from core.kinematics.identifiability import column_scales
+from core.kinematics.jacobian import COMPLIANCE, Parameter, compliance_value
 from core.robot.model import RobotModel
 from core.task import Monitor
 

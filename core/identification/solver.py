@@ -3,29 +3,26 @@
 The chapter's differential model (eq. 4–10): the position error of a measured point is, to
 first order, Δx = J_g·Δg (eq. 5); stacking all points gives Δx = Φ·Δg (eq. 6–7) and the least
 squares correction Δg = (ΦᵀΦ)⁻¹Φᵀ·Δx (eq. 9–10), repeated until it converges (Gauss–Newton).
-Here:
+Here, `identify(robot, measurements)` runs the whole step from pieces beside it:
 
-* parameters and the analytic Jacobian: core.identification.jacobian; identifiability and
-  observability indices: core.identification.identifiability;
-* start: the base pose is found by a rigid registration (Kabsch/Umeyama, SVD) of the nominal
-  model's predictions onto the measurements, so nobody types a guess of where the robot
-  stands in the camera frame;
-* estimation: Levenberg–Marquardt on the column-scaled problem (our own short loop rather than
-  scipy.optimize.least_squares: it reports every iteration's cost for the GUI, checks Cancel
-  between iterations, and updates the base rotation through the exponential map at each step
-  so the analytic Jacobian stays exact — scipy can do none of the three). With damping λ = 0
-  a step is exactly eq. (9–10);
-* two phases: the first fit estimates the parameters identifiable at the nominal geometry;
-  identifiability is then analysed again at that estimate (a real robot has none of the
-  nominal's special values, e.g. a marker exactly on the last axis), parameters the data
-  barely determine are kept at nominal (core.identification.identifiability.practical_identifiability), and
-  the fit is refined with the final set — the per-iteration records carry the stage;
-* optional robust loss: Huber weights by iteratively reweighted least squares; points whose
-  error is beyond `outlier_k` robust standard deviations are flagged as outliers;
-* uncertainty: σ̂² = RSS/(m − p), covariance σ̂²(ΦᵀWΦ)⁻¹ of the estimated parameters, standard
-  deviations, correlation matrix, condition number and observability indices of the final Φ;
+* parameters and the analytic Jacobian: core.kinematics.jacobian; identifiability and
+  observability indices: core.kinematics.identifiability;
+* one fit (core.identification.fit): the base pose found by a rigid registration
+  (Kabsch/Umeyama, SVD) of the nominal model's predictions onto the measurements, so nobody
+  types a guess of where the robot stands in the camera frame; two phases — the parameters
+  identifiable at the nominal geometry first, then identifiability analysed again at that
+  estimate (a real robot has none of the nominal's special values, e.g. a marker exactly on
+  the last axis), parameters the data barely determine kept at nominal
+  (core.kinematics.identifiability.practical_identifiability) and the fit refined with the final
+  set; optional Huber weights by iteratively reweighted least squares, points beyond `outlier_k`
+  robust standard deviations flagged as outliers; σ̂² = RSS/(m − p) and the covariance
+  σ̂²(ΦᵀWΦ)⁻¹ of the estimated parameters;
+* estimation: Levenberg–Marquardt on the column-scaled problem (core.identification.lm); with
+  damping λ = 0 a step is exactly eq. (9–10);
 * validation: held-out poses (a seeded random fraction) or k-fold cross validation, errors
-  before and after calibration.
+  before and after calibration, and the deflection terms' test (core.identification.validation);
+* the parameter table (core.identification.parameter_table) and the result with its statistics
+  (core.identification.result); the calibrated robot file (core.identification.file).
 
 Error statistics ("RMS") are over 3D error norms: rms = sqrt(mean |x_measured − x_model|²).
 With isotropic noise σ per axis a perfect model has an expected RMS of σ·√3 on new points.
@@ -35,765 +32,30 @@ file's base pose means nothing in the camera frame).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
-from pathlib import Path
 from typing import Iterable, Sequence
 
 import numpy as np
 
-from core import transforms as tf
-from core.identification.jacobian import (COMPLIANCE, Parameter, all_parameters, apply_step, calibration_jacobian,
-                                          compliance_value, log_so3, predict_points, resolve_names)
-from core.errors import RoboCalError, UsageError
-from core.files import strict_json
-from core.identification.prior import (DOMINATED_SHARE, EMPIRICAL_BAYES, PRIOR_DOMINATED, Linearised, PriorOptions,
-                                       PriorReport, PriorTerm, Weights, choose_weights, data_share, reach_mm)
-from core.identification.identifiability import (FIXED_BY_USER, Identifiability, ObservabilityIndices, analyse,
-                                  check_data, column_scales, observability_indices,
-                                  practical_identifiability, qr_r, small_factor)
-from core.identification.orientation import (STRUCTURAL_ROW_SCALE, OrientationReport, determined_text,
-                                             orientation_errors_deg, orientation_jacobian, orientation_residuals,
-                                             orientation_weights, require_orientations, with_measured_rotations)
+from core.errors import UsageError
+from core.identification.compliance_selection import AUTO, MODES, OFF, ON, fixed_choice
+from core.identification.fit import Fit, coordinate_weights, error_stats, fit_model, linearised, with_joint_values
+from core.identification.orientation import (OrientationReport, determined_text, orientation_errors_deg,
+                                             with_measured_rotations)
 from core.identification.orientation import rms as orientation_rms
-from core.identification.compliance_selection import AUTO, MODES, OFF, ON, ComplianceChoice, cross_validate, decide
-from core.identification.compliance_selection import FOLDS as COMPLIANCE_FOLDS
-from core.identification.compliance_selection import fixed_choice
+from core.identification.prior import EMPIRICAL_BAYES, PriorOptions, PriorReport, Weights, choose_weights, reach_mm
+from core.identification.parameter_table import parameter_rows
+from core.identification.result import IdentificationResult, ParameterRow
+from core.identification.validation import (holdout_validation, kfold_poses, kfold_validation, select_compliance,
+                                            split_poses)
+from core.kinematics.identifiability import analyse, practical_identifiability
+from core.kinematics.jacobian import all_parameters, resolve_names
+from core.measurement.file import Measurements, check_against_robot
 from core.robot.compliance import DEFAULT_TERMS, Compliance, check_vertical_arm
 from core.robot.model import RobotModel
-from core.measurement.file import Measurements, check_against_robot, read_measurements
-from core.robot.file import read_robot, write_robot
 from core.task import Monitor
 
-CHI3_MEDIAN = 1.5382              # median of the χ distribution with 3 degrees of freedom
-IDENTIFIED = "identified"
-MAX_LENGTH_CORRECTION_MM = 50.0   # beyond max(this, 25 % of the reach) the fit has diverged
-MAX_ANGLE_CORRECTION_DEG = 20.0
 
-
-# -- result pieces -------------------------------------------------------------------------
-@dataclass
-class IterationRecord:
-    """One accepted Levenberg–Marquardt iteration (iteration 0 = the start)."""
-
-    iteration: int
-    cost: float            # weighted residual sum of squares Σ w·e² (mm² without sigmas)
-    rms_mm: float          # RMS of the 3D point errors
-    damping: float         # λ used for the step that led here (0 for the start)
-    step: float            # norm of the scaled step (mm of predicted change)
-    stage: str = "fit"     # "fit", or "huber N" for robust reweighting rounds
-    start: bool = False    # the state at the start of a stage (not an iteration)
-
-
-@dataclass
-class ErrorStats:
-    """Position errors of a model against measured points (mm)."""
-
-    n: int
-    mean_mm: float
-    rms_mm: float
-    max_mm: float
-    median_mm: float
-    errors: np.ndarray          # (N,) 3D error norms
-    vectors: np.ndarray         # (N, 3) measured − predicted
-    pose: np.ndarray            # (N,) pose id of each point
-    target: list[str]
-
-    def per_pose(self) -> list[dict]:
-        """RMS error of each pose over its targets, in pose order of first appearance."""
-        out = []
-        for p in dict.fromkeys(self.pose.tolist()):
-            sel = self.pose == p
-            out.append({"pose": int(p), "n": int(sel.sum()),
-                        "error_mm": float(np.sqrt(np.mean(self.errors[sel] ** 2)))})
-        return out
-
-    def per_point(self) -> list[dict]:
-        return [{"pose": int(self.pose[i]), "target": self.target[i], "error_mm": float(self.errors[i]),
-                 "dx": float(self.vectors[i, 0]), "dy": float(self.vectors[i, 1]),
-                 "dz": float(self.vectors[i, 2])} for i in range(self.n)]
-
-    def summary(self) -> dict:
-        return {"n": self.n, "mean_mm": self.mean_mm, "rms_mm": self.rms_mm, "max_mm": self.max_mm,
-                "median_mm": self.median_mm}
-
-
-def error_stats_from(vectors: np.ndarray, pose, target: Sequence[str]) -> ErrorStats:
-    vectors = np.asarray(vectors, dtype=float).reshape(-1, 3)
-    err = np.linalg.norm(vectors, axis=1)
-    if len(err) == 0:
-        return ErrorStats(0, math.nan, math.nan, math.nan, math.nan, err, vectors,
-                          np.asarray(pose, dtype=int), list(target))
-    return ErrorStats(n=len(err), mean_mm=float(err.mean()), rms_mm=float(np.sqrt(np.mean(err ** 2))),
-                      max_mm=float(err.max()), median_mm=float(np.median(err)), errors=err,
-                      vectors=vectors, pose=np.asarray(pose, dtype=int), target=list(target))
-
-
-def error_stats(model: RobotModel, meas: Measurements) -> ErrorStats:
-    """Errors of `model` (as it is, base included) on the measured points."""
-    meas = _with_q(meas, model)
-    vec = meas.xyz - predict_points(model, meas.Q, meas.target)
-    return error_stats_from(vec, meas.pose, meas.target)
-
-
-def merge_stats(parts: Sequence[ErrorStats]) -> ErrorStats:
-    return error_stats_from(np.concatenate([p.vectors for p in parts]),
-                            np.concatenate([p.pose for p in parts]),
-                            [t for p in parts for t in p.target])
-
-
-@dataclass
-class Validation:
-    """Errors on measurements the fit did not see (mm)."""
-
-    method: str                       # "holdout" | "kfold"
-    before: ErrorStats                # nominal geometry, base registered on the training poses
-    after: ErrorStats                 # calibrated on the training poses
-    test_poses: list[int]
-    fraction: float | None = None
-    folds: int | None = None
-    seed: int = 0
-    fold_rms_mm: list[float] = field(default_factory=list)
-
-    def summary(self) -> dict:
-        out = {"method": self.method, "seed": self.seed, "n_test_poses": len(self.test_poses),
-               "test_poses": [int(p) for p in self.test_poses],
-               "before": self.before.summary(), "after": self.after.summary()}
-        if self.fraction is not None:
-            out["fraction"] = self.fraction
-        if self.folds is not None:
-            out["folds"] = self.folds
-            out["fold_rms_mm"] = list(self.fold_rms_mm)
-        return out
-
-
-@dataclass
-class ParameterRow:
-    """One row of the parameter table, in file units (mm / deg).
-
-    For the base, `x, y, z` are the base origin in the measurement frame and `rx, ry, rz` are
-    shown as roll, pitch, yaw of the base orientation (Rz·Ry·Rx, as in the robot file), their
-    std propagated from the estimated small rotations about the measurement frame axes.
-    `std` is None for parameters that were not estimated."""
-
-    name: str
-    group: str
-    kind: str
-    unit: str
-    nominal: float
-    initial: float
-    identified: float
-    std: float | None
-    identifiable: bool
-    status: str
-    explanation: str = ""
-    partners: tuple[str, ...] = ()
-    data_share: float | None = None   # with a prior: the share the measurements determine (0 … 1)
-
-    @property
-    def correction(self) -> float:
-        d = self.identified - self.nominal
-        if self.unit == "deg":
-            d = (d + 180.0) % 360.0 - 180.0
-        return d
-
-    def as_dict(self) -> dict:
-        out = {"name": self.name, "unit": self.unit, "nominal": self.nominal, "identified": self.identified,
-               "std": self.std, "identifiable": self.identifiable, "status": self.status,
-               "explanation": self.explanation}
-        if self.data_share is not None:
-            out["data_share"] = self.data_share
-        return out
-
-
-@dataclass
-class IdentificationResult:
-    """Everything the identification step produces — what the GUI draws and the CLI prints."""
-
-    model: RobotModel                  # calibrated model (its `calibration` section filled)
-    nominal: RobotModel                # the input model
-    initial: RobotModel                # nominal geometry with the registered base pose
-    identifiability: Identifiability
-    parameters: list[ParameterRow]     # every parameter of g, in g's order
-    estimated: list[str]               # names of the estimated parameters (order of covariance)
-    estimate_std: np.ndarray           # their std in internal units (mm / rad)
-    covariance: np.ndarray             # (p, p) internal units; base rotations as small angles
-    correlation: np.ndarray            # (p, p)
-    iterations: list[IterationRecord]  # cost per iteration (all stages)
-    converged: bool
-    sigma_hat: float                   # a-posteriori std of unit weight (mm per axis w/o sigmas)
-    dof: int                           # m − p
-    observability: ObservabilityIndices   # of the final column-scaled Φ
-    before: ErrorStats                 # fitted points: nominal geometry + registered base
-    after: ErrorStats                  # fitted points: calibrated model
-    weights: np.ndarray                # (N,) final robust weight of each fitted point (1 without Huber)
-    outliers: list[int]                # indices (into the fitted points) flagged as outliers
-    validation: Validation | None
-    measurements_source: str
-    n_poses: int
-    n_points: int
-    huber: float | None = None
-    date: str = ""
-    warnings: list[str] = field(default_factory=list)
-    weighted: bool = False             # the measurements gave sx, sy, sz: sigma_hat is unitless
-    prior: PriorReport | None = None   # the prior toward nominal, when one was asked for
-    orientation: OrientationReport | None = None   # when the measured orientations were used
-    compliance: ComplianceChoice | None = None     # what was done with the deflection terms, and why
-    payload_kg: float | None = None    # the mass mounted during calibration (None: not given)
-
-    @property
-    def sigma_hat_text(self) -> str:
-        """σ̂ with its meaning: mm per axis, or the factor on the measurements' own sigmas."""
-        if self.weighted:
-            return f"{self.sigma_hat:.4g} × the measurements' own σ (1 means they were right)"
-        return f"{self.sigma_hat:.4g} mm per axis"
-
-    @property
-    def n_iterations(self) -> int:
-        return sum(1 for r in self.iterations if not r.start)
-
-    @property
-    def costs(self) -> list[float]:
-        return [r.cost for r in self.iterations]
-
-    @property
-    def rank(self) -> int:
-        return self.observability.rank
-
-    @property
-    def condition_number(self) -> float:
-        return self.observability.condition_number
-
-    @property
-    def unidentifiable(self) -> list[ParameterRow]:
-        return [r for r in self.parameters if not r.identifiable and r.status != FIXED_BY_USER]
-
-    def row(self, name: str) -> ParameterRow:
-        return next(r for r in self.parameters if r.name == name)
-
-    def calibration_section(self) -> dict:
-        """The `calibration` section of the calibrated robot file."""
-        stats = {
-            "n_poses": self.n_poses, "n_points": self.n_points,
-            "rms_before_mm": self.before.rms_mm, "rms_after_mm": self.after.rms_mm,
-            "mean_after_mm": self.after.mean_mm, "max_after_mm": self.after.max_mm,
-            "sigma_hat": self.sigma_hat, "sigma_hat_unit": "1" if self.weighted else "mm", "dof": self.dof,
-            "iterations": self.n_iterations, "converged": self.converged,
-            "cost_per_iteration": strict_json([float(c) for c in self.costs]),
-            "rank": self.rank, "n_parameters": len(self.estimated),
-            "condition_number": strict_json(self.condition_number),
-            "observability": {k: strict_json(v) for k, v in self.observability.as_dict().items()},
-            "outliers": len(self.outliers), "huber": self.huber,
-        }
-        if self.validation is not None:
-            stats["validation"] = self.validation.summary()
-        if self.prior is not None:
-            stats["prior"] = self.prior.summary()
-        if self.orientation is not None:
-            stats["orientation"] = self.orientation.summary()
-        if self.compliance is not None:
-            stats["compliance"] = self.compliance.summary()
-        return {
-            "format": "robocal.calibration/1",
-            "date": self.date,
-            "payload_kg": self.payload_kg,
-            "measurements": Path(self.measurements_source).name if self.measurements_source else "",
-            "statistics": stats,
-            "parameters": [r.as_dict() for r in self.parameters],
-            "unidentifiable": [{"name": r.name, "reason": r.explanation} for r in self.unidentifiable],
-            "fixed": [r.name for r in self.parameters if r.status == FIXED_BY_USER],
-            "warnings": list(self.warnings),
-            "correlation": {"parameters": list(self.estimated),       # of the estimated parameters
-                            "matrix": strict_json(np.round(np.asarray(self.correlation, dtype=float), 3).tolist())},
-            "covariance": {"parameters": list(self.estimated), "units": "mm and rad",
-                           "matrix": [[float(v) for v in row] for row in self.covariance]},
-            "tools": self.calibrated_tools(),
-        }
-
-    def calibrated_tools(self) -> list[str]:
-        """The tools whose targets were measured (and so calibrated)."""
-        names = {r.name for r in self.parameters}
-        return [tool for tool, targets in self.model.tool_map().items()
-                if any(f"{t}.x" in names for t in targets)]
-
-    def summary(self) -> dict:
-        """The CLI's --json object."""
-        out = {
-            "rms_before_mm": self.before.rms_mm, "rms_after_mm": self.after.rms_mm,
-            "mean_after_mm": self.after.mean_mm, "max_after_mm": self.after.max_mm,
-            "n_poses": self.n_poses, "n_points": self.n_points,
-            "iterations": self.n_iterations, "converged": self.converged,
-            "cost_per_iteration": self.costs,
-            "rank": self.rank, "n_parameters": len(self.estimated),
-            "condition_number": strict_json(self.condition_number),
-            "observability": {k: strict_json(v) for k, v in self.observability.as_dict().items()},
-            "sigma_hat": self.sigma_hat,
-            "unidentifiable": [{"name": r.name, "status": r.status, "reason": r.explanation}
-                               for r in self.unidentifiable],
-            "fixed": [r.name for r in self.parameters if r.status == FIXED_BY_USER],
-            "parameters": {r.name: {"value": r.identified, "std": r.std, "unit": r.unit,
-                                    "nominal": r.nominal, "identifiable": r.identifiable,
-                                    "status": r.status} for r in self.parameters},
-            "outliers": [{"pose": int(self.after.pose[i]), "target": self.after.target[i],
-                          "error_mm": float(self.after.errors[i])} for i in self.outliers],
-            "warnings": list(self.warnings),
-        }
-        if self.prior is not None:
-            out["prior"] = self.prior.summary()
-        if self.orientation is not None:
-            out["orientation"] = self.orientation.summary()
-        if self.compliance is not None:
-            out["compliance"] = self.compliance.summary()
-        out["payload_kg"] = self.payload_kg
-        if self.validation is not None:
-            v = self.validation
-            out["holdout"] = v.summary()
-            out["holdout_rms_before_mm"] = v.before.rms_mm
-            out["holdout_rms_after_mm"] = v.after.rms_mm
-        return out
-
-
-# -- helpers -------------------------------------------------------------------------------
-def _with_q(meas: Measurements, model: RobotModel) -> Measurements:
-    if meas.Q is None or meas.Q.shape[1] != model.dof:
-        return meas.with_robot(model)
-    return meas
-
-
-def _weights0(meas: Measurements) -> np.ndarray:
-    """Per-coordinate weights 1/σ² (N, 3); ones without sigmas."""
-    return np.ones((meas.n_points, 3)) if meas.sigma is None else 1.0 / meas.sigma ** 2
-
-
-def register_base(model: RobotModel, meas: Measurements) -> RobotModel:
-    """A copy of `model` whose base pose best maps its predictions onto the measurements."""
-    meas = _with_q(meas, model)
-    P = predict_points(model, meas.Q, meas.target)
-    centred = P - P.mean(axis=0)
-    s = np.linalg.svd(centred, compute_uv=False) if len(P) >= 2 else np.zeros(3)
-    if len(P) < 3 or s[1] <= 1e-6 * max(s[0], 1e-12):
-        raise RoboCalError(
-            f"the {len(P)} measured points lie on a line, so the robot's position in the camera "
-            f"frame cannot be found", source=meas.source or None,
-            hint="Measure more poses, moving several joints (at least 3 points not on a line).")
-    T = tf.kabsch(P, meas.xyz)
-    out = model.copy()
-    out.base = T @ model.base
-    return out
-
-
-def _reach(model: RobotModel) -> float:
-    return sum(abs(j.a) + abs(j.d) for j in model.joints) + max(
-        (float(np.linalg.norm(t)) for t in model.targets.values()), default=0.0)
-
-
-def split_poses(pose_ids: Sequence[int], fraction: float, seed: int = 0) -> tuple[list[int], list[int]]:
-    """(training, test) pose ids: a seeded random `fraction` of the poses is held out."""
-    ids = list(pose_ids)
-    if not 0.0 < fraction < 1.0:
-        raise UsageError(f"the held-out fraction must be between 0 and 1, got {fraction}")
-    n_test = int(round(fraction * len(ids)))
-    n_test = min(max(n_test, 1), len(ids) - 1)
-    rng = np.random.default_rng(seed)
-    test = set(rng.choice(len(ids), size=n_test, replace=False).tolist())
-    return [p for k, p in enumerate(ids) if k not in test], [p for k, p in enumerate(ids) if k in test]
-
-
-def kfold_poses(pose_ids: Sequence[int], folds: int, seed: int = 0) -> list[list[int]]:
-    """The pose ids split into `folds` seeded random groups of (nearly) equal size."""
-    ids = list(pose_ids)
-    if folds < 2 or folds > len(ids):
-        raise UsageError(f"k-fold needs 2 ≤ k ≤ number of poses ({len(ids)}), got {folds}")
-    order = np.random.default_rng(seed).permutation(len(ids))
-    return [[ids[k] for k in sorted(part)] for part in np.array_split(order, folds)]
-
-
-# -- Levenberg–Marquardt -------------------------------------------------------------------
-@dataclass
-class _LMOutcome:
-    model: RobotModel
-    converged: bool
-    iterations: int
-
-
-def levenberg_marquardt(model: RobotModel, meas: Measurements, free: Sequence[Parameter],
-                        weights: np.ndarray, *, monitor: Monitor | None = None,
-                        records: list[IterationRecord] | None = None, stage: str = "fit",
-                        damping: float = 1e-3, max_iterations: int = 100, ftol: float = 1e-10,
-                        xtol: float = 1e-10, prior: PriorTerm | None = None,
-                        orientation_weights: np.ndarray | None = None) -> _LMOutcome:
-    """Minimise Σ w·|x_measured − x_model|² over the corrections of `free`, starting at `model`.
-
-    Each step solves (AᵀA + λI)·x = Aᵀb with A = √W·Φ·D⁻¹ (columns scaled by their norms D,
-    kept as the running maximum as in MINPACK), b = √W·Δx, and the correction is Δg = D⁻¹·x;
-    λ = 0 is the Gauss–Newton step of eq. (9–10). λ adapts as in Nielsen's rule. Stops when
-    the relative cost decrease is below `ftol` or the scaled step below `xtol`·|b|.
-    `weights` are per coordinate (N, 3). With a `prior`, its penalty rows are appended to Φ and
-    Δx (core.identification.prior) and the cost includes the penalty. With `orientation_weights`
-    (N, 3, rad⁻²), the measured orientations' rows follow the points' (core.identification.orientation)."""
-    monitor = monitor or Monitor()
-    records = records if records is not None else []
-    sw = np.sqrt(np.asarray(weights, dtype=float).reshape(-1))
-    meas_xyz = meas.xyz.reshape(-1)
-
-    sw_o = None if orientation_weights is None else np.sqrt(np.asarray(orientation_weights, float).reshape(-1))
-
-    def residual(m):
-        b = sw * (meas_xyz - predict_points(m, meas.Q, meas.target).reshape(-1))
-        if sw_o is not None:
-            b = np.concatenate([b, sw_o * orientation_residuals(m, meas).reshape(-1)])
-        return b if prior is None else np.concatenate([b, prior.rows(m, free)[1]])
-
-    def jacobian(m):
-        J = sw[:, None] * calibration_jacobian(m, meas.Q, meas.target, free)
-        if sw_o is not None:
-            J = np.vstack([J, sw_o[:, None] * orientation_jacobian(m, meas.Q, meas.target, free)])
-        return J if prior is None else np.vstack([J, prior.rows(m, free)[0]])
-
-    b = residual(model)
-    cost = float(b @ b)
-    rms = lambda m: float(np.sqrt(np.mean(np.sum((meas.xyz - predict_points(m, meas.Q, meas.target)) ** 2, axis=1))))
-    records.append(IterationRecord(0 if not records else records[-1].iteration, cost, rms(model), 0.0, 0.0,
-                                   stage, start=True))
-    if not free:
-        return _LMOutcome(model, True, 0)
-    J = jacobian(model)
-    D = column_scales(J)
-    lam, nu = float(damping), 2.0
-    converged, done = False, 0
-    floor = 1e-18 * len(b)          # (1e-9 mm)² per coordinate: exact to round-off
-    for _ in range(max_iterations * 4):
-        if done >= max_iterations:
-            break
-        monitor.step(min(done / max(max_iterations, 1), 1.0), f"iteration {done + 1}: RMS {records[-1].rms_mm:.4f} mm")
-        A = np.where(np.isfinite(D), J / D, 0.0)
-        x = _damped_solve(A, b, lam)
-        step = np.where(np.isfinite(D), x / D, 0.0)
-        predicted = float(b @ b - np.sum((b - A @ x) ** 2))
-        trial = apply_step(model, free, step)
-        b_t = residual(trial)
-        cost_t = float(b_t @ b_t)
-        if not math.isfinite(cost_t):
-            raise RoboCalError("the estimation diverged (the model's predictions became invalid)",
-                               hint="Check that the robot model and the measurements belong together.")
-        if cost_t < cost:
-            rho = (cost - cost_t) / predicted if predicted > 0 else 0.0
-            small_change = (cost - cost_t) <= ftol * cost
-            small_step = float(np.linalg.norm(x)) <= xtol * (math.sqrt(cost) + xtol)
-            model, b, cost = trial, b_t, cost_t
-            done += 1
-            records.append(IterationRecord(records[-1].iteration + 1, cost, rms(model), lam,
-                                           float(np.linalg.norm(x)), stage))
-            lam = lam * max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3) if lam > 0 else 0.0
-            nu = 2.0
-            if small_change or small_step or cost <= floor:
-                converged = True
-                break
-            J = jacobian(model)
-            Dn = column_scales(J)
-            D = np.where(np.isfinite(D), np.fmax(D, Dn), Dn)
-        else:
-            # no decrease: at the minimum the linear model predicts no gain either
-            if predicted <= ftol * cost or cost <= floor:
-                converged = True
-                break
-            lam = max(lam, 1e-6) * nu
-            nu *= 2.0
-            if lam > 1e12:
-                break
-    return _LMOutcome(model, converged, done)
-
-
-def _damped_solve(A: np.ndarray, b: np.ndarray, lam: float) -> np.ndarray:
-    """argmin |A·x − b|² + λ|x|² through A = Q·R and the SVD of the small R (minimum norm when
-    λ = 0 and A is rank deficient)."""
-    R, c = qr_r(A, b)
-    U, s, Vt = np.linalg.svd(R)
-    if lam > 0:
-        f = s / (s ** 2 + lam)
-    else:
-        f = np.where(s > 1e-12 * max(s[0], 1e-300), 1.0 / np.where(s > 0, s, 1.0), 0.0)
-    return Vt.T @ (f * (U.T @ c))
-
-
-def _robust_scale(b_points: np.ndarray) -> float:
-    """Robust std per axis from whitened point errors (N, 3): median |e| / median(χ₃)."""
-    norms = np.linalg.norm(b_points, axis=1)
-    s = float(np.median(norms)) / CHI3_MEDIAN
-    return s if s > 0 else float(np.sqrt(np.mean(norms ** 2) / 3.0)) or 1e-12
-
-
-# -- one fit -------------------------------------------------------------------------------
-@dataclass
-class _Fit:
-    model: RobotModel
-    initial: RobotModel
-    ident: Identifiability
-    records: list[IterationRecord]
-    converged: bool
-    weights: np.ndarray            # (N,) robust point weights
-    outliers: list[int]
-    sigma_hat: float
-    dof: int
-    covariance: np.ndarray
-    observability: ObservabilityIndices
-    prior_weights: Weights = Weights(0.0, 0.0)
-    shares: dict[str, float] | None = None     # with a prior: the data share of each free parameter
-
-
-def _base_fixed(ident_params: Sequence[Parameter], fixed_names: set[str]) -> bool:
-    return any(p.group == "base" and p.name in fixed_names for p in ident_params)
-
-
-def fit_model(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (),
-              huber: float | None = None, outlier_k: float = 4.0, max_iterations: int = 100,
-              damping: float = 1e-3, prior_weights: Weights | None = None, monitor: Monitor | None = None,
-              orientation: bool = False, compliance: bool = False) -> _Fit:
-    """Register the base, decide the identifiable parameters, estimate them (LM + optional
-    Huber), and compute their covariance. The building block of `identify` (and of k-fold).
-    With `prior_weights` (core.identification.prior, not both 0), parameters the data barely
-    determine are estimated with the prior toward `robot`'s values instead of being kept at nominal.
-    With `orientation`, the measured marker orientations add residuals and the marker's
-    orientation on the tool is estimated (core.identification.orientation). With `compliance`, the
-    deflection terms of `robot.compliance` are estimated too (ridge weight `prior_weights.compliance`)."""
-    monitor = monitor or Monitor()
-    if huber is not None and not huber > 0:
-        raise UsageError(f"the Huber threshold must be positive, got {huber}")
-    meas = _with_q(meas, robot)
-    check_against_robot(meas, robot)
-    targets = [t for t in robot.targets if t in set(meas.target)]
-    turned = require_orientations(meas) if orientation else []
-    params = all_parameters(robot, targets, turned, compliance=compliance)
-    fixed_names = set(resolve_names(fixed, params, robot))
-    monitor.step(0.0, "registering the robot base in the measurement frame")
-    initial = robot.copy() if _base_fixed(params, fixed_names) else register_base(robot, meas)
-    if turned and not any(p.group == "orientation" and p.name in fixed_names for p in params):
-        initial = with_measured_rotations(initial, meas, turned)
-    w_o = orientation_weights(meas) if orientation else None
-    monitor.step(0.03, "checking which parameters the measurements determine")
-    ident = analyse(initial, targets, fixed=fixed_names, params=params)
-    prior_weights = prior_weights or Weights(0.0, 0.0)
-    prior = None if prior_weights.plain else PriorTerm(robot, prior_weights, reach_mm(robot))
-    # with a prior, what the data leave undetermined of the joint parameters the prior determines
-    checked = ident if prior is None else replace(ident, free=[p for p in ident.free if not prior.has_row(p)])
-    check_data(initial, meas.Q, meas.target, checked, source=meas.source or None,
-               orientation_weights=None if w_o is None else np.where(w_o > 0, STRUCTURAL_ROW_SCALE ** 2, 0.0))
-
-    w0 = _weights0(meas)
-    records: list[IterationRecord] = []
-    lm = dict(records=records, damping=damping, max_iterations=max_iterations, prior=prior, orientation_weights=w_o)
-    # Phase 1: the parameters identifiable at the nominal geometry (a safe, reduced set).
-    out = levenberg_marquardt(initial, meas, ident.free, w0, monitor=monitor.sub(0.08, 0.45), **lm)
-    model, converged = out.model, out.converged
-    # Phase 2: re-analyse at the estimate, whose geometry has none of the nominal's special
-    # values (marker exactly on an axis, a = 0 exactly …), and drop what the data barely determine.
-    for _round in range(3):
-        if not converged:
-            break
-        b1 = meas.xyz - predict_points(model, meas.Q, meas.target)
-        dof1 = 3 * meas.n_points - len(ident.free)
-        sigma1 = math.sqrt(float(np.sum(w0 * b1 ** 2)) / max(dof1, 1))
-        if huber is not None:   # outliers would inflate σ and make good parameters look weak
-            sigma1 = min(sigma1, _robust_scale(np.sqrt(w0) * b1))
-        ident2 = analyse(model, targets, fixed=fixed_names, params=params)
-        if not prior_weights.geometric:
-            ident2 = practical_identifiability(ident2, model, meas.Q, meas.target, w0, max(sigma1, 1e-9),
-                                               orientation_weights=w_o)
-        if ident2.free_names == ident.free_names:
-            ident = ident2    # same set; explanations from the analysis at the estimate
-            break
-        reset = [p for p in ident.free if p.name not in set(ident2.free_names)]
-        start = _reset_to(model, initial, reset)
-        out = levenberg_marquardt(start, meas, ident2.free, w0, monitor=monitor.sub(0.45, 0.55),
-                                  stage="refine", **lm)
-        model, converged, ident = out.model, out.converged, ident2
-    point_w = np.ones(meas.n_points)
-    if huber is not None and converged:
-        for rnd in range(1, 21):
-            b = np.sqrt(w0) * (meas.xyz - predict_points(model, meas.Q, meas.target))
-            u = np.linalg.norm(b, axis=1) / _robust_scale(b)
-            new_w = np.minimum(1.0, huber / np.maximum(u, 1e-300))
-            change = float(np.max(np.abs(new_w - point_w)))
-            point_w = new_w
-            if change < 1e-3 and rnd > 1:
-                break
-            sub = monitor.sub(0.55 + 0.018 * (rnd - 1), 0.55 + 0.018 * rnd)
-            out = levenberg_marquardt(model, meas, ident.free, w0 * point_w[:, None], monitor=sub,
-                                      stage=f"huber {rnd}", **lm)
-            model, converged = out.model, out.converged
-    if not converged:
-        raise RoboCalError(
-            f"the estimation did not converge in {max_iterations} iterations (RMS "
-            f"{records[0].rms_mm:.3f} mm at the start, {records[-1].rms_mm:.3f} mm at the end)",
-            source=meas.source or None,
-            hint="Check that the robot model (DH convention, units) matches the robot and remove "
-                 "grossly wrong measurements (or use --huber).")
-    _check_blow_up(robot, model, ident.free, meas.source)
-
-    monitor.step(0.92, "uncertainty")
-    w = w0 * point_w[:, None]
-    b = (np.sqrt(w) * (meas.xyz - predict_points(model, meas.Q, meas.target))).reshape(-1)
-    J = np.sqrt(w).reshape(-1)[:, None] * calibration_jacobian(model, meas.Q, meas.target, ident.free)
-    if w_o is not None:
-        sw_o = np.sqrt(w_o).reshape(-1)
-        b = np.concatenate([b, sw_o * orientation_residuals(model, meas).reshape(-1)])
-        J = np.vstack([J, sw_o[:, None] * orientation_jacobian(model, meas.Q, meas.target, ident.free)])
-    m = J.shape[0] if w_o is None else 3 * meas.n_points + int(np.count_nonzero(w_o))
-    J_p = np.zeros((0, J.shape[1])) if prior is None else prior.rows(model, ident.free)[0]
-    shares = data_share(J, J_p) if prior is not None else None
-    # parameters the prior determines use up less than a degree of freedom each: m − trace(resolution)
-    p = float(shares.sum()) if shares is not None else J.shape[1]
-    dof = int(round(m - p))
-    bw = np.sqrt(w0) * (meas.xyz - predict_points(model, meas.Q, meas.target))
-    u = np.linalg.norm(bw, axis=1) / _robust_scale(bw)
-    outliers = [int(i) for i in np.flatnonzero(u > outlier_k)]
-    if huber is None:
-        sigma_hat = math.sqrt(float(b @ b) / (m - p)) if m - p > 0 else math.nan
-    else:   # robust fit: the scatter of the points that are not outliers
-        inl = np.ones(meas.n_points, bool)
-        inl[outliers] = False
-        dof_in = 3 * int(inl.sum()) - p
-        sigma_hat = math.sqrt(float(np.sum(bw[inl] ** 2)) / dof_in) if dof_in > 0 else math.nan
-    J_all = np.vstack([J, J_p])     # the posterior covariance with a prior: σ̂²(ΦᵀWΦ + λP)⁻¹
-    D = column_scales(J_all)
-    _, s, Vt = np.linalg.svd(small_factor(np.where(np.isfinite(D), J_all / D, 0.0)), full_matrices=False)
-    with np.errstate(divide="ignore"):
-        inv_s2 = np.where(s > 0, 1.0 / s ** 2, np.inf)
-    Dinv = np.where(np.isfinite(D), 1.0 / D, 0.0)
-    cov = (sigma_hat ** 2) * (Dinv[:, None] * (Vt.T * inv_s2) @ Vt * Dinv[None, :])
-    obs = observability_indices(J, n_points=meas.n_points, scales=column_scales(J))
-    monitor.step(1.0, "done")
-    return _Fit(model=model, initial=initial, ident=ident, records=records, converged=converged,
-                weights=point_w, outliers=outliers, sigma_hat=sigma_hat, dof=dof, covariance=cov,
-                observability=obs, prior_weights=prior_weights,
-                shares=None if shares is None else dict(zip(ident.free_names, shares.tolist())))
-
-
-def linearised(fit: _Fit, meas: Measurements) -> Linearised:
-    """The fit's whitened Jacobian and residual on `meas` (robust weights included), with the
-    orientation rows when the fit estimated the marker's orientation, as `fit_model` stacks them."""
-    free = fit.ident.free
-    sw = np.sqrt(_weights0(meas) * fit.weights[:, None]).reshape(-1)
-    J = sw[:, None] * calibration_jacobian(fit.model, meas.Q, meas.target, free)
-    b = sw * (meas.xyz - predict_points(fit.model, meas.Q, meas.target)).reshape(-1)
-    if any(p.group == "orientation" for p in free):
-        sw_o = np.sqrt(orientation_weights(meas)).reshape(-1)
-        J = np.vstack([J, sw_o[:, None] * orientation_jacobian(fit.model, meas.Q, meas.target, free)])
-        b = np.concatenate([b, sw_o * orientation_residuals(fit.model, meas).reshape(-1)])
-    return Linearised(fit.model, list(free), J, b)
-
-
-def _reset_to(model: RobotModel, reference: RobotModel, params: Sequence[Parameter]) -> RobotModel:
-    """A copy of `model` with the joint and target parameters `params` set back to `reference`."""
-    out = model.copy()
-    for p in params:
-        if p.group == "joint":
-            setattr(out.joints[p.joint], p.kind, getattr(reference.joints[p.joint], p.kind))
-        elif p.group == "target":
-            t = out.targets[p.target].copy()
-            t["xyz".index(p.kind)] = reference.targets[p.target]["xyz".index(p.kind)]
-            out.targets[p.target] = t
-        elif p.group == "orientation" and p.target in reference.target_rotations:
-            out.target_rotations[p.target] = reference.target_rotations[p.target].copy()
-        elif p.group == COMPLIANCE:
-            out.compliance.set(p.joint, p.kind, compliance_value(reference, p))
-    return out
-
-
-def _check_blow_up(nominal: RobotModel, model: RobotModel, free: Sequence[Parameter], source) -> None:
-    limit_len = max(MAX_LENGTH_CORRECTION_MM, 0.25 * _reach(nominal))
-    for p in free:
-        if p.group != "joint":
-            continue
-        delta = getattr(model.joints[p.joint], p.kind) - getattr(nominal.joints[p.joint], p.kind)
-        if p.angular:
-            delta = (delta + math.pi) % (2 * math.pi) - math.pi
-            bad = abs(math.degrees(delta)) > MAX_ANGLE_CORRECTION_DEG
-            shown = f"{math.degrees(delta):+.1f} deg"
-        else:
-            bad = abs(delta) > limit_len
-            shown = f"{delta:+.1f} mm"
-        if bad:
-            raise RoboCalError(
-                f"the estimation diverged: {p.name} moved {shown} from its nominal value, far more "
-                f"than a calibration corrects", source=source or None,
-                hint="Check that the robot model (DH convention, joint zero positions, units) matches "
-                     "the robot that was measured.")
-
-
-# -- the parameter table -------------------------------------------------------------------
-def display_value(model: RobotModel, prm: Parameter) -> float:
-    """The value of parameter `prm` of `model` as the parameter table shows it (mm / deg; the
-    base as its origin and roll, pitch, yaw)."""
-    if prm.group == "joint":
-        return getattr(model.joints[prm.joint], prm.kind) * prm.to_display
-    if prm.group == "target":
-        return float(model.targets[prm.target]["xyz".index(prm.kind)])
-    if prm.group == COMPLIANCE:        # degrees of joint deflection per unit shape value
-        return float(np.rad2deg(compliance_value(model, prm))) + 0.0
-    if prm.group == "orientation":     # the rotation vector of the marker's orientation on the tool
-        R = model.target_rotations.get(prm.target, np.eye(3))
-        return float(np.rad2deg(log_so3(R)["xyz".index(prm.kind[1])])) + 0.0
-    xyz, rpy = tf.matrix_to_pose(model.base)
-    if len(prm.kind) == 1:
-        return float(xyz["xyz".index(prm.kind)]) + 0.0
-    return float(np.rad2deg(rpy["xyz".index(prm.kind[1])])) + 0.0   # + 0.0: no "-0.0" on screen
-
-
-def _rpy_jacobian(R: np.ndarray) -> np.ndarray:
-    """∂(roll, pitch, yaw)/∂ω for R ← Exp(ω)·R at ω = 0 (central differences)."""
-    h = 1e-7
-    E = np.zeros((3, 3))
-    for k in range(3):
-        w = np.zeros(3)
-        w[k] = h
-        d = tf.matrix_to_rpy(tf.rot_vec(w) @ R) - tf.matrix_to_rpy(tf.rot_vec(-w) @ R)
-        E[:, k] = ((d + np.pi) % (2 * np.pi) - np.pi) / (2 * h)
-    return E
-
-
-def _parameter_rows(fit: _Fit, nominal: RobotModel) -> tuple[list[ParameterRow], np.ndarray]:
-    ident, model = fit.ident, fit.model
-    free_index = {p.name: k for k, p in enumerate(ident.free)}
-    std_int = np.sqrt(np.clip(np.diag(fit.covariance), 0.0, None))
-    rot_free = [k for k, p in enumerate(ident.free) if p.group == "base" and len(p.kind) == 2]
-    rpy_std = {}
-    if rot_free:
-        E = _rpy_jacobian(model.base[:3, :3])
-        cols = ["xyz".index(ident.free[k].kind[1]) for k in rot_free]
-        C = fit.covariance[np.ix_(rot_free, rot_free)]
-        Es = E[:, cols]
-        var = np.diag(Es @ C @ Es.T)
-        rpy_std = {axis: float(np.rad2deg(np.sqrt(max(v, 0.0)))) for axis, v in zip("xyz", var)}
-    rows = []
-    for prm in ident.params:
-        k = free_index.get(prm.name)
-        excl = ident.exclusion(prm.name)
-        if k is not None:
-            if prm.group == "base" and len(prm.kind) == 2:
-                std = rpy_std.get(prm.kind[1])
-            else:
-                std = float(std_int[k] * prm.to_display)
-        else:
-            std = None
-        share = (fit.shares.get(prm.name) if fit.shares is not None and prm.group in ("joint", COMPLIANCE)
-                 else None)
-        status = IDENTIFIED if k is not None else excl.status
-        explanation = "" if excl is None else excl.explanation
-        if share is not None and share < DOMINATED_SHARE:
-            status = PRIOR_DOMINATED
-            explanation = (f"The measurements determine {share:.0%} of {prm.name}; the prior toward its "
-                           f"nominal value determines the rest.")
-        rows.append(ParameterRow(
-            name=prm.name, group=prm.group, kind=prm.kind, unit=prm.unit,
-            nominal=display_value(nominal, prm), initial=display_value(fit.initial, prm),
-            identified=display_value(model, prm), std=std, identifiable=k is not None,
-            status=status, explanation=explanation,
-            partners=() if excl is None else excl.partners, data_share=share))
-    return rows, std_int
-
-
-# -- the whole step ------------------------------------------------------------------------
 def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = (),
              huber: float | None = None, holdout: float | None = None, kfold: int | None = None,
              seed: int = 0, outlier_k: float = 4.0, max_iterations: int = 100, damping: float = 1e-3,
@@ -828,7 +90,7 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
     monitor = Monitor(progress, cancelled)
     input_robot = robot
     robot, unknown = with_unknown_targets(robot, meas)
-    meas = _with_q(meas, robot)
+    meas = with_joint_values(meas, robot)
     check_against_robot(meas, robot)
     fixed = list(fixed)
     kw = dict(fixed=fixed, huber=huber, outlier_k=outlier_k, max_iterations=max_iterations, damping=damping,
@@ -848,7 +110,7 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
     main_share = 1.0 if kfold is None else (0.6 if expensive else 1.0 / (kfold + 1))
     main = monitor.sub(0.0, main_share)
 
-    def fit_full(use_compliance: bool, mon: Monitor) -> tuple[_Fit, Weights]:
+    def fit_full(use_compliance: bool, mon: Monitor) -> tuple[Fit, Weights]:
         """The fit on the training poses, its prior's (and ridge's) weights by empirical Bayes."""
         model = robot if use_compliance else rigid
         search = search_geometry + (["compliance"] if use_compliance else [])
@@ -866,7 +128,7 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
     if compliance == AUTO:
         fit_off, w_off = fit_full(False, main.sub(0.0, 0.2))
         fit_on, w_on = fit_full(True, main.sub(0.2, 0.5))
-        compliance_choice = _select_compliance(rigid, robot, train, kw, w_off, w_on, seed, main.sub(0.5, 1.0))
+        compliance_choice = select_compliance(rigid, robot, train, kw, w_off, w_on, seed, main.sub(0.5, 1.0))
         fit, weights = (fit_on, w_on) if compliance_choice.kept else (fit_off, w_off)
     else:
         fit, weights = fit_full(compliance == ON, main)
@@ -875,31 +137,11 @@ def identify(robot: RobotModel, meas: Measurements, *, fixed: Iterable[str] = ()
     if not compliance_choice.kept:
         robot = rigid
     if holdout is not None:
-        before = error_stats(register_base(robot, train), test)
-        validation = Validation("holdout", before=before, after=error_stats(fit.model, test),
-                                test_poses=[int(p) for p in test_ids], fraction=float(holdout), seed=seed)
+        validation = holdout_validation(robot, fit.model, train, test, test_ids, fraction=holdout, seed=seed)
     elif kfold is not None:
-        befores, afters, rms = [], [], []
-        rest = monitor.sub(main_share, 1.0)
-        for k, test_ids in enumerate(folds):
-            sub = rest.sub(k / kfold, (k + 1) / kfold)
-            sub.step(0.0, f"cross validation: fold {k + 1} of {kfold}")
-            tr = meas.select_poses([p for p in meas.pose_ids if p not in set(test_ids)])
-            te = meas.select_poses(test_ids)
-            try:
-                f = fit_model(robot, tr, monitor=sub, **kw)
-            except RoboCalError as exc:
-                raise RoboCalError(f"cross validation fold {k + 1} of {kfold}: {exc.problem}",
-                                   source=exc.source, hint=exc.hint or
-                                   "Use fewer folds or measure more poses.") from exc
-            befores.append(error_stats(register_base(robot, tr), te))
-            afters.append(error_stats(f.model, te))
-            rms.append(afters[-1].rms_mm)
-        validation = Validation("kfold", before=merge_stats(befores), after=merge_stats(afters),
-                                test_poses=[int(p) for p in meas.pose_ids], folds=int(kfold), seed=seed,
-                                fold_rms_mm=rms)
+        validation = kfold_validation(robot, meas, folds, kw, monitor.sub(main_share, 1.0), seed=seed)
 
-    rows, std_int = _parameter_rows(fit, robot)
+    rows, std_int = parameter_rows(fit, robot)
     orientation_report = (_orientation_report(robot, train, fit, fixed, prior is not None, rows,
                                               test if holdout is not None else None) if orientation else None)
     cov = fit.covariance
@@ -963,27 +205,7 @@ def _compliance_robots(robot: RobotModel, mode: str) -> tuple[RobotModel, RobotM
     return with_terms, rigid
 
 
-def _select_compliance(rigid: RobotModel, robot: RobotModel, train: Measurements, kw: dict, w_off: Weights,
-                       w_on: Weights, seed: int, monitor: Monitor) -> ComplianceChoice:
-    """Cross validation grouped by pose of the fits without and with the deflection terms (their
-    weights kept), decided by the one-standard-error rule."""
-    n = len(train.pose_ids)
-    try:
-        folds = kfold_poses(train.pose_ids, min(COMPLIANCE_FOLDS, n), seed)
-        off, on = cross_validate(
-            lambda tr, m: fit_model(rigid, tr, monitor=m, prior_weights=w_off, **kw).model,
-            lambda tr, m: fit_model(robot, tr, monitor=m, prior_weights=w_on, compliance=True, **kw).model,
-            train, folds, monitor=monitor)
-    except (RoboCalError, UsageError) as exc:
-        return ComplianceChoice(AUTO, False, f"Too few poses to test the deflection terms ({n}: "
-                                f"{exc.problem}); geometry only.")
-    if len(off) < 3:
-        return ComplianceChoice(AUTO, False, f"Too few poses to test the deflection terms ({len(off)} could be "
-                                f"predicted); geometry only.")
-    return decide(off, on, len(folds), w_on.compliance)
-
-
-def _orientation_report(robot: RobotModel, train: Measurements, fit: _Fit, fixed: Sequence[str], with_prior: bool,
+def _orientation_report(robot: RobotModel, train: Measurements, fit: Fit, fixed: Sequence[str], with_prior: bool,
                         rows: list[ParameterRow], test: Measurements | None) -> OrientationReport:
     """Orientation errors, and which parameters only the orientations determine: those estimated
     here that the points alone (the same analysis without orientation rows) leave out. The
@@ -1000,7 +222,7 @@ def _orientation_report(robot: RobotModel, train: Measurements, fit: _Fit, fixed
             pass
     alone = analyse(fit.model, targets, fixed=fixed_pos, params=params)
     if not with_prior:
-        alone = practical_identifiability(alone, fit.model, train.Q, train.target, _weights0(train),
+        alone = practical_identifiability(alone, fit.model, train.Q, train.target, coordinate_weights(train),
                                           max(fit.sigma_hat, 1e-9))
     determined = [n for n in fit.ident.free_names if n in {p.name for p in alone.params} and n not in set(alone.free_names)]
     for r in rows:
@@ -1030,28 +252,3 @@ def with_unknown_targets(robot: RobotModel, meas: Measurements) -> tuple[RobotMo
     return robot, unknown
 
 
-def write_calibrated_model(result: IdentificationResult, path: str | Path) -> Path:
-    """Write the calibrated robot file (robot format + `calibration` section) atomically."""
-    model = result.model.copy()
-    model.calibration = result.calibration_section()
-    return write_robot(model, path)
-
-
-def identify_files(robot_path: str | Path, measurements_path: str | Path, out_path: str | Path | None = None,
-                   **options) -> IdentificationResult:
-    """File to result: read the robot and the measurements, identify, and (with `out_path`)
-    write the calibrated model — only after everything succeeded."""
-    robot = read_robot(robot_path)
-    meas = read_measurements(measurements_path, robot)
-    result = identify(robot, meas, **options)
-    if out_path is not None:
-        write_calibrated_model(result, out_path)
-    return result
-
-
-def evaluate(robot: RobotModel, meas: Measurements, *, register: bool = False) -> ErrorStats:
-    """Errors of a model against measurements; with `register`, the base pose is first fitted
-    by rigid registration (for a nominal model whose base is not known in the camera frame)."""
-    meas = _with_q(meas, robot)
-    check_against_robot(meas, robot)
-    return error_stats(register_base(robot, meas) if register else robot, meas)

@@ -19,7 +19,7 @@ from typing import Callable
 import numpy as np
 
 from core.errors import Cancelled, RoboCalError
-from core.identification.jacobian import predict_points
+from core.kinematics.jacobian import predict_points
 from core.monitoring.log import CheckLogWriter
 from core.monitoring.uncertainty import CalibrationUncertainty, norm_limit, prediction_covariance
 from core.robot.driver import RobotFault

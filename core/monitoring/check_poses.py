@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Sequence
 
-from core.identification.jacobian import Parameter, all_parameters
+from core.kinematics.jacobian import Parameter, all_parameters
 from core.poses.selection import PoseSelectionResult, select_poses
 from core.robot.model import RobotModel
 

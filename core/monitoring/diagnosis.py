@@ -27,7 +27,7 @@ from scipy.linalg import cho_factor, solve_triangular
 from scipy.stats import chi2
 from scipy.stats import f as f_dist
 
-from core.identification.jacobian import Parameter, calibration_jacobian
+from core.kinematics.jacobian import Parameter, calibration_jacobian
 from core.monitoring.check import CheckResult
 from core.monitoring.check_poses import watched_parameters
 from core.monitoring.uncertainty import CalibrationUncertainty, prediction_covariance

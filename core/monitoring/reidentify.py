@@ -47,10 +47,9 @@ import numpy as np
 from scipy.stats import f as f_dist
 
 from core.errors import RoboCalError
-from core.identification.identifiability import characteristic_scales
-from core.identification.jacobian import (Parameter, apply_step, calibration_jacobian,
-                                          parameter_difference, predict_points)
-from core.identification.solver import display_value
+from core.kinematics.identifiability import characteristic_scales
+from core.kinematics.jacobian import (Parameter, apply_step, calibration_jacobian, display_value,
+                                      parameter_difference, predict_points)
 from core.measurement.file import Measurements, check_against_robot
 from core.monitoring.check_poses import watched_parameters
 from core.monitoring.uncertainty import CalibrationUncertainty

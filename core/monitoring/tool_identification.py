@@ -20,8 +20,8 @@ from typing import Sequence
 import numpy as np
 
 from core.errors import RoboCalError
-from core.identification.jacobian import Parameter, all_parameters
-from core.identification.solver import IDENTIFIED, display_value
+from core.kinematics.identifiability import IDENTIFIED
+from core.kinematics.jacobian import Parameter, all_parameters, display_value
 from core.measurement.file import Measurements
 from core.monitoring.reidentify import Reidentification, reidentify
 from core.monitoring.uncertainty import CalibrationUncertainty

@@ -3,7 +3,7 @@ parameters (from the calibrated robot file) propagated to a point, plus the meas
 
 For check points at configurations Q (N, n) the predicted difference e = measured − model has
 covariance  S = Φ·C·Φᵀ + σ²·I  (3N × 3N, mm²), with Φ the calibration Jacobian of the
-estimated parameters (core.identification.jacobian), C their covariance and σ the measurement
+estimated parameters (core.kinematics.jacobian), C their covariance and σ the measurement
 noise per axis (mm). The parameter part correlates the points (they share the same model).
 
 Limits on error lengths: |e|² = Σ λ_i·z_i² with λ the eigenvalues of S is a weighted sum of
@@ -24,7 +24,7 @@ from scipy.optimize import brentq
 from scipy.stats import chi2
 
 from core.errors import RoboCalError
-from core.identification.jacobian import Parameter, all_parameters, calibration_jacobian
+from core.kinematics.jacobian import Parameter, all_parameters, calibration_jacobian
 from core.robot.model import RobotModel
 
 

@@ -2,11 +2,11 @@
 
 Which N of M candidate configurations (core.poses.candidates) make the geometric parameters
 best observable? The measure is an observability index of Φ, the calibration Jacobian stacked
-over the poses (core.identification.jacobian, eq. 5–7), restricted to the identifiable
-parameters (core.identification.identifiability.analyse) and column-scaled with *fixed* characteristic
+over the poses (core.kinematics.jacobian, eq. 5–7), restricted to the identifiable
+parameters (core.kinematics.identifiability.analyse) and column-scaled with *fixed* characteristic
 scales (`characteristic_scales`: 1/mm for lengths, 1/(reach·rad) for angles), so that every
 candidate set is measured with the same yardstick. With σ_1 ≥ … ≥ σ_L the singular values of
-the scaled Φ (see core.identification.identifiability for the definitions):
+the scaled Φ (see core.kinematics.identifiability for the definitions):
 
     cond = σ_1/σ_L (smaller is better)     O1 = (σ_1⋯σ_L)^(1/L)/√m (D-optimal)
     O3 = σ_L (E-optimal)                   O4 = σ_L²/σ_1 (noise amplification)
@@ -50,8 +50,8 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from core.errors import RoboCalError, UsageError
-from core.identification.identifiability import (RANK_TOL, ObservabilityIndices, analyse, characteristic_scales,
-                                  observation_matrix, observability_indices, recommended_poses)
+from core.kinematics.identifiability import (RANK_TOL, ObservabilityIndices, analyse, characteristic_scales,
+                                             observation_matrix, observability_indices, recommended_poses)
 from core.robot.model import RobotModel
 from core.poses.candidates import (DEFAULT_MARGIN_DEG, CandidateSet, VisibilityOptions, generate_candidates,
                                   no_candidate_error)
@@ -97,7 +97,7 @@ def check_index(index: str) -> str:
 # -- indices from eigenvalues of the information matrix -----------------------------------
 def indices_from_eigenvalues(lam: np.ndarray, n_points: int) -> dict[str, np.ndarray]:
     """cond, O1, O3, O4, O5 (arrays over the leading axes) from the eigenvalues (..., L) of
-    ΦᵀΦ, with the conventions of core.identification.identifiability.observability_indices (σ = √λ)."""
+    ΦᵀΦ, with the conventions of core.kinematics.identifiability.observability_indices (σ = √λ)."""
     lam = np.asarray(lam, dtype=float)
     s = np.sqrt(np.clip(lam, 0.0, None))
     smax, smin = s.max(axis=-1), s.min(axis=-1)

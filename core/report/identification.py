@@ -143,7 +143,8 @@ def _error_figures(model: RobotModel, robot: RobotModel | None, validation, meas
     if why:
         return [Figure("identification_per_pose", titles[0], "", unavailable=why),
                 Figure("identification_histograms", titles[1], "", unavailable=why)]
-    from core.identification.solver import error_stats, register_base, split_poses
+    from core.identification.fit import error_stats, register_base
+    from core.identification.validation import split_poses
 
     ids = [int(p) for p in meas.pose_ids]
     test: list[int] = []

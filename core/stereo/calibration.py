@@ -7,7 +7,7 @@ Steps (`calibrate_stereo` for detections, `calibrate_points` for bare corner lis
 2. Corner order against the stereo geometry: for every pair, the relative pose
    R_i = R_right,i · R_left,iᵀ follows from the two board poses; it must be the same for
    all pairs. Each pair's right labelling is tried under every board symmetry
-   (`core.stereo.checkerboard.board_symmetries`); the relative rotation shared by most pairs wins,
+   (`core.stereo.corner_order.board_symmetries`); the relative rotation shared by most pairs wins,
    pairs are relabelled to agree with it, and a pair that agrees under no labelling
    (wrong pairing, board moved between the two exposures) is dropped with a reason.
 3. Both cameras together (core.stereo.fit.fit_stereo): the joint fit, its residuals and
@@ -38,8 +38,10 @@ import numpy as np
 from core.errors import RoboCalError, UsageError
 from core.files import strict_json
 from core.stereo.board import Board
-from core.stereo.checkerboard import (MIN_PAIRS_TO_CALIBRATE, Coverage, DetectionResult, PairDetection,
-                                      board_symmetries, coverage, summarize_rejections)
+from core.stereo.screening import DetectionResult, summarize_rejections
+from core.stereo.coverage import MIN_PAIRS_TO_CALIBRATE, Coverage, coverage
+from core.stereo.detection import PairDetection
+from core.stereo.corner_order import board_symmetries
 from core.stereo.cross_validation import MIN_VIEWS_PER_HALF, CrossValidation, cross_validate
 from core.stereo.file import StereoFile
 from core.stereo.fit import CalibrationOptions, MonoCalibration, StereoFit, calibrate_mono, fit_stereo
@@ -138,7 +140,7 @@ class StereoCalibrationResult:
 
 def calibrate_stereo(detections: DetectionResult, options: CalibrationOptions = CalibrationOptions(), *,
                      exclude: Sequence[int] = (), progress=None, cancelled=None) -> StereoCalibrationResult:
-    """Calibrate from `core.stereo.checkerboard.detect_pairs` output, without the pairs in `exclude`.
+    """Calibrate from `core.stereo.screening.detect_pairs` output, without the pairs in `exclude`.
 
     `exclude` holds pair indices (0-based, as `PairDetection.index`). Raises RoboCalError
     when fewer than `MIN_PAIRS_TO_CALIBRATE` usable pairs remain, naming the rejected files.

@@ -12,9 +12,9 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from core import transforms as tf
-from core.identification.jacobian import hayati_joints, predict_points
-from core.identification.identifiability import random_configurations
-from core.identification.orientation import predict_rotations
+from core.kinematics.jacobian import hayati_joints, predict_points
+from core.kinematics.identifiability import random_configurations
+from core.kinematics.orientation import predict_rotations
 from core.robot.model import RobotModel
 from core.measurement.file import Measurements
 
@@ -47,7 +47,7 @@ def simulate_measurements(true: RobotModel, n_poses: int, *, sigma_mm: float = 0
                           margin_deg: float = 5.0, orientation_sigma_deg: float | None = None) -> Measurements:
     """Measurements of `true` at `n_poses` random configurations (or the given Q), every pose
     seeing every target, with isotropic Gaussian noise `sigma_mm` per axis; with
-    `orientation_sigma_deg`, also the targets' frames (core.identification.orientation), turned
+    `orientation_sigma_deg`, also the targets' frames (core.kinematics.orientation), turned
     by Gaussian small rotations of that σ about each measurement axis."""
     rng = np.random.default_rng(rng)
     targets = list(true.targets) if targets is None else list(targets)

@@ -10,7 +10,8 @@ import pytest
 
 from app.cli import main
 from app.lab import build_lab, ideal_lab_measurements
-from core.identification.solver import identify, write_calibrated_model
+from core.identification.file import write_calibrated_model
+from core.identification.solver import identify
 from core.measurement.file import write_measurements
 from core.robot.file import read_robot, write_robot
 from core.virtual_lab.synthetic import simulate_measurements

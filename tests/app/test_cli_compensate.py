@@ -17,7 +17,8 @@ from core import transforms as tf
 from core.compensation.ik import solve_ik, tcp_poses
 from core.fixtures.file import write_fixture_pose
 from core.fixtures.frame import FixtureFrame
-from core.identification.solver import identify, write_calibrated_model
+from core.identification.file import write_calibrated_model
+from core.identification.solver import identify
 from core.poses.file import read_pose_list, write_poses
 from core.robot.file import read_robot, write_robot
 from core.robot.model import robot_path

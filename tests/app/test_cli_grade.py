@@ -6,7 +6,8 @@ import json
 import pytest
 
 from app.cli import main
-from core.identification.solver import identify, write_calibrated_model
+from core.identification.file import write_calibrated_model
+from core.identification.solver import identify
 from core.virtual_lab.ideal_measurements import ideal_lab_measurements
 from core.virtual_lab.lab import VirtualLab
 

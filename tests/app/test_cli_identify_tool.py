@@ -11,7 +11,8 @@ import pytest
 from app.cli import main
 from app.lab import build_lab, ideal_lab_measurements, ideal_measure
 from core.measurement.file import Measurements, write_measurements
-from core.identification.solver import identify, write_calibrated_model
+from core.identification.file import write_calibrated_model
+from core.identification.solver import identify
 from core.monitoring.log import read_check_log
 from core.poses.file import read_poses
 from core.robot.file import read_robot, write_robot

@@ -16,7 +16,8 @@ from core.fixtures.frame import pose_error
 @pytest.fixture(scope="module")
 def cell(tmp_path_factory):
     from core.fixtures.description import write_fixture_description
-    from core.identification.solver import identify, write_calibrated_model
+    from core.identification.file import write_calibrated_model
+    from core.identification.solver import identify
     from core.virtual_lab.fixture import place_fixture, render_fixture_pairs
     from core.virtual_lab.ideal_measurements import ideal_lab_measurements
     from tests.app.virtual_inputs import make_lab, true_stereo_yaml

@@ -4,7 +4,7 @@ import sys
 
 import numpy as np
 
-from core.identification.identifiability import qr_r
+from core.kinematics.identifiability import qr_r
 
 
 def test_blas_runs_on_one_thread_whatever_was_imported_first():

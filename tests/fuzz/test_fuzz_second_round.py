@@ -182,7 +182,8 @@ def test_malformed_imu_camera_chains(imu_chain, tmp_path_factory, line, value):
 @pytest.fixture(scope="module")
 def tool_cell(tmp_path_factory):
     """The two-tool virtual cell (tests/core/tools/two_tools.py), calibrated with its gripper."""
-    from core.identification.solver import identify, write_calibrated_model
+    from core.identification.file import write_calibrated_model
+    from core.identification.solver import identify
     from core.robot.file import read_robot, write_robot
     from app.lab import build_lab, ideal_lab_measurements
     from tests.core.tools.two_tools import two_tool_robot

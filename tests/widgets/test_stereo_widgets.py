@@ -7,11 +7,11 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
+from core.thumbnails import compose_pair_thumbnail
 from widgets.coverage_bars import GOOD, LOW, CoverageBars
 from widgets.error_bar_chart import ErrorBarChart
 from widgets.image_view import ImageView
 from widgets.residual_scatter import ResidualScatter
-from widgets.pair_thumbnail import compose_pair_thumbnail
 from widgets.thumbnail_strip import ThumbnailStrip, to_qimage
 from widgets.value_table import ValueTable, format_std, format_value
 

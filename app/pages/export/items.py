@@ -10,7 +10,7 @@ from typing import Callable
 from core.errors import RoboCalError
 from core.files import atomic_write_bytes, atomic_write_many
 from core.identification.exports import export_model
-from core.identification.solver import write_calibrated_model
+from core.identification.file import write_calibrated_model
 from core.robot.file import read_robot
 from core.robot.model import RobotModel
 from core.stereo import file as stereo_file

@@ -11,7 +11,7 @@ from PySide6.QtWidgets import (QCheckBox, QComboBox, QGridLayout, QGroupBox, QLa
 
 from app.pages.forms import button, double_spin, row, spin
 from core.errors import RoboCalError
-from core.identification.jacobian import all_parameters, resolve_names
+from core.kinematics.jacobian import all_parameters, resolve_names
 from core.identification.prior import PriorOptions
 from core.robot.compliance import Compliance
 from widgets.progress_row import ProgressRow

@@ -27,7 +27,8 @@ from app.pages.identification.texts import NO_PROJECT, measurements_html, missin
 from app.pages.steps import Step
 from core.errors import RoboCalError
 from core.identification.exports import export_model
-from core.identification.solver import IdentificationResult, write_calibrated_model
+from core.identification.result import IdentificationResult
+from core.identification.file import write_calibrated_model
 from core.measurement.file import read_measurements
 from core.measurement.synthetic import synthetic_description
 from core.provenance import changed_inputs, changed_since, fingerprint, record_inputs

@@ -1,6 +1,6 @@
 """The Stereo page's live view of the cameras opened on the Setup page: both previews side by
 side (app.preview.PreviewPump: a worker grabs, the newest pair is shown, the others dropped),
-a quick board check of every pair on that worker (core.stereo.checkerboard.board_in_view,
+a quick board check of every pair on that worker (core.stereo.detection.board_in_view,
 the page's board), and under each image whether that camera sees the board.
 
 What you see is what you save: the pair shown last is kept with its check (`pump.latest`);
@@ -16,7 +16,7 @@ from PySide6.QtWidgets import QGroupBox, QHBoxLayout, QLabel, QVBoxLayout, QWidg
 
 from app.preview import PreviewPair, PreviewPump
 from core.stereo.board import Board
-from core.stereo.checkerboard import board_in_view
+from core.stereo.detection import board_in_view
 from widgets.stereo_preview import StereoPreview
 
 PREVIEW_WIDTH = 320          # px per camera: a small view beside the pairs

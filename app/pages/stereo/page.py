@@ -42,7 +42,8 @@ from app.pages.stereo.texts import (CAMERA_TOOLTIP_HARDWARE, CAMERA_TOOLTIP_LIVE
 from core.errors import RoboCalError
 from core.stereo.board import Board
 from core.stereo.calibration import StereoCalibrationResult, calibrate_stereo
-from core.stereo.checkerboard import MIN_PAIRS_TO_CALIBRATE, screen_pairs
+from core.stereo.screening import screen_pairs
+from core.stereo.coverage import MIN_PAIRS_TO_CALIBRATE
 from core.stereo.file import read_stereo_yaml
 from core.stereo.importers import FORMATS
 

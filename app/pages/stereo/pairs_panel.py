@@ -18,8 +18,9 @@ from app.pages.stereo.live_capture import capture_live_pair
 from app.pages.stereo.texts import BAR_TIPS, CAMERA_TOOLTIP_HARDWARE, CAMERA_TOOLTIP_NO_BOARD, short_reason
 from core.errors import RoboCalError
 from core.stereo.board import Board
-from core.stereo.checkerboard import (MIN_BAR, MIN_GOOD_PAIRS, MIN_PAIRS_TO_CALIBRATE, coverage, pair_images,
-                                      screen_pairs)
+from core.stereo.screening import screen_pairs
+from core.stereo.coverage import MIN_BAR, MIN_GOOD_PAIRS, MIN_PAIRS_TO_CALIBRATE, coverage
+from core.stereo.image_files import pair_images
 from core.stereo.image_pairs import split_mixed_folder, swap_camera_folders
 from widgets.coverage_bars import CoverageBars
 from widgets.thumbnail_strip import BAD, MUTED, WARN, ThumbnailStrip

@@ -14,7 +14,8 @@ from app.jobs.cell_check import check_cell, identify_tool_cell, setup_cell
 from app.jobs.cell_measure import CellMeasure, cell_options, locator
 from app.lab import apply_change, build_lab, ideal_lab_measurements, write_ideal_measurements
 from app.sim_cameras import SimulatedCellCameras
-from core.identification.solver import identify, write_calibrated_model
+from core.identification.file import write_calibrated_model
+from core.identification.solver import identify
 from core.robot.controller_sim import ControllerSim
 from core.stereo.rectification import load_rectification
 from tests.app.virtual_inputs import lab_marker, true_stereo_yaml

@@ -8,7 +8,8 @@ import pytest
 
 from app.jobs import check as job
 from app.lab import build_lab, ideal_lab_measurements, lab_options
-from core.identification.solver import identify, write_calibrated_model
+from core.identification.file import write_calibrated_model
+from core.identification.solver import identify
 from core.robot.file import read_robot
 from core.robot.model import robot_path
 

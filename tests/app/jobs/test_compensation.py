@@ -9,7 +9,8 @@ import pytest
 
 from app.jobs import compensation as job
 from core.errors import RoboCalError
-from core.identification.solver import identify, write_calibrated_model
+from core.identification.file import write_calibrated_model
+from core.identification.solver import identify
 from core.poses.file import write_poses
 from core.robot.file import read_robot, write_robot
 from core.virtual_lab.ideal_measurements import ideal_lab_measurements, write_ideal_measurements

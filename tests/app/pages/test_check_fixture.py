@@ -9,7 +9,8 @@ import pytest
 from app.pages.check.page import CheckPage
 from app.worker import TaskRunner
 from core.fixtures.file import read_fixture_pose
-from core.identification.solver import identify, write_calibrated_model
+from core.identification.file import write_calibrated_model
+from core.identification.solver import identify
 from tests.app.virtual_inputs import lab_marker, lab_state, make_lab
 
 TIMEOUT = 120_000

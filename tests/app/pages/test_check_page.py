@@ -12,7 +12,8 @@ from app.pages.check.page import MISSING, CheckPage
 from app.pages.export.page import ExportPage
 from app.state import WizardState
 from app.worker import TaskRunner
-from core.identification.solver import identify, write_calibrated_model
+from core.identification.file import write_calibrated_model
+from core.identification.solver import identify
 from core.monitoring.log import read_check_log
 from core.robot.file import read_robot, write_robot
 

@@ -23,7 +23,8 @@ from app.pages.measurement_inputs import marker_file
 from app.state import WizardState
 from app.worker import TaskRunner
 from core import project as projects
-from core.identification.solver import identify, write_calibrated_model
+from core.identification.file import write_calibrated_model
+from core.identification.solver import identify
 from core.monitoring.log import read_check_log
 from core.robot.file import read_robot
 from tests.app.virtual_inputs import lab_marker, make_lab, true_stereo_yaml

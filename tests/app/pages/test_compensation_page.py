@@ -13,7 +13,8 @@ from app.lab import ideal_lab_measurements, write_ideal_measurements
 from app.pages.compensation.page import MISSING, CompensationPage
 from app.worker import TaskRunner
 from core.compensation.accuracy_map_file import read_accuracy_map
-from core.identification.solver import identify, write_calibrated_model
+from core.identification.file import write_calibrated_model
+from core.identification.solver import identify
 from core.fixtures.file import write_fixture_pose
 from core.fixtures.frame import FixtureFrame
 from core.poses.file import read_poses, write_poses

@@ -16,10 +16,11 @@ from app.pages.export.page import ExportPage
 from app.state import WizardState
 from app.worker import TaskRunner
 from core.stereo.board import Board
-from core.identification.solver import identify, write_calibrated_model
+from core.identification.file import write_calibrated_model
+from core.identification.solver import identify
 from core.measurement.synthetic import is_synthetic, synthetic_description
 from core.virtual_lab.ideal_measurements import write_ideal_measurements
-from core.identification.identifiability import random_configurations
+from core.kinematics.identifiability import random_configurations
 from core.robot.model import robot_path
 from core.measurement.file import read_measurements, write_measurements
 from core.identification.model_comparison import accuracy_against_truth

@@ -14,7 +14,7 @@ from app.state import WizardState
 from app.worker import TaskRunner
 from core import project as projects
 from core.measurement.synthetic import is_synthetic
-from core.identification.identifiability import FIXED_BY_USER
+from core.kinematics.identifiability import FIXED_BY_USER
 from core.measurement.file import read_measurements, write_measurements
 from core.robot.file import read_robot
 from core.virtual_lab.robot_deflection import deflecting_robot

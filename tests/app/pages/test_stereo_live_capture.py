@@ -20,7 +20,7 @@ from app.pages.stereo.page import StereoPage
 from app.state import WizardState
 from app.worker import TaskRunner
 from core.project import HARDWARE
-from core.stereo.checkerboard import coverage
+from core.stereo.coverage import coverage
 from core.virtual_lab.lab import VirtualLab
 
 N_PAIRS = 8

@@ -173,7 +173,8 @@ def test_cli_report_of_a_command_line_folder_with_author_and_course(qapp, tmp_pa
     calibrated.json, no project.json): its report, with the student's name and course."""
     import json as _json
 
-    from core.identification.solver import identify, write_calibrated_model
+    from core.identification.file import write_calibrated_model
+    from core.identification.solver import identify
     from core.robot.file import robot_to_dict
     from core.virtual_lab.ideal_measurements import ideal_lab_measurements, write_ideal_measurements
     from core.virtual_lab.lab import VirtualLab

@@ -4,7 +4,7 @@ import pytest
 
 from core.compensation.prediction import predicted_error
 from core.errors import RoboCalError
-from core.identification.jacobian import all_parameters
+from core.kinematics.jacobian import all_parameters
 from core.monitoring.uncertainty import CalibrationUncertainty, norm_limit, prediction_covariance
 from core.robot.file import read_robot
 from core.robot.model import robot_path

@@ -7,7 +7,8 @@ import pytest
 
 from core.errors import RoboCalError, UsageError
 from core.identification.compliance_selection import decide
-from core.identification.solver import error_stats, identify
+from core.identification.fit import error_stats
+from core.identification.solver import identify
 from core.robot.compliance import Compliance
 from core.robot.file import read_robot, write_robot
 from core.robot.model import PRISMATIC, Joint, RobotModel, robot_path

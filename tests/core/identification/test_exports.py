@@ -14,7 +14,7 @@ from core import transforms as tf
 from core.errors import RoboCalError
 from core.identification.exports import (CSV_COLUMNS, dh_table_csv, export_model, target_links, urdf_names,
                                         urdf_text)
-from core.identification.identifiability import random_configurations
+from core.kinematics.identifiability import random_configurations
 from core.identification.solver import identify
 from core.robot.model import PRISMATIC, Joint, RobotModel, robot_path
 from core.robot.file import read_robot

@@ -8,7 +8,8 @@ import pytest
 
 from core.errors import RoboCalError
 from core.identification.grading import ABSORBED_BY_BASE, LAST_JOINT, grade_calibration
-from core.identification.solver import identify, write_calibrated_model
+from core.identification.file import write_calibrated_model
+from core.identification.solver import identify
 from core.robot.file import read_robot
 from core.virtual_lab.ideal_measurements import ideal_lab_measurements
 from core.virtual_lab.lab import VirtualLab

@@ -8,7 +8,7 @@ import pytest
 
 from core import transforms as tf
 from core.errors import RoboCalError
-from core.identification.identifiability import random_configurations
+from core.kinematics.identifiability import random_configurations
 from core.identification.solver import identify
 from core.robot.model import robot_path
 from core.identification.model_comparison import (accuracy_against_truth, common_targets, compare_models,

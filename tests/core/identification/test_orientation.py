@@ -7,9 +7,9 @@ from scipy.spatial.transform import Rotation
 
 from core import transforms as tf
 from core.errors import RoboCalError
-from core.identification.jacobian import all_parameters, apply_step
-from core.identification.orientation import (orientation_jacobian, predict_rotations, require_orientations,
-                                             with_measured_rotations)
+from core.kinematics.jacobian import all_parameters, apply_step
+from core.identification.orientation import require_orientations, with_measured_rotations
+from core.kinematics.orientation import orientation_jacobian, predict_rotations
 from core.identification.solver import identify
 from core.measurement.file import Measurements
 from core.robot.file import read_robot

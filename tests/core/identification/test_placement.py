@@ -7,7 +7,7 @@ import pytest
 
 from core import transforms as tf
 from core.errors import RoboCalError
-from core.identification.jacobian import all_parameters, predict_points
+from core.kinematics.jacobian import all_parameters, predict_points
 from core.identification.placement import place_targets
 from core.identification.solver import identify
 from core.measurement.file import Measurements

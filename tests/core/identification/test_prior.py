@@ -5,10 +5,11 @@ import numpy as np
 import pytest
 
 from core.errors import RoboCalError
-from core.identification.identifiability import random_configurations
-from core.identification.identifiability import NOT_DETERMINED
+from core.kinematics.identifiability import NOT_DETERMINED, random_configurations
+from core.kinematics.jacobian import display_value
 from core.identification.prior import EMPIRICAL_BAYES, PRIOR_DOMINATED, PriorOptions, log_evidence
-from core.identification.solver import display_value, evaluate, fit_model, identify
+from core.identification.fit import evaluate, fit_model
+from core.identification.solver import identify
 from core.robot.file import read_robot
 from core.robot.model import robot_path
 from core.virtual_lab.synthetic import perturbed_model, simulate_measurements

@@ -10,13 +10,15 @@ import numpy as np
 import pytest
 
 from core import transforms as tf
-from core.identification.jacobian import (all_parameters, apply_step, calibration_jacobian, expand_poses, hayati_joints,
-                                       parameter_difference, predict_points, resolve_names)
+from core.kinematics.jacobian import (all_parameters, apply_step, calibration_jacobian, expand_poses, hayati_joints,
+                                      parameter_difference, predict_points, resolve_names)
 from core.errors import Cancelled, RoboCalError, UsageError
-from core.identification.identifiability import (FIXED_BY_USER, HAYATI, NOT_IDENTIFIABLE, analyse, check_data,
-                                  observability_indices, observation_matrix, random_configurations)
-from core.identification.solver import (error_stats, evaluate, identify, identify_files, kfold_poses,
-                                 register_base, split_poses, write_calibrated_model)
+from core.kinematics.identifiability import (FIXED_BY_USER, HAYATI, NOT_IDENTIFIABLE, analyse, check_data,
+                                             observability_indices, observation_matrix, random_configurations)
+from core.identification.fit import error_stats, evaluate, register_base
+from core.identification.file import identify_files, write_calibrated_model
+from core.identification.solver import identify
+from core.identification.validation import kfold_poses, split_poses
 from core.robot.model import PRISMATIC, Joint, RobotModel, robot_path
 from core.measurement.file import write_measurements
 from core.robot.file import read_robot

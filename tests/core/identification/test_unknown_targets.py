@@ -6,7 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from core.identification.solver import evaluate, identify
+from core.identification.fit import evaluate
+from core.identification.solver import identify
 from core.measurement.importer import import_measurements
 from core.robot.file import read_robot
 from core.robot.model import robot_path

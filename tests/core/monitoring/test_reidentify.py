@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from core.errors import RoboCalError
-from core.identification.solver import error_stats, identify
+from core.identification.fit import error_stats
+from core.identification.solver import identify
 from core.measurement.file import Measurements
 from core.monitoring.check import run_check
 from core.monitoring.diagnosis import diagnose

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from core.errors import Cancelled, RoboCalError, UsageError
-from core.identification.identifiability import analyse, characteristic_scales, observability_indices, observation_matrix
+from core.kinematics.identifiability import analyse, characteristic_scales, observability_indices, observation_matrix
 from core.robot.model import robot_path
 from core.poses.candidates import (REJECT_COLLISION, REJECT_FACING, REJECT_FLOOR, REJECT_IMAGE, arm_polyline,
                                   generate_candidates, segment_distance, self_collision)

@@ -7,7 +7,8 @@ import cv2
 import numpy as np
 
 from core.files import atomic_write_json
-from core.identification.solver import identify, write_calibrated_model
+from core.identification.file import write_calibrated_model
+from core.identification.solver import identify
 from core.measurement.file import write_measurements
 from core.poses.file import write_poses
 from core.project import create_project, save_robot

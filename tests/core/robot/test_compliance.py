@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from core.errors import RoboCalError
-from core.identification.identifiability import random_configurations
-from core.identification.jacobian import (all_parameters, apply_step, calibration_jacobian, expand_poses,
-                                          parameter_difference, predict_points)
+from core.kinematics.identifiability import random_configurations
+from core.kinematics.jacobian import (all_parameters, apply_step, calibration_jacobian, expand_poses,
+                                      parameter_difference, predict_points)
 from core.robot.compliance import DEFAULT_TERMS, SHAPES, Compliance, check_vertical_arm
 from core.robot.file import read_robot, robot_to_dict, write_robot
 from core.robot.model import PRISMATIC, Joint, RobotModel, robot_path

@@ -142,7 +142,7 @@ def test_a_marker_orientation_on_the_tool_round_trips_and_moves_the_predicted_fr
     tool) is written as a rotation vector in degrees and read back to the same frame."""
     from scipy.spatial.transform import Rotation
 
-    from core.identification.orientation import predict_rotations
+    from core.kinematics.orientation import predict_rotations
 
     robot = read_robot(robot_path("educational_6r"))
     R = Rotation.from_rotvec([0.3, -12.0, 40.0], degrees=True).as_matrix()

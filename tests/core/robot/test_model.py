@@ -205,7 +205,7 @@ def test_sampling_range_keeps_each_joints_units():
     lo, hi = model.sampling_range(5.0)
     np.testing.assert_allclose(lo, [5.0, -np.pi + np.deg2rad(5)])     # 5 mm, and 5° inside ±180°
     np.testing.assert_allclose(hi, [295.0, np.pi - np.deg2rad(5)])
-    from core.identification.identifiability import random_configurations
+    from core.kinematics.identifiability import random_configurations
     Q = random_configurations(model, 500, seed=1)
     assert Q[:, 0].max() > 200.0 and Q[:, 0].min() >= 0.0            # the whole prismatic stroke
 

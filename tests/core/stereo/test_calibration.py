@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from core.stereo.checkerboard import detect_pairs
+from core.stereo.screening import detect_pairs
 from core.errors import Cancelled, RoboCalError, UsageError
 from core.stereo.calibration import calibrate_points, calibrate_stereo
 from core.stereo.fit import CalibrationOptions
@@ -205,7 +205,9 @@ def test_too_few_usable_pairs_names_files():
 
 def _fake_detections(left, right):
     """A DetectionResult built from corner lists (no images)."""
-    from core.stereo.checkerboard import Detection, DetectionResult, PairDetection, coverage, view_params
+    from core.stereo.screening import DetectionResult
+    from core.stereo.coverage import coverage, view_params
+    from core.stereo.detection import Detection, PairDetection
     pairs = []
     for i, (a, b) in enumerate(zip(left, right)):
         p = PairDetection(i, f"pair{i + 1}", f"l{i}.png", f"r{i}.png",

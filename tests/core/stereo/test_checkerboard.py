@@ -7,10 +7,11 @@ import numpy as np
 import pytest
 
 from core.stereo.board import Board
-from core.stereo.checkerboard import (Coverage, BoardDetectionOptions, board_in_view, board_symmetries, coverage,
-                               detect_corners, detect_folders, detect_pair, detect_pairs, grid_deviation,
-                               match_order, pair_images, param_distance, screen_pairs, summarize_rejections,
-                               view_params)
+from core.stereo.screening import detect_folders, detect_pair, detect_pairs, screen_pairs, summarize_rejections
+from core.stereo.coverage import Coverage, coverage, param_distance, view_params
+from core.stereo.detection import BoardDetectionOptions, board_in_view, detect_corners, grid_deviation
+from core.stereo.corner_order import board_symmetries, match_order
+from core.stereo.image_files import pair_images
 from core.images import decode_gray, load_gray
 from core.errors import Cancelled, RoboCalError
 from tests.core.stereo_synth import REAL_DATA, real_pairs
@@ -258,7 +259,7 @@ def test_view_params_of_a_frontal_centred_board():
 
 
 def test_coverage_bars_and_enough_rule():
-    from core.stereo.checkerboard import PairDetection, Detection
+    from core.stereo.detection import Detection, PairDetection
 
     def pair(i, params):
         p = PairDetection(i, f"p{i}", "l", "r", Detection(True), Detection(True), accepted=True)

@@ -4,7 +4,7 @@ from __future__ import annotations
 import pytest
 
 from core.errors import RoboCalError
-from core.stereo.checkerboard import pair_images
+from core.stereo.image_files import pair_images
 from core.stereo.image_pairs import camera_side, split_mixed_folder
 
 

@@ -27,10 +27,10 @@ Parameter vector g
   transform itself stays fixed: the target points carry the tool offset.
 * with compliance (core.robot.compliance), the deflection coefficients the model holds,
   `Ji.<shape>` (e.g. `J2.cos_q2`, rad per unit shape value): δq_i = Σ c_ik·f_k(q).
-* with measured orientations (core.identification.orientation), the orientation of each such
+* with measured orientations (core.kinematics.orientation), the orientation of each such
   target's frame on the tool, `<target>.rx/.ry/.rz`: small rotations (rad) about the tool
   frame's axes, applied on the left of `RobotModel.target_rotations[target]`. They do not move
-  points (zero columns here); their orientation rows are in core.identification.orientation.
+  points (zero columns here); their orientation rows are in core.kinematics.orientation.
 
 Estimation works in corrections δg at the current model (the Jacobian is exact at δg = 0);
 `apply_step` adds them (base rotation through the exponential map).
@@ -306,3 +306,21 @@ def expand_poses(Q_poses, targets: Sequence[str]) -> tuple[np.ndarray, list[str]
     Q = np.repeat(Q_poses, len(targets), axis=0)
     names = [t for _ in range(len(Q_poses)) for t in targets]
     return Q, names
+
+
+def display_value(model: RobotModel, prm: Parameter) -> float:
+    """The value of parameter `prm` of `model` as the parameter table shows it (mm / deg; the
+    base as its origin and roll, pitch, yaw)."""
+    if prm.group == "joint":
+        return getattr(model.joints[prm.joint], prm.kind) * prm.to_display
+    if prm.group == "target":
+        return float(model.targets[prm.target]["xyz".index(prm.kind)])
+    if prm.group == COMPLIANCE:        # degrees of joint deflection per unit shape value
+        return float(np.rad2deg(compliance_value(model, prm))) + 0.0
+    if prm.group == "orientation":     # the rotation vector of the marker's orientation on the tool
+        R = model.target_rotations.get(prm.target, np.eye(3))
+        return float(np.rad2deg(log_so3(R)["xyz".index(prm.kind[1])])) + 0.0
+    xyz, rpy = tf.matrix_to_pose(model.base)
+    if len(prm.kind) == 1:
+        return float(xyz["xyz".index(prm.kind)]) + 0.0
+    return float(np.rad2deg(rpy["xyz".index(prm.kind[1])])) + 0.0   # + 0.0: no "-0.0" on screen

@@ -8,7 +8,7 @@ singular value means a combination of parameters that barely moves the measured 
 Which parameters are identified (`analyse`), in three layers:
 1. fixed by the user (`--fix J2.a,base.rz`): kept at the nominal value;
 2. Hayati: for joints whose axis is parallel to the next, `Ji.d` is kept fixed and `Ji.beta`
-   added (see core.identification.jacobian for why this d);
+   added (see core.kinematics.jacobian for why this d);
 3. structural: Φ_s is built for many random configurations (so no dependency is an accident
    of the pose set) and its numerical rank r found by SVD. Parameters are then removed one by
    one in a fixed preference order — joint parameters from the last joint to the first, then
@@ -20,7 +20,7 @@ Which parameters are identified (`analyse`), in three layers:
    the kept ones).
 The structural analysis holds at the geometry it is done at; a nominal model has special
 values (a marker exactly on the last axis, a = 0 exactly) that create dependencies a real robot
-does not have. `core.identification.solver` therefore analyses twice: at the start (the nominal
+does not have. `core.identification.fit` therefore analyses twice: at the start (the nominal
 model, a safe reduced set for the first fit) and again at that first estimate, where
 `practical_identifiability` also removes parameters the measurements determine so poorly that
 their expected standard deviation exceeds 1° or 5 mm (e.g. the last joint's angle when the
@@ -50,17 +50,18 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from core.identification.jacobian import (Parameter, all_parameters, calibration_jacobian,
-                                       expand_poses, hayati_joints, joint_label, resolve_names)
 from core.errors import RoboCalError
-from core.identification.orientation import (STRUCTURAL_ROW_SCALE, has_orientation_parameters,
-                                             orientation_jacobian)
+from core.kinematics.jacobian import (Parameter, all_parameters, calibration_jacobian, expand_poses, hayati_joints,
+                                      joint_label, resolve_names)
+from core.kinematics.orientation import STRUCTURAL_ROW_SCALE, has_orientation_parameters, orientation_jacobian
 from core.robot.model import RobotModel
 
 RANK_TOL = 1e-9          # relative singular value below which a direction is structurally null
 DATA_RANK_TOL = 1e-8     # … or not determined by the measured poses
 STRUCTURAL_POSES = 60    # random configurations for the structural analysis
 
+# a parameter's status in the parameter table
+IDENTIFIED = "identified"
 FIXED_BY_USER = "fixed by user"
 HAYATI = "fixed (Hayati)"
 NOT_IDENTIFIABLE = "not identifiable"
@@ -173,7 +174,7 @@ def stacked_jacobian(model: RobotModel, Q, point_targets: Sequence[str], params:
                      weights: np.ndarray | None = None,
                      orientation_weights: np.ndarray | None = None) -> np.ndarray:
     """√W·Φ: the point rows (weights (N, 3), none: 1) and, when orientation parameters are among
-    `params`, the orientation rows (core.identification.orientation) below them, weighted by
+    `params`, the orientation rows (core.kinematics.orientation) below them, weighted by
     √`orientation_weights` (N, 3), or by STRUCTURAL_ROW_SCALE when none are given."""
     phi = calibration_jacobian(model, Q, point_targets, params)
     if weights is not None:
