@@ -12,7 +12,9 @@ from typing import Mapping
 STYLE = """
 body { font-family: sans-serif; font-size: 10pt; color: #202124; }
 h1 { font-size: 17pt; margin-bottom: 0.2em; }
-h2 { font-size: 13pt; color: #1a73e8; margin-top: 1.2em; }
+h2 { font-size: 13pt; color: #1a73e8; margin-top: 1.0em; margin-bottom: 0.3em; }
+table.title td { padding: 1px 18px 1px 0; }
+td.label { color: #5f6368; }
 h3 { font-size: 10.5pt; margin-top: 0.8em; margin-bottom: 0.2em; }
 table.data { border-collapse: collapse; margin: 0.3em 0; }
 table.data td, table.data th { padding: 1px 10px 1px 0; text-align: left; vertical-align: top; }
@@ -83,7 +85,7 @@ class Section:
 @dataclass
 class Report:
     title: str
-    header: str                        # HTML: date, folder, mode, software version
+    header: str                        # HTML: the title block (who, course, robot, serial number, date) and a note
     summary: str                       # HTML of the summary box
     sections: list[Section]
     footer: str = ""
@@ -137,6 +139,28 @@ def pairs_table(rows: list[tuple[str, str]]) -> str:
     return table([], [[esc(k), v] for k, v in rows])
 
 
+def side_by_side(parts: list[str]) -> str:
+    """HTML blocks (tables) next to each other, top-aligned: a long table in two columns."""
+    width = 100 // max(len(parts), 1)
+    cells = "".join(f"<td width='{width}%' style='vertical-align: top; padding-right: 20px'>{p}</td>" for p in parts)
+    return f"<table width='100%' cellspacing='0' cellpadding='0'><tr>{cells}</tr></table>"
+
+
+def split_rows(rows: list, columns: int = 2) -> list[list]:
+    """`rows` cut into `columns` runs of (nearly) equal length, in order."""
+    n = -(-len(rows) // columns) if rows else 0
+    return [rows[i * n:(i + 1) * n] for i in range(columns) if rows[i * n:(i + 1) * n]]
+
+
+_GREEK = {"theta": "θ", "alpha": "α", "beta": "β"}
+
+
+def parameter_name(name: str) -> str:
+    """A model parameter's name as printed: J5.theta -> J5.θ, J2.alpha -> J2.α, J2.beta -> J2.β."""
+    head, _, tail = str(name).rpartition(".")
+    return f"{head}.{_GREEK.get(tail, tail)}" if head else _GREEK.get(tail, tail)
+
+
 def not_done(what: str) -> str:
     return f"<p class='grey'>Not done ({esc(what)}).</p>"
 
@@ -147,27 +171,27 @@ def unreadable(name: str, message: str) -> str:
 
 # -- HTML ---------------------------------------------------------------------------------------
 def _figure_html(fig: Figure, src: str | None, scale: float) -> str:
-    if fig.unavailable:
-        return f"<p class='grey'><b>{esc(fig.title)}</b>: not available ({esc(fig.unavailable)}).</p>"
+    if fig.unavailable:          # one sentence on why the figure is missing, no empty frame
+        why = fig.unavailable.rstrip(".")
+        return f"<p class='grey'>No figure “{esc(fig.title.lower())}”: {esc(why)}.</p>"
     if src is None:
-        return f"<p class='grey'><b>{esc(fig.title)}</b>: figure not drawn.</p>"
+        return f"<p class='grey'>No figure “{esc(fig.title.lower())}”: it could not be drawn.</p>"
     w, h = round(fig.size[0] * scale), round(fig.size[1] * scale)
     # the title goes with the caption under the image: a printed page may break before the image
     return (f"<p><img src='{esc(src)}' width='{w}' height='{h}' alt='{esc(fig.key)}'>"
             f"<br><b>{esc(fig.title)}.</b> <span class='caption'>{esc(fig.caption)}</span></p>")
 
 
-def render_html(report: Report, images: Mapping[str, str] | None = None, *, page_breaks: bool = False,
-                scale: float = 1.0) -> str:
-    """The report as one HTML document. `images`: figure key -> img src; `page_breaks`: each
-    section but the first starts a new page when printed; `scale`: figure size on the page / its own size."""
+def render_html(report: Report, images: Mapping[str, str] | None = None, *, scale: float = 1.0) -> str:
+    """The report as one HTML document, its sections flowing one after the other (a printed page
+    breaks where it is full; a figure, being one image, is never split). `images`: figure key ->
+    img src; `scale`: figure size on the page / its own size."""
     images = images or {}
-    brk = " style='page-break-before: always'" if page_breaks else ""
     body = [f"<h1>{esc(report.title)}</h1>", report.header,
             "<table width='100%' cellpadding='8' style='border: 1px solid #1a73e8; background-color: #e8f0fe;'>"
             f"<tr><td>{report.summary}</td></tr></table>"]
-    for i, section in enumerate(report.sections):
-        body.append(f"<h2{brk if i else ''}>{esc(section.title)}</h2>")
+    for section in report.sections:
+        body.append(f"<h2>{esc(section.title)}</h2>")
         for block in section.blocks:
             body.append(_figure_html(block, images.get(block.key), scale) if isinstance(block, Figure) else block)
     body.append(report.footer)
