@@ -14,7 +14,8 @@ import copy
 from pathlib import Path
 
 from PySide6.QtCore import QBuffer, QByteArray, QIODevice, QMarginsF, QRectF, QSizeF, Qt, QUrl
-from PySide6.QtGui import QFont, QPageLayout, QPageSize, QPainter, QPdfWriter, QTextDocument
+from PySide6.QtGui import (QFont, QPageLayout, QPageSize, QPainter, QPdfWriter, QTextCursor, QTextDocument,
+                           QTextFormat)
 
 from app.report.figures import PRINT_SCALE, png_bytes, render_png
 from core.errors import UsageError
@@ -28,6 +29,7 @@ PDF_DPI = 300
 MARGIN_MM = 15.0
 FOOTER_MM = 8.0
 HTML_SCALE = 0.85             # figure size on screen / drawn size
+SHORT_TABLE_ROWS = 15         # a table this short is kept on one page with its heading
 FLOAT_GAP = 0.2               # a figure leaving more than this share of a page empty above it floats
 
 
@@ -136,11 +138,11 @@ def _laid_out(report: Report, images: dict, device, width: float, page_h: float)
     for s in report.sections:
         s.blocks = list(s.blocks)
     tried = set()
+    doc = _document(report, images, device, width, page_h)
     for _ in range(len(report.figures())):
-        doc = _document(report, images, device, width, page_h)
         key = _gap_before_figure(doc, page_h)
         if key is None or key in tried:
-            return doc
+            break
         tried.add(key)
         for section in report.sections:
             keys = [getattr(b, "key", None) for b in section.blocks]
@@ -151,7 +153,33 @@ def _laid_out(report: Report, images: dict, device, width: float, page_h: float)
                     j += 1
                 if j > i + 1:            # the text up to the next figure goes first
                     section.blocks[i:j] = section.blocks[i + 1:j] + [section.blocks[i]]
-    return _document(report, images, device, width, page_h)
+        doc = _document(report, images, device, width, page_h)
+    _keep_headings_with_what_follows(doc, page_h)
+    return doc
+
+
+def _keep_headings_with_what_follows(doc: QTextDocument, page_h: float) -> None:
+    """A heading at the foot of a page, parted from the text or the short table after it, starts
+    the next page instead."""
+    layout = doc.documentLayout()
+    block = doc.begin()
+    while block.isValid():
+        following = block.next()
+        if block.blockFormat().headingLevel() > 0 and following.isValid():
+            rect = layout.blockBoundingRect(block)
+            page = int(rect.top() // page_h)
+            table = QTextCursor(following).currentTable()
+            if table is not None and table.rows() <= SHORT_TABLE_ROWS:
+                end = layout.frameBoundingRect(table).bottom()
+            elif table is not None:
+                end = rect.bottom() + 3 * rect.height()             # a long table: its first rows
+            else:
+                end = layout.blockBoundingRect(following).top() + following.layout().lineAt(0).height()
+            if int(end // page_h) > page and end - rect.top() < page_h:
+                fmt = block.blockFormat()
+                fmt.setPageBreakPolicy(QTextFormat.PageBreakFlag.PageBreak_AlwaysBefore)
+                QTextCursor(block).setBlockFormat(fmt)
+        block = block.next()
 
 
 def check_report_path(path: str | Path, option: str = "--out") -> Path:

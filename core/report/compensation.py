@@ -79,7 +79,7 @@ def compensation_section(project: Project, robot: RobotModel | None, facts: dict
              panel("histogram", "error lengths", "position error (mm)", "targets",
                    [series("nominal model", values=amap.errors_before, color=1),
                     series("calibrated model", values=amap.errors_after, color=0)], bins=20)],
-            size=(900, 420)))
+            size=(900, 360)))
     written = [MAP_NAME] + [name for name in (PROGRAM_NAME,) if (project.folder / name).is_file()]
     blocks.append(f"<p>Files written by the Compensation step: {esc(', '.join(written))}.</p>")
     return Section(TITLE, blocks)

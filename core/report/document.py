@@ -41,7 +41,7 @@ class Figure:
     caption: str
     panels: list[dict] = field(default_factory=list)
     unavailable: str | None = None
-    size: tuple[int, int] = (900, 380)  # drawn size in px at 96 dpi (about 24 × 10 cm)
+    size: tuple[int, int] = (900, 330)  # drawn size in px at 96 dpi (printed 174 × 64 mm, PRINT_SCALE)
 
 
 def series(name: str, x=None, y=None, *, values=None, color: int | None = None, symbol: str = "o",
@@ -139,11 +139,22 @@ def pairs_table(rows: list[tuple[str, str]]) -> str:
     return table([], [[esc(k), v] for k, v in rows])
 
 
-def side_by_side(parts: list[str]) -> str:
-    """HTML blocks (tables) next to each other, top-aligned: a long table in two columns."""
-    width = 100 // max(len(parts), 1)
-    cells = "".join(f"<td width='{width}%' style='vertical-align: top; padding-right: 20px'>{p}</td>" for p in parts)
-    return f"<table width='100%' cellspacing='0' cellpadding='0'><tr>{cells}</tr></table>"
+def side_by_side(headers: list[list[str]], groups: list[list[list]], numeric: set[int] = frozenset()) -> str:
+    """Several runs of rows with the same columns next to each other in one table (a long table
+    in two columns, or the left camera, right camera and stereo parameters): `headers[k]` over run
+    k, a blank column between runs, short runs padded with empty cells."""
+    width = len(headers[0])
+    gap = "<td width='24'></td>"
+
+    def cell(tag, i, v):
+        return f"<{tag}{' class=n' if i in numeric else ''}>{v}</{tag}>"
+
+    head = "<tr>" + gap.join("".join(cell("th", i, esc(h)) for i, h in enumerate(header)) for header in headers) + "</tr>"
+    body = ""
+    for r in range(max((len(g) for g in groups), default=0)):
+        runs = [g[r] if r < len(g) else [""] * width for g in groups]
+        body += "<tr>" + gap.join("".join(cell("td", i, v) for i, v in enumerate(row)) for row in runs) + "</tr>"
+    return f"<table class='data'>{head}{body}</table>"
 
 
 def split_rows(rows: list, columns: int = 2) -> list[list]:

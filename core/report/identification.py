@@ -293,9 +293,10 @@ def _parameters(calibration: dict, together: list[tuple[str, str, float]]) -> st
                 text = [f"<span class='grey'>{t}</span>" for t in text]
             rows.append(text)
         header = ["parameter", "nominal", "identified", "± σ", "", "status"]
+        halves = split_rows(rows)
         parts.append("<h3>Parameters: nominal → identified ± σ</h3><p class='note'>Grey: not estimated, kept at "
                      "nominal. “only with”: not separable from that parameter (below).</p>"
-                     + side_by_side([table(header, half, numeric={1, 2, 3}) for half in split_rows(rows)]))
+                     + side_by_side([header] * len(halves), halves, numeric={1, 2, 3}))
     parts.append(_separability_text(together))
     unid = calibration.get("unidentifiable") or []
     if unid:

@@ -1,0 +1,31 @@
+"""The report's title block fields where the report is started (the Export step): who hands it
+in (student or operator), the course, and the robot's serial number. Empty fields are left out of
+the title block."""
+from __future__ import annotations
+
+from PySide6.QtWidgets import QFormLayout, QGroupBox, QLineEdit
+
+
+class ReportTitleFields(QGroupBox):
+    """Three one-line fields; `values()` gives write_report's author, course and serial."""
+
+    FIELDS = (("author", "Student / operator", "reportAuthor", "name on the report's title"),
+              ("course", "Course", "reportCourse", "course or lab it is handed in for"),
+              ("serial", "Robot serial number", "reportSerial", "as on the robot's type plate"))
+
+    def __init__(self, parent=None):
+        super().__init__("Report title", parent)
+        form = QFormLayout(self)
+        form.setFieldGrowthPolicy(QFormLayout.FieldGrowthPolicy.AllNonFixedFieldsGrow)
+        self.edits: dict[str, QLineEdit] = {}
+        for key, label, name, hint in self.FIELDS:
+            edit = QLineEdit()
+            edit.setObjectName(name)
+            edit.setPlaceholderText(hint)
+            edit.setMaxLength(120)
+            form.addRow(label, edit)
+            self.edits[key] = edit
+
+    def values(self) -> dict[str, str | None]:
+        """author, course, serial: the typed text, None when empty."""
+        return {key: (edit.text().strip() or None) for key, edit in self.edits.items()}
