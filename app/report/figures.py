@@ -264,7 +264,8 @@ def _draw_matrix(plot: pg.PlotItem, p: dict) -> list:
 _DRAW = {"points": _draw_points, "histogram": _draw_histogram, "image": _draw_image, "matrix": _draw_matrix}
 
 
-def _widget(fig: Figure) -> pg.GraphicsLayoutWidget:
+def plot_widget(fig: Figure) -> pg.GraphicsLayoutWidget:
+    """The figure laid out in a plot widget that is never shown on screen (close it after use)."""
     w = pg.GraphicsLayoutWidget()
     w.setAttribute(Qt.WidgetAttribute.WA_DontShowOnScreen, True)
     w.setBackground("w")
@@ -299,7 +300,7 @@ def _widget(fig: Figure) -> pg.GraphicsLayoutWidget:
 
 def render_png(fig: Figure, scale: float = SCALE) -> QImage:
     """The figure as an image `scale` times its size."""
-    w = _widget(fig)
+    w = plot_widget(fig)
     try:
         exporter = ImageExporter(w.scene())
         exporter.parameters()["width"] = int(fig.size[0] * scale)

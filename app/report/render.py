@@ -110,21 +110,29 @@ def _document(report: Report, images: dict, device, width: float, page_h: float)
     return doc
 
 
-def _gap_before_figure(doc: QTextDocument, page_h: float) -> str | None:
-    """The key of the first figure pushed to the next page with more than FLOAT_GAP of a page left
-    empty above it, or None."""
+def _figure_key(block) -> str | None:
+    """The key of the report figure in a text block, or None."""
+    it = block.begin()
+    while not it.atEnd():
+        fmt = it.fragment().charFormat()
+        if fmt.isImageFormat() and fmt.toImageFormat().name().startswith("figure:"):
+            return fmt.toImageFormat().name().removeprefix("figure:")
+        it += 1
+    return None
+
+
+def _gap_before_figure(doc: QTextDocument, page_h: float, skip: set) -> str | None:
+    """The key of the first figure (not in `skip`) pushed to the next page with more than
+    FLOAT_GAP of a page left empty above it, or None."""
     layout = doc.documentLayout()
     block = doc.begin()
     while block.isValid():
-        it = block.begin()
-        while not it.atEnd():
-            fmt = it.fragment().charFormat()
-            if fmt.isImageFormat() and fmt.toImageFormat().name().startswith("figure:") and block.previous().isValid():
-                top = layout.blockBoundingRect(block).top() + block.layout().lineAt(0).y()
-                above = layout.blockBoundingRect(block.previous()).bottom()
-                if int(top // page_h) > int(above // page_h) and top - above > FLOAT_GAP * page_h:
-                    return fmt.toImageFormat().name().removeprefix("figure:")
-            it += 1
+        key = _figure_key(block)
+        if key is not None and key not in skip and block.previous().isValid():
+            top = layout.blockBoundingRect(block).top() + block.layout().lineAt(0).y()
+            above = layout.blockBoundingRect(block.previous()).bottom()
+            if int(top // page_h) > int(above // page_h) and top - above > FLOAT_GAP * page_h:
+                return key
         block = block.next()
     return None
 
@@ -137,23 +145,18 @@ def _laid_out(report: Report, images: dict, device, width: float, page_h: float)
     report.sections = [copy.copy(s) for s in report.sections]
     for s in report.sections:
         s.blocks = list(s.blocks)
-    tried = set()
+    tried: set[str] = set()
     doc = _document(report, images, device, width, page_h)
-    for _ in range(len(report.figures())):
-        key = _gap_before_figure(doc, page_h)
-        if key is None or key in tried:
-            break
-        tried.add(key)
-        for section in report.sections:
-            keys = [getattr(b, "key", None) for b in section.blocks]
-            if key in keys:
-                i = keys.index(key)
-                j = i + 1
-                while j < len(section.blocks) and isinstance(section.blocks[j], str):
-                    j += 1
-                if j > i + 1:            # the text up to the next figure goes first
-                    section.blocks[i:j] = section.blocks[i + 1:j] + [section.blocks[i]]
-        doc = _document(report, images, device, width, page_h)
+    while (key := _gap_before_figure(doc, page_h, tried)) is not None:
+        tried.add(key)                   # each figure floats once at most
+        section = next(s for s in report.sections if key in [getattr(b, "key", None) for b in s.blocks])
+        i = [getattr(b, "key", None) for b in section.blocks].index(key)
+        j = i + 1
+        while j < len(section.blocks) and isinstance(section.blocks[j], str):
+            j += 1
+        if j > i + 1:                    # the text up to the next figure goes first
+            section.blocks[i:j] = section.blocks[i + 1:j] + [section.blocks[i]]
+            doc = _document(report, images, device, width, page_h)
     _keep_headings_with_what_follows(doc, page_h)
     return doc
 
@@ -175,6 +178,9 @@ def _keep_headings_with_what_follows(doc: QTextDocument, page_h: float) -> None:
                 end = rect.bottom() + 3 * rect.height()             # a long table: its first rows
             else:
                 end = layout.blockBoundingRect(following).top() + following.layout().lineAt(0).height()
+                after = following.next()
+                if following.layout().lineCount() <= 2 and after.isValid() and _figure_key(after):
+                    end = layout.blockBoundingRect(after).top() + after.layout().lineAt(0).y() + 1  # its figure
             if int(end // page_h) > page and end - rect.top() < page_h:
                 fmt = block.blockFormat()
                 fmt.setPageBreakPolicy(QTextFormat.PageBreakFlag.PageBreak_AlwaysBefore)

@@ -94,7 +94,7 @@ def title_block(*, author: str | None, course: str | None, robot: str, serial: s
     rows = [fields[i:i + 2] for i in range(0, len(fields), 2)]
     cells = "".join("<tr>" + "".join(f"<td class='label'>{esc(k)}</td><td><b>{esc(v)}</b></td>" for k, v in row)
                     + "</tr>" for row in rows)
-    return f"<table class='title'>{cells}</table>"
+    return f"<table class='title' width='100%'>{cells}</table>"
 
 
 def _verdict(before: float | None, after: float | None) -> str:

@@ -146,8 +146,8 @@ def side_by_side(headers: list[list[str]], groups: list[list[list]], numeric: se
     width = len(headers[0])
     gap = "<td width='24'></td>"
 
-    def cell(tag, i, v):
-        return f"<{tag}{' class=n' if i in numeric else ''}>{v}</{tag}>"
+    def cell(tag, i, v):          # never wrapped: the runs share the width
+        return f"<{tag} style='white-space: nowrap'{' class=n' if i in numeric else ''}>{v}</{tag}>"
 
     head = "<tr>" + gap.join("".join(cell("th", i, esc(h)) for i, h in enumerate(header)) for header in headers) + "</tr>"
     body = ""

@@ -111,18 +111,14 @@ def _details(project: Project, problems: list[str], rms_stereo: float) -> list:
     if params:
         groups: dict[str, list] = {}
         for p in params:
+            unit = f" {esc(p['unit'])}" if p.get("unit") else ""
+            std = "fixed" if p.get("fixed") else ("" if p.get("std") is None else sig(p.get("std"), 2) + unit)
             groups.setdefault(str(p.get("group", "")), []).append(
-                [esc(p.get("name", "")), num(p.get("value"), 4),
-                 "fixed" if p.get("fixed") else ("" if p.get("std") is None else sig(p.get("std"), 2)),
-                 esc(p.get("unit", ""))])
-        # one narrow table per group (left, right camera, stereo) side by side
+                [esc(p.get("name", "")), num(p.get("value"), 4), std])
+        # the left camera, right camera and stereo parameters side by side
         blocks.append("<h3>Camera parameters ± σ</h3>"
-                      + side_by_side([[GROUP_TITLES.get(g, g), "value", "± σ", ""] for g in groups],
-                                     list(groups.values()), numeric={1, 2}))
+                      + side_by_side([[g, "value", "± σ"] for g in groups], list(groups.values()), numeric={1, 2}))
     return blocks
-
-
-GROUP_TITLES = {"left": "left", "right": "right", "stereo": "stereo"}
 
 
 COVERAGE_BARS = (("X", "left–right"), ("Y", "up–down"), ("size", "near–far"), ("skew", "tilt"))
