@@ -140,14 +140,15 @@ def pairs_table(rows: list[tuple[str, str]]) -> str:
 
 
 def side_by_side(headers: list[list[str]], groups: list[list[list]], numeric: set[int] = frozenset()) -> str:
-    """Several runs of rows with the same columns next to each other in one table (a long table
-    in two columns, or the left camera, right camera and stereo parameters): `headers[k]` over run
-    k, a blank column between runs, short runs padded with empty cells."""
+    """Several runs of rows with the same columns next to each other in one table (the left camera,
+    right camera and stereo parameters): `headers[k]` over run k, a blank column between runs,
+    short runs padded with empty cells; cells never wrap, so keep the runs narrow."""
     width = len(headers[0])
-    gap = "<td width='24'></td>"
+    gap = "<td width='14'></td>"
 
     def cell(tag, i, v):          # never wrapped: the runs share the width
-        return f"<{tag} style='white-space: nowrap'{' class=n' if i in numeric else ''}>{v}</{tag}>"
+        return (f"<{tag} style='white-space: nowrap; font-size: 8.5pt; padding: 1px 6px 1px 0'"
+                f"{' class=n' if i in numeric else ''}>{v}</{tag}>")
 
     head = "<tr>" + gap.join("".join(cell("th", i, esc(h)) for i, h in enumerate(header)) for header in headers) + "</tr>"
     body = ""
@@ -155,12 +156,6 @@ def side_by_side(headers: list[list[str]], groups: list[list[list]], numeric: se
         runs = [g[r] if r < len(g) else [""] * width for g in groups]
         body += "<tr>" + gap.join("".join(cell("td", i, v) for i, v in enumerate(row)) for row in runs) + "</tr>"
     return f"<table class='data'>{head}{body}</table>"
-
-
-def split_rows(rows: list, columns: int = 2) -> list[list]:
-    """`rows` cut into `columns` runs of (nearly) equal length, in order."""
-    n = -(-len(rows) // columns) if rows else 0
-    return [rows[i * n:(i + 1) * n] for i in range(columns) if rows[i * n:(i + 1) * n]]
 
 
 _GREEK = {"theta": "θ", "alpha": "α", "beta": "β"}

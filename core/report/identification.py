@@ -12,8 +12,8 @@ import numpy as np
 from core.errors import RoboCalError
 from core.report.compliance import deflection_blocks
 from core.project import Project
-from core.report.document import (Figure, Section, esc, not_done, num, panel, parameter_name, series, side_by_side,
-                                  sig, split_rows, table, unreadable)
+from core.report.document import (Figure, Section, esc, not_done, num, panel, parameter_name, series, sig,
+                                  table, unreadable)
 from core.robot.model import RobotModel
 
 TITLE = "Identification"
@@ -117,6 +117,7 @@ def _blocks(calibration: dict, model: RobotModel, source: str, robot, accuracy, 
 
 
 STRONG_CORRELATION = 0.9        # |r| above this: the two parameters are hard to tell apart
+STATUS_SHORT = {"identified": "✓", "not identifiable": "kept"}      # the parameter table's status column
 NOT_SEPARABLE = 0.99            # |r| above this: the data determine only a combination of the two
 
 
@@ -237,7 +238,7 @@ def _error_figures(errors: PoseErrors | str) -> list:
     fig1 = Figure("identification_per_pose", titles[0],
                   "RMS distance per pose between measured and predicted marker positions, nominal model (base "
                   "registered on the fitted poses) and calibrated model; log scale." + held_text,
-                  [panel("points", "", "pose", "position error (mm)", per_pose, log_y=True)], size=(900, 330))
+                  [panel("points", "", "pose", "position error (mm)", per_pose, log_y=True)], size=(900, 290))
 
     panels = []
     for label, stats, color in (("before (nominal model)", before, 1), ("after (calibrated model)", after, 0)):
@@ -269,7 +270,7 @@ def _convergence(stats: dict) -> Figure:
 
 
 def _parameters(calibration: dict, together: list[tuple[str, str, float]]) -> str:
-    """The parameter table (in two columns side by side), the pairs the data cannot separate, the
+    """The parameter table, the pairs the data cannot separate, the
     parameters not identifiable, fixed by the user, and the fit's warnings. A parameter in a pair
     that is not separable is listed "with" its partner, never as identified on its own."""
     params = calibration.get("parameters") or []
@@ -284,19 +285,20 @@ def _parameters(calibration: dict, together: list[tuple[str, str, float]]) -> st
             deg = p.get("unit") == "deg"
             digits = 4 if deg else 3
             status = str(p.get("status", ""))
+            status = STATUS_SHORT.get(status, status)
             if p.get("name") in partner:
                 status = "only with " + ", ".join(partner[p.get("name")])
+            unit = "°" if deg else p.get("unit", "")
             text = [esc(parameter_name(p.get("name"))), num(p.get("nominal"), digits), num(p.get("identified"), digits),
-                    sig(p.get("std"), 2) if p.get("std") is not None else "", esc("°" if deg else p.get("unit", "")),
-                    esc(status)]
+                    f"{sig(p.get('std'), 2)} {esc(unit)}" if p.get("std") is not None else esc(unit), esc(status)]
             if not p.get("identifiable"):
                 text = [f"<span class='grey'>{t}</span>" for t in text]
             rows.append(text)
-        header = ["parameter", "nominal", "identified", "± σ", "", "status"]
-        halves = split_rows(rows)
-        parts.append("<h3>Parameters: nominal → identified ± σ</h3><p class='note'>Grey: not estimated, kept at "
-                     "nominal. “only with”: not separable from that parameter (below).</p>"
-                     + side_by_side([header] * len(halves), halves, numeric={1, 2, 3}))
+        header = ["parameter", "nominal", "identified", "± σ", "status"]
+        parts.append("<h3>Parameters: nominal → identified ± σ</h3><p class='note'>✓ identified; grey: not "
+                     "estimated, kept at its nominal value (“kept”: not identifiable, see below); “only with”: "
+                     "not separable from that parameter (below).</p>"
+                     + table(header, rows, numeric={1, 2, 3}))
     parts.append(_separability_text(together))
     unid = calibration.get("unidentifiable") or []
     if unid:
