@@ -188,6 +188,32 @@ def _figure_html(fig: Figure, src: str | None, scale: float) -> str:
             f"<br><b>{esc(fig.title)}.</b> <span class='caption'>{esc(fig.caption)}</span></p>")
 
 
+def _merge_missing(blocks: list) -> list:
+    """Consecutive figures missing for the same reason become one sentence naming them all."""
+    out: list = []
+    run: list[Figure] = []
+
+    def flush():
+        if len(run) == 1:
+            out.append(run[0])
+        elif run:
+            names = ", ".join(f"“{f.title.lower()}”" for f in run)
+            out.append(f"<p class='grey'>No figures {esc(names)}: {esc(run[0].unavailable.rstrip('.'))}.</p>")
+        run.clear()
+
+    for block in blocks:
+        if isinstance(block, Figure) and block.unavailable and (not run or run[0].unavailable == block.unavailable):
+            run.append(block)
+            continue
+        flush()
+        if isinstance(block, Figure) and block.unavailable:
+            run.append(block)
+        else:
+            out.append(block)
+    flush()
+    return out
+
+
 def render_html(report: Report, images: Mapping[str, str] | None = None, *, scale: float = 1.0) -> str:
     """The report as one HTML document, its sections flowing one after the other (a printed page
     breaks where it is full; a figure, being one image, is never split). `images`: figure key ->
@@ -198,7 +224,7 @@ def render_html(report: Report, images: Mapping[str, str] | None = None, *, scal
             f"<tr><td>{report.summary}</td></tr></table>"]
     for section in report.sections:
         body.append(f"<h2>{esc(section.title)}</h2>")
-        for block in section.blocks:
+        for block in _merge_missing(section.blocks):
             body.append(_figure_html(block, images.get(block.key), scale) if isinstance(block, Figure) else block)
     body.append(report.footer)
     return ("<!DOCTYPE html>\n<html><head><meta charset='utf-8'>"

@@ -8,7 +8,7 @@ from core.errors import RoboCalError
 from core.files import read_json
 from core.project import Project
 from core.report.document import (Figure, Section, esc, not_done, num, pairs_table, panel, series, side_by_side, sig,
-                                  table, unreadable)
+                                  unreadable)
 
 TITLE = "Stereo calibration"
 NO_DETAILS = ("the project has stereo.yaml but not its details stereo.json, which the Stereo calibration "

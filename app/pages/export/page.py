@@ -154,7 +154,8 @@ class ExportPage(WizardPage):
 
         if self.start(write_report, self.state.project, [folder / "report.html", folder / "report.pdf"],
                       robot=self.state.robot, identification=self.state.identification, accuracy=self.state.accuracy,
-                      **self.report_title.values(), draw=self._drawer.draw, on_done=done, on_failed=failed, on_cancelled=cancelled,
+                      **self.report_title.values(), draw=self._drawer.draw, on_done=done, on_failed=failed,
+                      on_cancelled=cancelled,
                       label="report", status="Writing the report…"):
             self.progress_row().set_progress(0.0, "reading the project")
             self._row_status("report", "Writing…", ok=None)

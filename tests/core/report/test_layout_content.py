@@ -110,7 +110,9 @@ def test_no_placeholder_says_not_available(sample, tmp_path):
         (copy / name).unlink()
     text = render_html(build_report(open_project(copy)))
     assert "not available" not in text.lower()
-    assert "No figure “reprojection error per pair”: the project has stereo.yaml but not its details" in text
+    # two figures missing for one reason: one sentence names both
+    assert ("No figures “reprojection error per pair”, “corner residuals”: the project has stereo.yaml but not "
+            "its details") in text
 
 
 def test_greek_parameter_names():
