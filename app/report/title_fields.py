@@ -3,27 +3,29 @@ in (student or operator), the course, and the robot's serial number. Empty field
 the title block."""
 from __future__ import annotations
 
-from PySide6.QtWidgets import QFormLayout, QGroupBox, QLineEdit
+from PySide6.QtWidgets import QGroupBox, QHBoxLayout, QLabel, QLineEdit
 
 
 class ReportTitleFields(QGroupBox):
     """Three one-line fields; `values()` gives write_report's author, course and serial."""
 
     FIELDS = (("author", "Student / operator", "reportAuthor", "name on the report's title"),
-              ("course", "Course", "reportCourse", "course or lab it is handed in for"),
-              ("serial", "Robot serial number", "reportSerial", "as on the robot's type plate"))
+              ("course", "Course", "reportCourse", "course or lab"),
+              ("serial", "Robot serial number", "reportSerial", "on the type plate"))
 
     def __init__(self, parent=None):
         super().__init__("Report title", parent)
-        form = QFormLayout(self)
-        form.setFieldGrowthPolicy(QFormLayout.FieldGrowthPolicy.AllNonFixedFieldsGrow)
+        row = QHBoxLayout(self)              # one row: the Export step is tall already
         self.edits: dict[str, QLineEdit] = {}
         for key, label, name, hint in self.FIELDS:
             edit = QLineEdit()
             edit.setObjectName(name)
             edit.setPlaceholderText(hint)
+            edit.setToolTip(hint)
             edit.setMaxLength(120)
-            form.addRow(label, edit)
+            edit.setMinimumWidth(90)
+            row.addWidget(QLabel(label))
+            row.addWidget(edit, 1)
             self.edits[key] = edit
 
     def values(self) -> dict[str, str | None]:

@@ -26,7 +26,7 @@ from core.report.poses import poses_section
 from core.report.stereo import stereo_section
 from core.robot.model import RobotModel
 
-FOOTER = ("<p class='note'>Lengths in mm, angles in degrees, image errors in px. RMS = root mean square of the 3D "
+CONVENTIONS = ("<p class='note'>Lengths in mm, angles in degrees, image errors in px. RMS = root mean square of the 3D "
           "distance between measured (or true) and predicted marker positions. Held-out poses were left out of "
           "the fit: their error is what the calibrated robot achieves on poses it was not fitted to.</p>")
 
@@ -79,7 +79,7 @@ def build_report(project: Project, *, robot: RobotModel | None = None, identific
                          cell=project.describe_cell())
     header += (f"<p class='note'>RoboCal {esc(software_version())} · project folder {esc(project.folder)}</p>")
     report = Report(title=f"RoboCal calibration report: {project.name}", header=header, summary="",
-                    sections=sections, footer=FOOTER, problems=problems)
+                    sections=sections, conventions=CONVENTIONS, problems=problems)
     report.summary = summary_html(report, facts)
     return report
 

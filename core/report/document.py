@@ -88,7 +88,7 @@ class Report:
     header: str                        # HTML: the title block (who, course, robot, serial number, date) and a note
     summary: str                       # HTML of the summary box
     sections: list[Section]
-    footer: str = ""
+    conventions: str = ""              # HTML: units and terms, under the summary box
     problems: list[str] = field(default_factory=list)   # files that could not be read, with why
 
     def figures(self) -> list[Figure]:
@@ -221,12 +221,11 @@ def render_html(report: Report, images: Mapping[str, str] | None = None, *, scal
     images = images or {}
     body = [f"<h1>{esc(report.title)}</h1>", report.header,
             "<table width='100%' cellpadding='8' style='border: 1px solid #1a73e8; background-color: #e8f0fe;'>"
-            f"<tr><td>{report.summary}</td></tr></table>"]
+            f"<tr><td>{report.summary}</td></tr></table>", report.conventions]
     for section in report.sections:
         body.append(f"<h2>{esc(section.title)}</h2>")
         for block in _merge_missing(section.blocks):
             body.append(_figure_html(block, images.get(block.key), scale) if isinstance(block, Figure) else block)
-    body.append(report.footer)
     return ("<!DOCTYPE html>\n<html><head><meta charset='utf-8'>"
             f"<title>{esc(report.title)}</title><style>{STYLE}</style></head><body>\n"
             + "\n".join(body) + "\n</body></html>\n")
