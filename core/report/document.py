@@ -125,10 +125,12 @@ def sig(value, digits: int = 3) -> str:
     return "∞" if math.isinf(v) else ("—" if math.isnan(v) else f"{v:.{digits}g}")
 
 
-def table(header: list[str], rows: list[list], numeric: set[int] = frozenset()) -> str:
-    """An HTML table; cells are HTML already (escape text first); columns in `numeric` right-aligned."""
+def table(header: list[str], rows: list[list], numeric: set[int] = frozenset(), nowrap: set[int] = frozenset()) -> str:
+    """An HTML table; cells are HTML already (escape text first); columns in `numeric` right-aligned,
+    the cells of columns in `nowrap` never broken across lines."""
     def cell(tag, i, v):
-        return f"<{tag}{' class=n' if i in numeric else ''}>{v}</{tag}>"
+        style = " style='white-space: nowrap'" if i in nowrap and tag == "td" else ""
+        return f"<{tag}{style}{' class=n' if i in numeric else ''}>{v}</{tag}>"
     head = "<tr>" + "".join(cell("th", i, esc(h)) for i, h in enumerate(header)) + "</tr>" if header else ""
     body = "".join("<tr>" + "".join(cell("td", i, v) for i, v in enumerate(r)) + "</tr>" for r in rows)
     return f"<table class='data'>{head}{body}</table>"
