@@ -2,8 +2,8 @@
 project folder, with figures, as a self-contained HTML file and/or a PDF (drawn offscreen).
 PROJECT may also be a folder the command-line chain wrote into (a `simulate` dataset with the
 stereo.yaml, measurements.csv and calibrated.json of the later commands): the nominal robot is
-then `--robot` or the dataset's truth.json, the lab's seed the dataset's. `--author` and
-`--course` go on the title page (a student's hand-in).
+then `--robot` or the dataset's truth.json, the lab's seed the dataset's. `--author`, `--course`
+and `--serial` (the robot's serial number) go into the title block (a student's hand-in).
 
 Steps not done are listed as not done; a file that cannot be read is named in the report. The
 outputs are written as one: a failure leaves any previous report as it was."""
@@ -29,6 +29,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--figures", metavar="DIR", help="also write every figure as PNG into DIR")
     parser.add_argument("--author", metavar="NAME", help="who hands the report in (on the title page)")
     parser.add_argument("--course", metavar="TEXT", help="the course or lab it is handed in for (on the title page)")
+    parser.add_argument("--serial", metavar="TEXT", help="the robot's serial number (on the title page)")
     parser.add_argument("--robot", metavar="R.json",
                         help="nominal robot of a command-line folder (default: the dataset's truth.json)")
     parser.add_argument("--no-truth", action="store_true",
@@ -56,7 +57,8 @@ def run(args) -> CommandResult:
     try:
         accuracy = None if args.no_truth else project_truth_accuracy(project, robot=robot, lab_seed=seed)
         written = write_report(project, args.out, robot=robot, accuracy=accuracy, page_size=args.page_size,
-                               figures_dir=args.figures, author=args.author, course=args.course)
+                               figures_dir=args.figures, author=args.author, course=args.course,
+                               serial=args.serial)
     finally:
         app.processEvents()                                       # let the figure widgets go
     reports = [str(p) for p in written if p.suffix.lower() in (".html", ".htm", ".pdf")]

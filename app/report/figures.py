@@ -12,16 +12,23 @@ import math
 import numpy as np
 import pyqtgraph as pg
 from pyqtgraph.exporters import ImageExporter
-from PySide6.QtCore import QBuffer, QByteArray, QIODevice, Qt
+from PySide6.QtCore import QBuffer, QByteArray, QIODevice, QRectF, Qt
 from PySide6.QtGui import QColor, QFont, QFontMetrics, QImage
 from PySide6.QtWidgets import QApplication
 
 from core.report.document import PALETTE, Figure
 
-SCALE = 2.5           # PNG pixels per figure pixel: 900 px wide figures become 2250 px (about 240 dpi at 24 cm)
+SCALE = 2.5           # PNG pixels per figure pixel: 900 px wide figures become 2250 px (about 330 dpi printed)
+#: printed size / drawn size of a figure (96 dpi px): a 900 px figure is 174 mm wide, the text width
+#: of an A4 page with 15 mm margins; the font sizes below are drawn 1 / PRINT_SCALE larger so that
+#: on paper the tick labels and legends are 8.5 pt, the axis labels 9 pt and panel titles 9.5 pt.
+PRINT_SCALE = 0.73
+TICK_PT = 8.5 / PRINT_SCALE
+LABEL_PT = 9.0 / PRINT_SCALE
+TITLE_PT = 9.5 / PRINT_SCALE
+LEGEND_PT = TICK_PT
 MAX_TICKS = 25
 MATRIX_COLORMAP = "CET-D1"     # blue – white – red, as the Identification page's correlation view
-LEGEND_PT = 9         # legend text, as the tick labels (axis labels: 10 pt)
 _SYMBOLS = {"o": "o", "t": "t", "s": "s", "+": "+", "x": "x", "": None}
 
 
@@ -31,17 +38,18 @@ def _color(s: dict, i: int) -> QColor:
 
 def _style_axes(plot: pg.PlotItem, p: dict) -> None:
     font = QFont()
-    font.setPointSizeF(9)
+    font.setPointSizeF(TICK_PT)
     for name in ("left", "bottom"):
         axis = plot.getAxis(name)
         axis.setTickFont(font)
         axis.setPen(pg.mkPen("#5f6368"))
         axis.setTextPen(pg.mkPen("#202124"))
         axis.enableAutoSIPrefix(False)       # the label carries the unit; no "(x0.001)"
-    plot.setLabel("bottom", p["xlabel"], **{"font-size": "10pt", "color": "#202124"})
-    plot.setLabel("left", p["ylabel"], **{"font-size": "10pt", "color": "#202124"})
+    label = {"font-size": f"{LABEL_PT:.1f}pt", "color": "#202124"}
+    plot.setLabel("bottom", p["xlabel"], **label)
+    plot.setLabel("left", p["ylabel"], **label)
     if p.get("title"):
-        plot.setTitle(p["title"], size="10pt", color="#202124")
+        plot.setTitle(p["title"], size=f"{TITLE_PT:.1f}pt", color="#202124")
     plot.showGrid(x=True, y=True, alpha=0.18)
 
 
@@ -102,7 +110,7 @@ def _legend(entries: list, width: float) -> pg.LegendItem:
     font.setPointSizeF(LEGEND_PT)
     metrics = QFontMetrics(font)
     widest = max(metrics.horizontalAdvance(name) for _, name in entries) + 50      # sample + spacing
-    legend = pg.LegendItem(labelTextColor="#202124", labelTextSize=f"{LEGEND_PT}pt", horSpacing=18,
+    legend = pg.LegendItem(labelTextColor="#202124", labelTextSize=f"{LEGEND_PT:.1f}pt", horSpacing=18,
                            colCount=max(1, min(len(entries), int(width // widest))))
     legend.setFlag(legend.GraphicsItemFlag.ItemIgnoresTransformations, False)
     for item, name in entries:
@@ -142,6 +150,9 @@ def _draw_points(plot: pg.PlotItem, p: dict) -> list:
         line = pg.InfiniteLine(pos=math.log10(value) if log_y and value > 0 else value, angle=0,
                                pen=pg.mkPen("#b00020", width=2, style=Qt.PenStyle.DashLine),
                                label=label, labelOpts={"position": 0.01, "color": "#b00020", "anchors": [(0, 1), (0, 1)]})
+        font = QFont()
+        font.setPointSizeF(TICK_PT)
+        line.label.setFont(font)
         plot.addItem(line)
     ys = [v for s in p["series"] for v in s.get("y", []) if np.isfinite(v)] + [v for v, _ in p.get("hlines", [])]
     if p.get("hlines") and not log_y and not p.get("equal_aspect") and max(ys) > 0:
@@ -184,8 +195,40 @@ def _draw_image(plot: pg.PlotItem, p: dict) -> list:
     return _draw_points(plot, {**p, "equal_aspect": True})
 
 
+class ColumnNamesAxis(pg.AxisItem):
+    """A bottom axis whose labels stand upright (read bottom to top, ending at the axis): long
+    names under narrow matrix columns. `names`: (value, text) pairs in view coordinates."""
+
+    def __init__(self, names: list[tuple[float, str]], font: QFont):
+        super().__init__("bottom")
+        self._names, self._font = names, font
+        self.setStyle(showValues=False)
+        widest = max((QFontMetrics(font).horizontalAdvance(t) for _, t in names), default=0)
+        self.setHeight(widest + 14)
+
+    def paint(self, p, *args):
+        super().paint(p, *args)
+        lo, hi = self.range
+        if hi == lo:
+            return
+        bounds = self.mapRectFromParent(self.geometry())
+        metrics = QFontMetrics(self._font)
+        p.setFont(self._font)
+        p.setPen(self.textPen())
+        for value, text in self._names:
+            x = bounds.left() + (value - lo) / (hi - lo) * bounds.width()
+            p.save()
+            p.translate(x, 8)
+            p.rotate(-90)
+            w = metrics.horizontalAdvance(text)
+            p.drawText(QRectF(-w - 2, -metrics.height() / 2, w + 2, metrics.height()),
+                       int(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter), text)
+            p.restore()
+
+
 def _draw_matrix(plot: pg.PlotItem, p: dict) -> list:
-    """A correlation-like matrix: blue (−1), white (0), red (+1), cells numbered from 1."""
+    """A correlation-like matrix: blue (−1), white (0), red (+1); the rows and columns named by
+    the panel's "labels" (the parameters), else numbered from 1."""
     m = np.asarray(p["matrix"], dtype=float)
     img = pg.ImageItem(np.nan_to_num(m, nan=0.0), axisOrder="row-major")
     img.setRect(0.5, 0.5, m.shape[1], m.shape[0])
@@ -193,15 +236,27 @@ def _draw_matrix(plot: pg.PlotItem, p: dict) -> list:
     plot.addItem(img)
     plot.getViewBox().invertY(True)
     plot.getViewBox().setAspectLocked(True)
+    plot.getViewBox().setRange(xRange=(0.5, m.shape[1] + 0.5), yRange=(0.5, m.shape[0] + 0.5), padding=0)
     bar = pg.ColorBarItem(values=(-1.0, 1.0), colorMap=pg.colormap.get(MATRIX_COLORMAP), interactive=False,
                           width=14)
     bar.setImageItem(img, insert_in=plot)
     axis = bar.getAxis("right")
     axis.setTextPen(pg.mkPen("#202124"))
-    step = max(1, math.ceil(len(m) / MAX_TICKS))
-    ticks = [(float(i), str(i)) for i in range(1, len(m) + 1, step)]
-    for name in ("bottom", "left"):
-        plot.getAxis(name).setTicks([ticks, []])
+    axis.setTickFont(plot.getAxis("left").style["tickFont"])
+    labels = p.get("labels")
+    if labels:
+        ticks = [(float(i + 1), str(name)) for i, name in enumerate(labels)]
+        plot.getAxis("left").setTicks([ticks, []])
+        plot.getAxis("left").setStyle(hideOverlappingLabels=False)
+        bottom = ColumnNamesAxis(ticks, plot.getAxis("left").style["tickFont"])
+        bottom.setPen(pg.mkPen("#5f6368"))
+        bottom.setTextPen(pg.mkPen("#202124"))
+        plot.setAxisItems({"bottom": bottom})
+    else:
+        step = max(1, math.ceil(len(m) / MAX_TICKS))
+        ticks = [(float(i), str(i)) for i in range(1, len(m) + 1, step)]
+        for name in ("bottom", "left"):
+            plot.getAxis(name).setTicks([ticks, []])
     plot.showGrid(x=False, y=False)
     return []
 
@@ -209,11 +264,13 @@ def _draw_matrix(plot: pg.PlotItem, p: dict) -> list:
 _DRAW = {"points": _draw_points, "histogram": _draw_histogram, "image": _draw_image, "matrix": _draw_matrix}
 
 
-def _widget(fig: Figure) -> pg.GraphicsLayoutWidget:
+def plot_widget(fig: Figure) -> pg.GraphicsLayoutWidget:
+    """The figure laid out in a plot widget that is never shown on screen (close it after use)."""
     w = pg.GraphicsLayoutWidget()
     w.setAttribute(Qt.WidgetAttribute.WA_DontShowOnScreen, True)
     w.setBackground("w")
     w.resize(*fig.size)
+    legends = []
     for i, p in enumerate(fig.panels):
         plot = w.addPlot(row=0, col=i)
         _style_axes(plot, p)
@@ -223,8 +280,19 @@ def _widget(fig: Figure) -> pg.GraphicsLayoutWidget:
             plot.setYRange(0, top * 1.08, padding=0)
             step = max(1, math.ceil(top / 6))                  # counts: whole-number ticks
             plot.getAxis("left").setTickSpacing(step, step)
-        if entries:
-            w.addItem(_legend(entries, fig.size[0] / len(fig.panels)), row=1, col=i)
+        if p["kind"] == "points" and len(entries) == 1 and len(fig.panels) == 1:
+            entries = []                          # one series: the axis labels and the caption name it
+        legends.append(entries)
+    looks = [([name for _, name in entries], [(s["name"], s.get("color", i), s.get("symbol"))
+                                                for i, s in enumerate(p["series"])])
+             for entries, p in zip(legends, fig.panels)]
+    if len(legends) > 1 and looks[0][0] and all(look == looks[0] for look in looks):
+        # every panel shows the same series: one legend across the figure
+        w.addItem(_legend(legends[0], fig.size[0]), row=1, col=0, colspan=len(legends))
+    else:
+        for i, entries in enumerate(legends):
+            if entries:
+                w.addItem(_legend(entries, fig.size[0] / len(fig.panels)), row=1, col=i)
     w.show()
     QApplication.processEvents()
     return w
@@ -232,7 +300,7 @@ def _widget(fig: Figure) -> pg.GraphicsLayoutWidget:
 
 def render_png(fig: Figure, scale: float = SCALE) -> QImage:
     """The figure as an image `scale` times its size."""
-    w = _widget(fig)
+    w = plot_widget(fig)
     try:
         exporter = ImageExporter(w.scene())
         exporter.parameters()["width"] = int(fig.size[0] * scale)

@@ -15,18 +15,18 @@ import traceback
 from datetime import datetime, timezone
 
 from core.errors import RoboCalError
-from core.project import OUTPUT_FILES, VIRTUAL_LAB, Project, load_robot
+from core.project import Project, load_robot
 from core.report.check import check_section
 from core.report.compensation import compensation_section
-from core.report.document import Report, Section, esc, num, table, unreadable
+from core.report.document import Report, Section, esc, num, parameter_name, table, unreadable
 from core.report.identification import identification_section
-from core.report.marker import MARKER_FILE, marker_section
+from core.report.marker import marker_section
 from core.report.measurement import measurement_section
 from core.report.poses import poses_section
 from core.report.stereo import stereo_section
 from core.robot.model import RobotModel
 
-FOOTER = ("<p class='note'>Lengths in mm, angles in degrees, image errors in px. RMS = root mean square of the 3D "
+CONVENTIONS = ("<p class='note'>Lengths in mm, angles in degrees, image errors in px. RMS = root mean square of the 3D "
           "distance between measured (or true) and predicted marker positions. Held-out poses were left out of "
           "the fit: their error is what the calibrated robot achieves on poses it was not fitted to.</p>")
 
@@ -39,11 +39,13 @@ def software_version() -> str:
 
 
 def build_report(project: Project, *, robot: RobotModel | None = None, identification=None, accuracy=None,
-                 date: str | None = None, author: str | None = None, course: str | None = None) -> Report:
+                 date: str | None = None, author: str | None = None, course: str | None = None,
+                 serial: str | None = None) -> Report:
     """The report of `project`. `robot`: the nominal model (else the project's robot.json);
     `identification`: an IdentificationResult of this session (else calibrated.json);
-    `accuracy`: a model_comparison.TruthAccuracy (virtual lab only); `author`, `course`: who
-    hands the report in and for which course, on the title page."""
+    `accuracy`: a model_comparison.TruthAccuracy (virtual lab only); `author`, `course`,
+    `serial`: who hands the report in (student or operator), for which course, and the robot's
+    serial number, in the title block (left out when not given)."""
     date = date or datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     problems: list[str] = []
     facts: dict = {}
@@ -62,7 +64,7 @@ def build_report(project: Project, *, robot: RobotModel | None = None, identific
         ("Check", lambda: check_section(project, facts, problems)),
         ("Compensation", lambda: compensation_section(project, robot, facts, problems)),
     ]
-    sections = [_files_section(project, robot)]
+    sections = []
     for title, build in builders:
         try:
             sections.append(build())
@@ -71,24 +73,28 @@ def build_report(project: Project, *, robot: RobotModel | None = None, identific
             message = f"{type(exc).__name__}: {exc} (in {where.name})"
             problems.append(f"{title}: {message}")
             sections.append(Section(title, [unreadable(f"the {title.lower()} step's files", message)], done=False))
-    header = (f"<p class='note'>{esc(date)} · RoboCal {esc(software_version())} · project folder "
-              f"{esc(project.folder)} · cell: {esc(project.describe_cell())}</p>")
-    by = " · ".join(esc(v.strip()) for v in (author, course) if v and v.strip())
-    if by:
-        header = f"<p class='author'><b>{by}</b></p>" + header
+    robot_name = robot.name if robot is not None else (
+        identification.model.name if identification is not None else "the project has no robot model")
+    header = title_block(author=author, course=course, robot=robot_name, serial=serial, date=date,
+                         cell=project.describe_cell())
+    header += (f"<p class='note'>RoboCal {esc(software_version())} · project folder {esc(project.folder)}</p>")
     report = Report(title=f"RoboCal calibration report: {project.name}", header=header, summary="",
-                    sections=sections, footer=FOOTER, problems=problems)
-    report.summary = summary_html(report, robot, identification, facts, date)
+                    sections=sections, conventions=CONVENTIONS, problems=problems)
+    report.summary = summary_html(report, facts)
     return report
 
 
-def _files_section(project: Project, robot: RobotModel | None) -> Section:
-    names = dict(OUTPUT_FILES, marker=MARKER_FILE)
-    if project.robot:
-        names["robot"] = project.robot
-    rows = [[esc(name), "present" if (project.folder / name).is_file() else "<span class='grey'>missing</span>"]
-            for name in names.values()]
-    return Section("Project files", [table(["file", ""], rows)])
+def title_block(*, author: str | None, course: str | None, robot: str, serial: str | None, date: str,
+                cell: str) -> str:
+    """The title block under the report's title: who hands it in, the course, the robot and its
+    serial number, the date and the cell, two per row; a field not given is left out."""
+    fields = [(label, value.strip()) for label, value in
+              (("Student / operator", author), ("Course", course), ("Robot", robot), ("Serial number", serial),
+               ("Date", date), ("Cell", cell)) if value and value.strip()]
+    rows = [fields[i:i + 2] for i in range(0, len(fields), 2)]
+    cells = "".join("<tr>" + "".join(f"<td class='label'>{esc(k)}</td><td><b>{esc(v)}</b></td>" for k, v in row)
+                    + "</tr>" for row in rows)
+    return f"<table class='title' width='100%'>{cells}</table>"
 
 
 def _verdict(before: float | None, after: float | None) -> str:
@@ -106,32 +112,46 @@ def _verdict(before: float | None, after: float | None) -> str:
             "check the measurements and the pose spread.")
 
 
-def summary_html(report: Report, robot: RobotModel | None, identification, facts: dict, date: str) -> str:
+def accuracy_table(validation: dict, accuracy) -> str:
+    """Mean, RMS and max position error (mm) before and after calibration on the held-out poses
+    (and, in the virtual lab, against the true robot)."""
+    rows = []
+    if validation:
+        n = validation.get("n_test_poses")
+        where = f"{n} held-out poses" if validation.get("method") == "holdout" else \
+            f"{validation.get('folds')}-fold cross validation"
+        rows += [(f"{where}, nominal model", validation.get("before") or {}),
+                 (f"{where}, calibrated model", validation.get("after") or {})]
+    if accuracy is not None:
+        a = accuracy.summary()
+        k = a.get("n_configurations")
+        rows += [(f"true robot at {k} fresh poses (virtual lab), nominal model", a.get("nominal", {})),
+                 (f"true robot at {k} fresh poses (virtual lab), calibrated model", a.get("calibrated", {}))]
+    return table(["position error (mm)", "mean", "RMS", "max"],
+                 [[esc(label), num(st.get("mean_mm")), f"<b>{num(st.get('rms_mm'))}</b>", num(st.get("max_mm"))]
+                  for label, st in rows], numeric={1, 2, 3})
+
+
+def summary_html(report: Report, facts: dict) -> str:
     v = facts.get("validation") or {}
     before = (v.get("before") or {}).get("rms_mm")
     after = (v.get("after") or {}).get("rms_mm")
-    factor = before / after if before and after else None
     not_done = [s.title for s in report.sections if not s.done]
     if "statistics" not in facts:
         verdict = "Not calibrated yet" + (f": not done or not readable: {', '.join(not_done)}." if not_done else ".")
     else:
         verdict = _verdict(before, after)
-    robot_name = robot.name if robot is not None else (
-        identification.model.name if identification is not None else "— (the project has no robot model)")
-    rows = [("robot", esc(robot_name)),
-            ("cameras", esc(facts.get("cameras", "— (no stereo calibration)"))),
-            ("date", esc(date)),
-            ("software", f"RoboCal {esc(software_version())}"),
-            ("stereo reprojection error", num(facts.get("stereo_rms"), 3, "px RMS")),
-            ("held-out error, before → after", f"{num(before, 3)} → <b>{num(after, 3)}</b> mm RMS"
-             if before is not None else "—"),
-            ("improvement factor", f"{factor:.1f}×" if factor else "—")]
-    acc = facts.get("accuracy")
-    if acc is not None:
-        rows.append(("against the true robot (virtual lab)",
-                     f"{num(acc.nominal.rms_mm, 3)} → {num(acc.calibrated.rms_mm, 3)} mm RMS"))
-    text = (f"<p class='verdict'>{esc(verdict)}</p>"
-            + table([], [[esc(k), val] for k, val in rows]))
+    text = f"<p class='verdict'>{esc(verdict)}</p>"
+    if v or facts.get("accuracy") is not None:
+        text += accuracy_table(v, facts.get("accuracy"))
+    rows = [("cameras", esc(facts.get("cameras", "no stereo calibration yet"))),
+            ("stereo reprojection error", num(facts.get("stereo_rms"), 3, "px RMS"))]
+    together = facts.get("not_separable") or []
+    if together:
+        rows.append(("parameters not separable", esc(", ".join(f"{parameter_name(a)}–{parameter_name(b)}"
+                                                                  for a, b, _r in together))
+                     + " (see Identification)"))
+    text += table([], [[esc(k), val] for k, val in rows])
     if not_done:
         text += f"<p>Not done: {esc(', '.join(not_done))}.</p>"
     if report.problems:

@@ -55,12 +55,13 @@ def compensation_section(project: Project, robot: RobotModel | None, facts: dict
         largest = dq.max(axis=1)
         order = np.argsort(largest)[::-1][:LARGEST]
         index = np.flatnonzero(both)[order]
-        rows = [[str(int(i) + 1), "  ".join(num(v, 1) for v in amap.targets[i]), num(largest[k], 3),
+        rows = [[str(int(i) + 1), ", ".join(num(v, 1) for v in amap.targets[i]), num(largest[k], 3),
                  f"J{int(dq[k].argmax()) + 1}", num(amap.errors_before[k], 3), num(amap.errors_after[k], 3)]
                 for k, i in zip(order, index)]
         blocks += ["<h3>Largest joint corrections</h3>",
-                   table(["target", "target x, y, z (mm, camera frame)", "largest correction (deg)", "joint",
-                          "error, nominal (mm)", "error, calibrated (mm)"], rows, numeric={2, 4, 5})]
+                   table(["target", "x, y, z (mm, camera frame)", "largest correction (deg)", "joint",
+                          "error, nominal (mm)", "error, calibrated (mm)"], rows, numeric={2, 4, 5},
+                         nowrap={0, 1, 2, 3, 4, 5})]
         xy = amap.targets_base[both, :2]
         vb, va = amap.vectors_before[both, :2], amap.vectors_after[both, :2]
         span = max(float(np.ptp(xy, axis=0).max()) if len(xy) > 1 else 100.0, 50.0)
@@ -79,7 +80,7 @@ def compensation_section(project: Project, robot: RobotModel | None, facts: dict
              panel("histogram", "error lengths", "position error (mm)", "targets",
                    [series("nominal model", values=amap.errors_before, color=1),
                     series("calibrated model", values=amap.errors_after, color=0)], bins=20)],
-            size=(900, 420)))
+            size=(900, 360)))
     written = [MAP_NAME] + [name for name in (PROGRAM_NAME,) if (project.folder / name).is_file()]
     blocks.append(f"<p>Files written by the Compensation step: {esc(', '.join(written))}.</p>")
     return Section(TITLE, blocks)

@@ -12,7 +12,9 @@ from typing import Mapping
 STYLE = """
 body { font-family: sans-serif; font-size: 10pt; color: #202124; }
 h1 { font-size: 17pt; margin-bottom: 0.2em; }
-h2 { font-size: 13pt; color: #1a73e8; margin-top: 1.2em; }
+h2 { font-size: 13pt; color: #1a73e8; margin-top: 1.0em; margin-bottom: 0.3em; }
+table.title td { padding: 1px 18px 1px 0; }
+td.label { color: #5f6368; }
 h3 { font-size: 10.5pt; margin-top: 0.8em; margin-bottom: 0.2em; }
 table.data { border-collapse: collapse; margin: 0.3em 0; }
 table.data td, table.data th { padding: 1px 10px 1px 0; text-align: left; vertical-align: top; }
@@ -39,7 +41,7 @@ class Figure:
     caption: str
     panels: list[dict] = field(default_factory=list)
     unavailable: str | None = None
-    size: tuple[int, int] = (900, 380)  # drawn size in px at 96 dpi (about 24 × 10 cm)
+    size: tuple[int, int] = (900, 330)  # drawn size in px at 96 dpi (printed 174 × 64 mm, PRINT_SCALE)
 
 
 def series(name: str, x=None, y=None, *, values=None, color: int | None = None, symbol: str = "o",
@@ -83,10 +85,10 @@ class Section:
 @dataclass
 class Report:
     title: str
-    header: str                        # HTML: date, folder, mode, software version
+    header: str                        # HTML: the title block (who, course, robot, serial number, date) and a note
     summary: str                       # HTML of the summary box
     sections: list[Section]
-    footer: str = ""
+    conventions: str = ""              # HTML: units and terms, under the summary box
     problems: list[str] = field(default_factory=list)   # files that could not be read, with why
 
     def figures(self) -> list[Figure]:
@@ -123,10 +125,12 @@ def sig(value, digits: int = 3) -> str:
     return "∞" if math.isinf(v) else ("—" if math.isnan(v) else f"{v:.{digits}g}")
 
 
-def table(header: list[str], rows: list[list], numeric: set[int] = frozenset()) -> str:
-    """An HTML table; cells are HTML already (escape text first); columns in `numeric` right-aligned."""
+def table(header: list[str], rows: list[list], numeric: set[int] = frozenset(), nowrap: set[int] = frozenset()) -> str:
+    """An HTML table; cells are HTML already (escape text first); columns in `numeric` right-aligned,
+    the cells of columns in `nowrap` never broken across lines."""
     def cell(tag, i, v):
-        return f"<{tag}{' class=n' if i in numeric else ''}>{v}</{tag}>"
+        style = " style='white-space: nowrap'" if i in nowrap and tag == "td" else ""
+        return f"<{tag}{style}{' class=n' if i in numeric else ''}>{v}</{tag}>"
     head = "<tr>" + "".join(cell("th", i, esc(h)) for i, h in enumerate(header)) + "</tr>" if header else ""
     body = "".join("<tr>" + "".join(cell("td", i, v) for i, v in enumerate(r)) + "</tr>" for r in rows)
     return f"<table class='data'>{head}{body}</table>"
@@ -135,6 +139,34 @@ def table(header: list[str], rows: list[list], numeric: set[int] = frozenset()) 
 def pairs_table(rows: list[tuple[str, str]]) -> str:
     """A two-column table of (label, HTML value)."""
     return table([], [[esc(k), v] for k, v in rows])
+
+
+def side_by_side(headers: list[list[str]], groups: list[list[list]], numeric: set[int] = frozenset()) -> str:
+    """Several runs of rows with the same columns next to each other in one table (the left camera,
+    right camera and stereo parameters): `headers[k]` over run k, a blank column between runs,
+    short runs padded with empty cells; cells never wrap, so keep the runs narrow."""
+    width = len(headers[0])
+    gap = "<td width='14'></td>"
+
+    def cell(tag, i, v):          # never wrapped: the runs share the width
+        return (f"<{tag} style='white-space: nowrap; font-size: 8.5pt; padding: 1px 6px 1px 0'"
+                f"{' class=n' if i in numeric else ''}>{v}</{tag}>")
+
+    head = "<tr>" + gap.join("".join(cell("th", i, esc(h)) for i, h in enumerate(header)) for header in headers) + "</tr>"
+    body = ""
+    for r in range(max((len(g) for g in groups), default=0)):
+        runs = [g[r] if r < len(g) else [""] * width for g in groups]
+        body += "<tr>" + gap.join("".join(cell("td", i, v) for i, v in enumerate(row)) for row in runs) + "</tr>"
+    return f"<table class='data'>{head}{body}</table>"
+
+
+_GREEK = {"theta": "θ", "alpha": "α", "beta": "β"}
+
+
+def parameter_name(name: str) -> str:
+    """A model parameter's name as printed: J5.theta -> J5.θ, J2.alpha -> J2.α, J2.beta -> J2.β."""
+    head, _, tail = str(name).rpartition(".")
+    return f"{head}.{_GREEK.get(tail, tail)}" if head else _GREEK.get(tail, tail)
 
 
 def not_done(what: str) -> str:
@@ -147,30 +179,55 @@ def unreadable(name: str, message: str) -> str:
 
 # -- HTML ---------------------------------------------------------------------------------------
 def _figure_html(fig: Figure, src: str | None, scale: float) -> str:
-    if fig.unavailable:
-        return f"<p class='grey'><b>{esc(fig.title)}</b>: not available ({esc(fig.unavailable)}).</p>"
+    if fig.unavailable:          # one sentence on why the figure is missing, no empty frame
+        why = fig.unavailable.rstrip(".")
+        return f"<p class='grey'>No figure “{esc(fig.title.lower())}”: {esc(why)}.</p>"
     if src is None:
-        return f"<p class='grey'><b>{esc(fig.title)}</b>: figure not drawn.</p>"
+        return f"<p class='grey'>No figure “{esc(fig.title.lower())}”: it could not be drawn.</p>"
     w, h = round(fig.size[0] * scale), round(fig.size[1] * scale)
     # the title goes with the caption under the image: a printed page may break before the image
     return (f"<p><img src='{esc(src)}' width='{w}' height='{h}' alt='{esc(fig.key)}'>"
             f"<br><b>{esc(fig.title)}.</b> <span class='caption'>{esc(fig.caption)}</span></p>")
 
 
-def render_html(report: Report, images: Mapping[str, str] | None = None, *, page_breaks: bool = False,
-                scale: float = 1.0) -> str:
-    """The report as one HTML document. `images`: figure key -> img src; `page_breaks`: each
-    section but the first starts a new page when printed; `scale`: figure size on the page / its own size."""
+def _merge_missing(blocks: list) -> list:
+    """Consecutive figures missing for the same reason become one sentence naming them all."""
+    out: list = []
+    run: list[Figure] = []
+
+    def flush():
+        if len(run) == 1:
+            out.append(run[0])
+        elif run:
+            names = ", ".join(f"“{f.title.lower()}”" for f in run)
+            out.append(f"<p class='grey'>No figures {esc(names)}: {esc(run[0].unavailable.rstrip('.'))}.</p>")
+        run.clear()
+
+    for block in blocks:
+        if isinstance(block, Figure) and block.unavailable and (not run or run[0].unavailable == block.unavailable):
+            run.append(block)
+            continue
+        flush()
+        if isinstance(block, Figure) and block.unavailable:
+            run.append(block)
+        else:
+            out.append(block)
+    flush()
+    return out
+
+
+def render_html(report: Report, images: Mapping[str, str] | None = None, *, scale: float = 1.0) -> str:
+    """The report as one HTML document, its sections flowing one after the other (a printed page
+    breaks where it is full; a figure, being one image, is never split). `images`: figure key ->
+    img src; `scale`: figure size on the page / its own size."""
     images = images or {}
-    brk = " style='page-break-before: always'" if page_breaks else ""
     body = [f"<h1>{esc(report.title)}</h1>", report.header,
             "<table width='100%' cellpadding='8' style='border: 1px solid #1a73e8; background-color: #e8f0fe;'>"
-            f"<tr><td>{report.summary}</td></tr></table>"]
-    for i, section in enumerate(report.sections):
-        body.append(f"<h2{brk if i else ''}>{esc(section.title)}</h2>")
-        for block in section.blocks:
+            f"<tr><td>{report.summary}</td></tr></table>", report.conventions]
+    for section in report.sections:
+        body.append(f"<h2>{esc(section.title)}</h2>")
+        for block in _merge_missing(section.blocks):
             body.append(_figure_html(block, images.get(block.key), scale) if isinstance(block, Figure) else block)
-    body.append(report.footer)
     return ("<!DOCTYPE html>\n<html><head><meta charset='utf-8'>"
             f"<title>{esc(report.title)}</title><style>{STYLE}</style></head><body>\n"
             + "\n".join(body) + "\n</body></html>\n")

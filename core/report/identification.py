@@ -5,13 +5,15 @@ with the identifiability notes, and (virtual lab) the errors against the true ro
 in mm, angles in degrees."""
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from core.errors import RoboCalError
 from core.report.compliance import deflection_blocks
 from core.project import Project
-from core.report.document import (Figure, Section, esc, not_done, num, panel, series, sig, table,
-                                  unreadable)
+from core.report.document import (Figure, Section, esc, not_done, num, panel, parameter_name, series, sig,
+                                  table, unreadable)
 from core.robot.model import RobotModel
 
 TITLE = "Identification"
@@ -67,20 +69,28 @@ def _blocks(calibration: dict, model: RobotModel, source: str, robot, accuracy, 
                   f"condition number κ = {sig(s.get('condition_number'), 4)}; "
                   f"estimated σ = {num(s.get('sigma_hat'), 4)} "
                   f"{'× the measurements’ own σ' if s.get('sigma_hat_unit') == '1' else 'mm per axis'}.</p>")
+    v = s.get("validation")
+    errors = _pose_errors(model, robot, v, facts.get("measurements"))
+    before = {"rms_mm": s.get("rms_before_mm")}
+    why_before = ""
+    if isinstance(errors, PoseErrors):
+        before = errors.fitted_before()
+    else:
+        why_before = (f"<p class='note'>Before calibration only the RMS is recorded in {esc(source)}; the mean and "
+                      f"max {esc(errors)}.</p>")
     blocks.append("<h3>Position errors on the fitted poses (mm)</h3>"
-                  + _stats_table([("before (nominal model, base registered)", {"rms_mm": s.get("rms_before_mm")}),
+                  + _stats_table([("before (nominal model, base registered)", before),
                                   ("after (calibrated model)", {"mean_mm": s.get("mean_after_mm"),
                                                                 "rms_mm": s.get("rms_after_mm"),
                                                                 "max_mm": s.get("max_after_mm"),
-                                                                "n": s.get("n_points", "")})]))
-    v = s.get("validation")
+                                                                "n": s.get("n_points", "")})]) + why_before)
     if isinstance(v, dict):
         facts["validation"] = v
         how = (f"{v.get('n_test_poses')} held-out poses ({float(v.get('fraction', 0)):.0%})"
                if v.get("method") == "holdout" else f"{v.get('folds')}-fold cross validation")
         blocks.append(f"<h3>Validation on poses left out of the fit (mm): {esc(how)}</h3>"
                       + _stats_table([("before", v.get("before", {})), ("after", v.get("after", {}))]))
-    blocks += _error_figures(model, robot, v, facts.get("measurements"))
+    blocks += _error_figures(errors)
     blocks.append(_convergence(s))
     if accuracy is not None:
         facts["accuracy"] = accuracy
@@ -98,51 +108,101 @@ def _blocks(calibration: dict, model: RobotModel, source: str, robot, accuracy, 
              panel("histogram", "calibrated model", "error (mm)", "points",
                    [series("calibrated", values=accuracy.calibrated.errors, color=0)])]))
     blocks += deflection_blocks(calibration, model, facts.get("measurements"))
-    blocks.append(_parameters(calibration))
-    blocks.append(_correlation(calibration))
+    names, matrix = _correlation_matrix(calibration)
+    together = not_separable(names, matrix)
+    facts["not_separable"] = together
+    blocks.append(_parameters(calibration, together))
+    blocks.append(_correlation(names, matrix))
     return blocks
 
 
 STRONG_CORRELATION = 0.9        # |r| above this: the two parameters are hard to tell apart
+STATUS_SHORT = {"identified": "✓", "not identifiable": "kept"}      # the parameter table's status column
+NOT_SEPARABLE = 0.99            # |r| above this: the data determine only a combination of the two
 
 
-def _correlation(calibration: dict) -> Figure:
-    """The correlation matrix of the estimated parameters (calibrated.json's 'correlation')."""
-    title = "Parameter correlation matrix"
+def _correlation_matrix(calibration: dict) -> tuple[list[str], np.ndarray | None]:
+    """The estimated parameters' names and their correlation matrix (None when calibrated.json
+    does not record it)."""
     c = calibration.get("correlation")
     if not isinstance(c, dict):
-        return Figure("identification_correlation", title, "",
-                      unavailable="calibrated.json does not record the parameters' correlation (written by an "
-                                  "older version); the Identification step shows it")
+        return [], None
     names = [str(n) for n in c["parameters"]]
     m = np.array([[np.nan if v is None else float(v) for v in row] for row in c["matrix"]], dtype=float)
     if m.shape != (len(names), len(names)):
         raise ValueError(f"correlation matrix of shape {m.shape} for {len(names)} parameters")
+    return names, m
+
+
+def not_separable(names: list[str], matrix: np.ndarray | None) -> list[tuple[str, str, float]]:
+    """The pairs (a, b, r) of estimated parameters whose estimates correlate beyond ±NOT_SEPARABLE,
+    strongest first: the measurements fix only a combination of the two."""
+    if matrix is None:
+        return []
+    pairs = [(names[i], names[j], float(matrix[i, j])) for i in range(len(names)) for j in range(i)
+             if np.isfinite(matrix[i, j]) and abs(matrix[i, j]) > NOT_SEPARABLE]
+    return sorted(pairs, key=lambda t: -abs(t[2]))
+
+
+def _separability_text(together: list[tuple[str, str, float]]) -> str:
+    """One sentence per pair of parameters the data cannot separate."""
+    if not together:
+        return ""
+    items = "".join(
+        f"<li>{esc(parameter_name(a))} and {esc(parameter_name(b))} are not separable (r = {r:+.3f}): the "
+        "measurements fix only a combination of the two, so neither value nor its σ means much alone; poses "
+        "that move the joints they belong to more widely may separate them.</li>" for a, b, r in together)
+    return (f"<h3>Parameters not separable (|r| &gt; {NOT_SEPARABLE})</h3><ul>{items}</ul>")
+
+
+def _correlation(names: list[str], m: np.ndarray | None) -> Figure | str:
+    """The correlation matrix of the estimated parameters (calibrated.json's 'correlation'), its
+    rows and columns named by the parameters; a sentence when the file does not record it."""
+    title = "Parameter correlation matrix"
+    if m is None:
+        return ("<p class='grey'>The parameters' correlation matrix is not shown: calibrated.json was written by "
+                "an older version that did not record it (the Identification step shows it).</p>")
     strong = [(abs(m[i, j]), names[i], names[j], m[i, j]) for i in range(len(m)) for j in range(i)
               if np.isfinite(m[i, j]) and abs(m[i, j]) > STRONG_CORRELATION]
     strong.sort(reverse=True)
-    key = ", ".join(f"{i + 1} {n}" for i, n in enumerate(names))
     caption = (f"Correlation between the estimates of the {len(names)} estimated parameters (blue −1, white 0, "
-               f"red +1); row and column i are parameter i: {key}. ")
-    caption += ("Pairs above ±" + f"{STRONG_CORRELATION}: " + "; ".join(f"{a}–{b} {r:+.3f}" for _, a, b, r in strong[:8])
+               "red +1). ")
+    caption += ("Pairs above ±" + f"{STRONG_CORRELATION}: "
+                + "; ".join(f"{parameter_name(a)}–{parameter_name(b)} {r:+.3f}" for _, a, b, r in strong[:8])
                 + (f" and {len(strong) - 8} more" if len(strong) > 8 else "")
                 + ": the data hardly tell these apart." if strong
                 else f"No pair is above ±{STRONG_CORRELATION}: every estimate is well separated from the others.")
+    side = max(420, min(900, 160 + 20 * len(names)))     # 20 px a row: an 8.5 pt name printed
     return Figure("identification_correlation", title, caption,
-                  [{**panel("matrix", "", "parameter (number)", "parameter (number)", []), "matrix": m}],
-                  size=(620, 540))
+                  [{**panel("matrix", "", "", "", []), "matrix": m, "labels": [parameter_name(n) for n in names]}],
+                  size=(side + 110, side + 30))
 
 
-def _error_figures(model: RobotModel, robot: RobotModel | None, validation, meas) -> list:
-    titles = ("Error per pose, before and after", "Error histograms")
-    why = None
+@dataclass
+class PoseErrors:
+    """Errors per point of the nominal model (base registered on the fitted poses) and of the
+    calibrated model on every measured point (mm), and which poses were fitted or held out."""
+
+    before: object                     # core.identification.result.ErrorStats
+    after: object
+    fit_ids: list[int]
+    test_ids: list[int]
+
+    def errors(self, stats, poses) -> np.ndarray:
+        return stats.errors[np.isin(stats.pose, list(poses))]
+
+    def fitted_before(self) -> dict:
+        e = self.errors(self.before, self.fit_ids)
+        return {"mean_mm": float(e.mean()), "rms_mm": float(np.sqrt(np.mean(e ** 2))), "max_mm": float(e.max()),
+                "n": len(e)} if len(e) else {}
+
+
+def _pose_errors(model: RobotModel, robot: RobotModel | None, validation, meas) -> PoseErrors | str:
+    """The errors before and after on every measured point, or why they cannot be computed."""
     if meas is None:
-        why = "needs the project's measurements.csv"
-    elif robot is None:
-        why = "needs the project's nominal robot model (robot.json)"
-    if why:
-        return [Figure("identification_per_pose", titles[0], "", unavailable=why),
-                Figure("identification_histograms", titles[1], "", unavailable=why)]
+        return "need the project's measurements.csv"
+    if robot is None:
+        return "need the project's nominal robot model (robot.json)"
     from core.identification.fit import error_stats, register_base
     from core.identification.validation import split_poses
 
@@ -151,18 +211,24 @@ def _error_figures(model: RobotModel, robot: RobotModel | None, validation, meas
     if isinstance(validation, dict) and validation.get("method") == "holdout":
         test = [int(p) for p in validation.get("test_poses") or []] or \
             split_poses(ids, float(validation["fraction"]), int(validation.get("seed", 0)))[1]
-    train = [p for p in ids if p not in set(test)]
+    held = set(test)
+    train = [p for p in ids if p not in held]
     try:
         initial = register_base(robot, meas.select_poses(train))
         before, after = error_stats(initial, meas), error_stats(model, meas)
     except _ERRORS as exc:
-        why = f"the models cannot predict these measurements: {getattr(exc, 'message', exc)}"
-        return [Figure("identification_per_pose", titles[0], "", unavailable=why),
-                Figure("identification_histograms", titles[1], "", unavailable=why)]
+        return f"cannot be computed: the models cannot predict these measurements ({getattr(exc, 'message', exc)})"
+    return PoseErrors(before, after, train, [p for p in ids if p in held])
+
+
+def _error_figures(errors: PoseErrors | str) -> list:
+    titles = ("Error per pose, before and after", "Error histograms")
+    if not isinstance(errors, PoseErrors):
+        why = f"the errors per pose {errors}"
+        return [f"<p class='grey'>No figure of the errors per pose and their histograms: {esc(why)}.</p>"]
+    before, after, fit_ids, test_ids = errors.before, errors.after, errors.fit_ids, errors.test_ids
     b = {p["pose"]: p["error_mm"] for p in before.per_pose()}
     a = {p["pose"]: p["error_mm"] for p in after.per_pose()}
-    held = set(test)
-    fit_ids, test_ids = [p for p in ids if p not in held], [p for p in ids if p in held]
     per_pose = [series("before, fitted pose", fit_ids, [b[p] for p in fit_ids], color=1),
                 series("after, fitted pose", fit_ids, [a[p] for p in fit_ids], color=0)]
     if test_ids:
@@ -173,21 +239,18 @@ def _error_figures(model: RobotModel, robot: RobotModel | None, validation, meas
     fig1 = Figure("identification_per_pose", titles[0],
                   "RMS distance per pose between measured and predicted marker positions, nominal model (base "
                   "registered on the fitted poses) and calibrated model; log scale." + held_text,
-                  [panel("points", "", "pose", "position error (mm)", per_pose, log_y=True)])
-
-    def errs(stats, wanted):
-        keep = np.isin(stats.pose, list(wanted))
-        return stats.errors[keep]
+                  [panel("points", "", "pose", "position error (mm)", per_pose, log_y=True)], size=(900, 290))
 
     panels = []
     for label, stats, color in (("before (nominal model)", before, 1), ("after (calibrated model)", after, 0)):
-        data = [series("fitted poses", values=errs(stats, fit_ids), color=color)]
+        data = [series("fitted poses", values=errors.errors(stats, fit_ids), color=color)]
         if test_ids:
-            data.append(series("held-out poses", values=errs(stats, test_ids), color=2))
+            data.append(series("held-out poses", values=errors.errors(stats, test_ids), color=2))
         panels.append(panel("histogram", label, "position error (mm)", "points", data))
     fig2 = Figure("identification_histograms", titles[1],
                   "How the position errors are spread, before and after calibration (note the different "
-                  "scales), on the fitted" + (" and on the held-out" if test_ids else "") + " poses.", panels)
+                  "scales), on the fitted" + (" and on the held-out" if test_ids else "") + " poses.", panels,
+                  size=(900, 340))
     return [fig1, fig2]
 
 
@@ -207,24 +270,37 @@ def _convergence(stats: dict) -> Figure:
                   size=(900, 300))
 
 
-def _parameters(calibration: dict) -> str:
+def _parameters(calibration: dict, together: list[tuple[str, str, float]]) -> str:
+    """The parameter table, the pairs the data cannot separate, the
+    parameters not identifiable, fixed by the user, and the fit's warnings. A parameter in a pair
+    that is not separable is listed "with" its partner, never as identified on its own."""
     params = calibration.get("parameters") or []
+    partner: dict[str, list[str]] = {}
+    for a, b, _r in together:
+        partner.setdefault(a, []).append(parameter_name(b))
+        partner.setdefault(b, []).append(parameter_name(a))
     parts = []
     if params:
         rows = []
         for p in params:
             deg = p.get("unit") == "deg"
             digits = 4 if deg else 3
-            text = [esc(p.get("name")), num(p.get("nominal"), digits), num(p.get("identified"), digits),
-                    sig(p.get("std"), 2) if p.get("std") is not None else "—", esc("°" if deg else p.get("unit", "")),
-                    esc(p.get("status", ""))]
+            status = str(p.get("status", ""))
+            status = STATUS_SHORT.get(status, status)
+            if p.get("name") in partner:
+                status = "only with " + ", ".join(partner[p.get("name")])
+            unit = "°" if deg else p.get("unit", "")
+            text = [esc(parameter_name(p.get("name"))), num(p.get("nominal"), digits), num(p.get("identified"), digits),
+                    f"{sig(p.get('std'), 2)} {esc(unit)}" if p.get("std") is not None else esc(unit), esc(status)]
             if not p.get("identifiable"):
                 text = [f"<span class='grey'>{t}</span>" for t in text]
             rows.append(text)
-        parts.append("<h3>Parameters: nominal → identified ± σ</h3><p class='note'>Grey: not estimated, kept at "
-                     "nominal.</p>"
-                     + table(["parameter", "nominal", "identified", "± σ", "unit", "status"], rows,
-                             numeric={1, 2, 3}))
+        header = ["parameter", "nominal", "identified", "± σ", "status"]
+        parts.append("<h3>Parameters: nominal → identified ± σ</h3><p class='note'>✓ identified; grey: not "
+                     "estimated, kept at its nominal value (“kept”: not identifiable, see below); “only with”: "
+                     "not separable from that parameter (below).</p>"
+                     + table(header, rows, numeric={1, 2, 3}))
+    parts.append(_separability_text(together))
     unid = calibration.get("unidentifiable") or []
     if unid:
         parts.append("<h3>Not identifiable</h3><ul>"

@@ -75,7 +75,7 @@ def marker_section(project: Project, facts: dict, problems: list[str]) -> Sectio
                   [series("SIFT features", marker.keypoint_xy[own, 0], marker.keypoint_xy[own, 1], color=5),
                    series("outline", outline[:, 0], outline[:, 1], color=1, symbol="", line=True)],
                   equal_aspect=True), "image": marker.image}],
-        size=(560, 480)))
+        size=(500, 420)))
     details, why = _details(project, problems)
     blocks += _live(project, details.get("live"), why or "no live pair was located since the marker was trained",
                     problems)
@@ -247,7 +247,7 @@ def _ssd_figure(ssd: dict | None) -> Figure:
         f"reliability {num(ssd.get('reliability'), 3)} (best / second-best minimum: 0 unique … 1 ambiguous).",
         [panel("points", "whole search range", "disparity d (px)", ylabel, curves(everything, True), log_y=True),
          panel("points", "around the minimum", "disparity d (px)", ylabel, curves(near, False))],
-        size=(900, 420))
+        size=(900, 360))
 
 
 def _sweep_figure(sweep: dict | None) -> Figure:
@@ -294,7 +294,7 @@ def _sweep_figure(sweep: dict | None) -> Figure:
         + (f" ({wrong} of {len(sizes)} sizes here)" if wrong else " (none here)")
         + (f"; d* = {num(located, 3)} px is the disparity of the located pair" if located is not None else "")
         + f". Differences below {MIN_DISPARITY_ERROR:g} px are drawn at {MIN_DISPARITY_ERROR:g} px.",
-        panels, size=(900, 400))
+        panels, size=(900, 340))
 
 
 # -- the verification --------------------------------------------------------------------------
@@ -382,4 +382,4 @@ def _precision_figure(v: dict) -> Figure:
                x_ticks=ticks),
          panel("points", "against the depth", "marker depth z (mm)", "3D distance (mm)",
                drawn(z, [np.nanmin(z), np.nanmax(z)]))],
-        size=(900, 400))
+        size=(900, 340))

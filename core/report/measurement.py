@@ -50,7 +50,7 @@ def measurement_section(project: Project, robot: RobotModel | None, facts: dict,
         "optical axis; mm), seen from the cameras (x, y) and from above (x, z)"
         + (", with the two cameras (squares)." if right is not None else "; the left camera at the origin."),
         [view("seen from the cameras", 0, 1, "x (mm)", "y (mm)"), view("from above", 0, 2, "x (mm)", "z (mm)")],
-        size=(900, 430)))
+        size=(900, 380)))
     blocks.append(_rejects(path, problems))
     return Section(TITLE, blocks)
 

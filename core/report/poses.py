@@ -65,7 +65,7 @@ def poses_section(project: Project, robot: RobotModel | None, facts: dict, probl
         "poses_views", "Marker positions",
         f"Where the nominal model puts the target '{target}' at each pose, in the model's world frame (mm), "
         f"seen from above and from the side; the black cross is the robot's base{where}.",
-        [view("top view", 1), view("side view", 2)], size=(900, 430)))
+        [view("top view", 1), view("side view", 2)], size=(900, 380)))
     return Section(TITLE, blocks)
 
 

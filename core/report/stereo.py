@@ -7,7 +7,7 @@ import numpy as np
 from core.errors import RoboCalError
 from core.files import read_json
 from core.project import Project
-from core.report.document import (Figure, Section, esc, not_done, num, pairs_table, panel, series, sig, table,
+from core.report.document import (Figure, Section, esc, not_done, num, pairs_table, panel, series, side_by_side, sig,
                                   unreadable)
 
 TITLE = "Stereo calibration"
@@ -101,7 +101,7 @@ def _details(project: Project, problems: list[str], rms_stereo: float) -> list:
                                     [series("left", L[:, 0], L[:, 1], color=0)], equal_aspect=True),
                               panel("points", "right camera", "residual u (px)", "residual v (px)",
                                     [series("right", R[:, 0], R[:, 1], color=1)], equal_aspect=True)],
-                             size=(900, 430)))
+                             size=(900, 380)))
     else:
         blocks.append(Figure("stereo_residuals", titles[1], "",
                              unavailable="stereo.json has no residuals (written by an older version)"))
@@ -109,11 +109,15 @@ def _details(project: Project, problems: list[str], rms_stereo: float) -> list:
     blocks.append(_coverage(summary.get("coverage")))
     blocks.append(_cross_validation(summary.get("cross_validation"), rms_stereo))
     if params:
-        rows = [[esc(p.get("group", "")), esc(p.get("name", "")), num(p.get("value"), 4),
-                 "fixed" if p.get("fixed") else ("—" if p.get("std") is None else sig(p.get("std"), 2)),
-                 esc(p.get("unit", ""))] for p in params]
+        groups: dict[str, list] = {}
+        for p in params:
+            unit = f" {esc(p['unit'])}" if p.get("unit") else ""
+            std = "fixed" if p.get("fixed") else ("" if p.get("std") is None else sig(p.get("std"), 2) + unit)
+            groups.setdefault(str(p.get("group", "")), []).append(
+                [esc(p.get("name", "")), num(p.get("value"), 4), std])
+        # the left camera, right camera and stereo parameters side by side
         blocks.append("<h3>Camera parameters ± σ</h3>"
-                      + table(["group", "parameter", "value", "± σ", "unit"], rows, numeric={2, 3}))
+                      + side_by_side([[g, "value", "± σ"] for g in groups], list(groups.values()), numeric={1, 2}))
     return blocks
 
 

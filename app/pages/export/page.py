@@ -16,6 +16,7 @@ from app.pages.export.rows_panel import ExportRows
 from app.pages.steps import Step
 from app.report.gui_drawer import GuiDrawer
 from app.report.render import write_report
+from app.report.title_fields import ReportTitleFields
 from core.errors import RoboCalError
 from core.files import ensure_writable_dir
 from core.locks import output_locks
@@ -50,6 +51,7 @@ class ExportPage(WizardPage):
 
         self.rows_panel = ExportRows(self.items, lambda key: self.export(key))
         self.rows = self.rows_panel.rows
+        self.report_title = ReportTitleFields()       # student/operator, course, serial number
 
         self.status.setTextFormat(Qt.TextFormat.PlainText)
         self.status.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
@@ -58,6 +60,7 @@ class ExportPage(WizardPage):
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(folder_box)
         layout.addWidget(self.rows_panel)
+        layout.addWidget(self.report_title)
         layout.addWidget(self.progress_row())
         layout.addWidget(self.status)
         layout.addStretch(1)
@@ -151,7 +154,8 @@ class ExportPage(WizardPage):
 
         if self.start(write_report, self.state.project, [folder / "report.html", folder / "report.pdf"],
                       robot=self.state.robot, identification=self.state.identification, accuracy=self.state.accuracy,
-                      draw=self._drawer.draw, on_done=done, on_failed=failed, on_cancelled=cancelled,
+                      **self.report_title.values(), draw=self._drawer.draw, on_done=done, on_failed=failed,
+                      on_cancelled=cancelled,
                       label="report", status="Writing the report…"):
             self.progress_row().set_progress(0.0, "reading the project")
             self._row_status("report", "Writing…", ok=None)

@@ -4,6 +4,7 @@ Also core.report and core.virtual_lab.ideal_measurements, which only this page a
 page use."""
 from __future__ import annotations
 
+import re
 import xml.etree.ElementTree as ET
 
 import cv2
@@ -302,3 +303,15 @@ def test_an_export_held_by_a_running_command_is_refused_on_its_row(page, calibra
     assert f"being written by process {os.getpid()}" in page.row_text("dh-csv")
     assert (folder / "calibrated_dh.csv").read_text() == "previous\n"
     assert [p.name for p in page.export("dh-csv")] == ["calibrated_dh.csv"]
+
+
+def test_the_report_title_fields_go_into_the_report(page, calibration, qtbot):
+    give_result(page, calibration)
+    fields = page.report_title
+    for key, text in (("author", "Ana Student"), ("course", "Robotics 2"), ("serial", "RCS6-0421")):
+        qtbot.keyClicks(fields.edits[key], text)
+    written = export_report(page, qtbot)
+    html = next(p for p in written if p.suffix == ".html").read_text()
+    text = " ".join(re.sub(r"<[^>]+>", " ", html).split())
+    for field in ("Student / operator Ana Student", "Course Robotics 2", "Serial number RCS6-0421"):
+        assert field in text, field

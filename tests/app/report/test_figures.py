@@ -7,7 +7,7 @@ import pyqtgraph as pg
 import pytest
 
 from app.report import figures
-from app.report.figures import log_ticks, render_png
+from app.report.figures import PRINT_SCALE, ColumnNamesAxis, log_ticks, plot_widget, render_png
 from core.report.document import Figure, panel, series
 
 
@@ -26,7 +26,7 @@ def test_the_legend_grows_with_the_export_scale(qapp):
                                        [series("first series name", [1, 2, 3], [1, 2, 3], color=0),
                                         series("second series name", [1, 2], [2, 1], color=1)])],
                  size=(600, 300))
-    w = figures._widget(fig)
+    w = figures.plot_widget(fig)
     try:
         legends = [i for i in w.scene().items() if isinstance(i, pg.LegendItem)]
         assert len(legends) == 1
@@ -105,3 +105,44 @@ def test_log_tick_text_is_short(value, text):
 
 def test_one_notation_per_log_axis():
     assert [figures.tick_text(v, powers=True) for v in (100.0, 1e4)] == ["10²", "10⁴"]
+
+
+def test_figure_text_prints_at_8_to_9_pt(qapp):
+    """Tick labels, legends and axis labels are drawn 1 / PRINT_SCALE larger than printed: on an A4
+    page (figures printed at PRINT_SCALE of their drawn size) they read 8.5 and 9 pt."""
+    fig = Figure("f", "t", "c", [panel("points", "", "x (mm)", "y (mm)",
+                                       [series("a", [0, 1], [0, 1]), series("b", [0, 1], [1, 0])])])
+    w = plot_widget(fig)
+    try:
+        plot = w.getItem(0, 0)
+        for name in ("left", "bottom"):
+            printed = plot.getAxis(name).style["tickFont"].pointSizeF() * PRINT_SCALE
+            assert 8.0 <= printed <= 9.0, (name, printed)
+        legend = w.getItem(1, 0)
+        label_pt = float(legend.opts["labelTextSize"].removesuffix("pt"))
+        assert 8.0 <= label_pt * PRINT_SCALE <= 9.0
+    finally:
+        w.close()
+        w.deleteLater()
+
+
+def test_the_correlation_matrix_names_its_rows_and_columns(qapp):
+    names = ["J1.a", "J1.α", "J5.θ", "base.x"]
+    m = np.eye(4)
+    m[2, 0] = m[0, 2] = -1.0
+    fig = Figure("c", "corr", "", [{**panel("matrix", "", "", "", []), "matrix": m, "labels": names}],
+                 size=(500, 470))
+    w = plot_widget(fig)
+    try:
+        plot = w.getItem(0, 0)
+        left = plot.getAxis("left")
+        assert [t for _, t in left._tickLevels[0]] == names
+        bottom = plot.getAxis("bottom")
+        assert isinstance(bottom, ColumnNamesAxis) and [t for _, t in bottom._names] == names
+        # the upright names need their height below the matrix, and are drawn there
+        assert bottom.height() > 30
+        below = bottom.sceneBoundingRect()
+    finally:
+        w.close()
+        w.deleteLater()
+    assert dark_pixels(render_png(fig), below, figures.SCALE) > 2500      # four numbers alone: about 1900
