@@ -43,7 +43,9 @@ class MeasuredPoses:
     cell: CellMeasure | None = None
 
     def close(self) -> None:
-        for close in reversed(self.closers):
+        """Run the closers in their order (a move made ahead is waited for before the robot is
+        disconnected)."""
+        for close in self.closers:
             close()
 
     def __enter__(self) -> "MeasuredPoses":

@@ -157,3 +157,20 @@ def test_a_pose_outside_the_limits_is_refused_before_the_robot_is_connected(lab_
             check_sources.connected_cell(lab.nominal_robot, Q, sim.port, "robocal_v1",
                                          (str(cameras.left), str(cameras.right)), locator(trained, rect))
         assert sim.moves == 0
+
+
+def test_the_command_line_cell_raises_a_fault_instead_of_measuring_on(lab_cell, tmp_path):
+    """The cell as `robocal identify-tool --port` opens it: a fault of the second move ends the
+    measurements with the RobotFault (exit 1), not with the one pose measured before it."""
+    lab, check, rect, trained = lab_cell
+    cameras = SimulatedCellCameras(lab, tmp_path / "cams")
+    with ControllerSim(lab.true_robot, faults="fault@2", time_scale=0.01, on_rest=cameras.on_rest) as sim:
+        poses = check_sources.connected_cell(lab.nominal_robot, check.Q, sim.port, "robocal_v1",
+                                             (str(cameras.left), str(cameras.right)), locator(trained, rect))
+        with pytest.raises(RobotFault, match="robot fault, the run stopped there .*FAULT"):
+            with poses:
+                poses.measurements(lab.nominal_robot)
+        moves = sim.moves
+    assert moves == 2 and poses.cell.driver.stopped and poses.cell.moves == 1
+    assert poses.where == f"serial robot on {sim.port} (RoboCal serial protocol v1), cameras {cameras.left}, " \
+                          f"{cameras.right}"
