@@ -62,19 +62,24 @@ def identify_tool_cell(calibrated, tool: str, measure: CellMeasure, options: dic
                                 progress=monitor.sub(0.0, 0.4), cancelled=measure.cancelled(cancelled))
     target = model.tool_targets(tool)[0]
     Q, poses, xyz = [], [], []
-    for k, q in enumerate(proposal.Q):
-        monitor.step(0.4 + 0.5 * k / len(proposal.Q), f"measuring the tool at pose {k + 1} of {len(proposal.Q)}")
-        try:
-            p = measure(q)
-        except RoboCalError:
-            if measure.fault is not None or measure.driver.stopped:
-                raise RoboCalError(f"the tool was not identified: {measure.fault or 'the robot was stopped'}",
-                                   hint="Nothing was written. Clear the fault, Resume, and identify the tool again.")
-            continue
-        if p is not None:
-            Q.append(q)
-            poses.append(k)
-            xyz.append(p)
+    measure.follow(proposal.Q)
+    try:
+        for k, q in enumerate(proposal.Q):
+            monitor.step(0.4 + 0.5 * k / len(proposal.Q), f"measuring the tool at pose {k + 1} of {len(proposal.Q)}")
+            try:
+                p = measure(q)
+            except RoboCalError:
+                if measure.fault is not None or measure.driver.stopped:
+                    raise RoboCalError(f"the tool was not identified: {measure.fault or 'the robot was stopped'}",
+                                       hint="Nothing was written. Clear the fault, Resume, and identify the tool "
+                                            "again.")
+                continue
+            if p is not None:
+                Q.append(q)
+                poses.append(k)
+                xyz.append(p)
+    finally:
+        measure.finish()
     if not Q:
         raise RoboCalError(f"the marker of tool '{tool}' was found at none of the {len(proposal.Q)} proposed poses",
                            hint="Check that the tool is mounted and the marker faces the cameras.")

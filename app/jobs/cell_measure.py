@@ -6,16 +6,16 @@ locate the marker (Qt-free; on the Check page's worker thread, or for `robocal c
 (app.jobs.check → core.monitoring.check.run_check), a re-identification and a tool
 identification call at each pose → the marker's centre (mm, left camera frame), or None when
 it is not found:
-- the driver refuses joint values outside the limits and sends nothing; the callers check every
-  pose of the run before the first motion as well (the page: app.safety, the command line:
-  app.jobs.check_sources.connected_cell);
+- the driver refuses joint values outside the limits and sends nothing; the poses of a run given
+  from the start are all checked before the first motion as well (the page: app.safety, the
+  command line: app.jobs.check_sources.connected_cell);
 - the pair is captured once the robot reports it arrived (and `settle_s` seconds later), from
   live cameras, video files or image folders (anything with `capture()`);
-- with a `plan` (the poses in the order the run measures them, rad / mm), the move to the next
-  planned pose starts as soon as a pair is captured, while the marker is located in it: the
-  robot's motion and the image processing overlap. No move is started ahead once the run is
-  cancelled, the robot stopped or a fault happened; a pose asked for out of the plan is driven
-  to directly (and ends the moving ahead).
+- with a `plan` (the poses in the order the run measures them, rad / mm; given, or `follow(plan)`
+  once the run has chosen them), the move to the next planned pose starts as soon as a pair is
+  captured, while the marker is located in it: the robot's motion and the image processing
+  overlap. No move is started ahead once the run is cancelled, the robot stopped or a fault
+  happened; a pose asked for out of the plan is driven to directly (and ends the moving ahead).
 
 A robot or connection fault (the watchdog's timeout included) stops the robot, is kept in
 `fault`, and the pose is not measured (RoboCalError); `cancelled()` is then true, so the run ends
@@ -93,6 +93,12 @@ class CellMeasure:
         self._start_next()                     # the robot moves on while the marker is located in this pair
         location = self.locator.locate(frames.left, frames.right)
         return location.point if location.ok else None
+
+    def follow(self, plan) -> None:
+        """The poses the run measures from now on, in order (rad / mm), once they are known (a
+        run that chooses them first): the robot moves on to the next while the marker is located."""
+        self.finish()
+        self.plan, self._next = np.atleast_2d(np.asarray(plan, dtype=float)), 0
 
     def cancelled(self, user: Callable[[], bool] | None = None) -> Callable[[], bool]:
         """The cancel check of a run: the user cancelled (`user`, also consulted before a move

@@ -1,7 +1,9 @@
 """`robocal check --port --cameras`: an unattended check of a connected cell. The robot is `robocal
 sim-robot` on a real pseudo-terminal (seed 0: the virtual lab's true robot); the cameras are two
 image folders holding the pairs the lab renders at the check poses (read with the camera code
-the Setup page uses). A robot fault stops the check with what was measured in the log, exit 1."""
+the Setup page uses). A robot fault stops the check with what was measured in the log, exit 1.
+The robot's motion is confirmed: asked once on a terminal, or --cell-clear; with neither (no
+terminal) the check is refused (exit 2) and the robot never moves."""
 from __future__ import annotations
 
 import json

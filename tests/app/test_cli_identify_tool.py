@@ -140,7 +140,7 @@ def test_a_tool_identified_on_the_connected_cell(cell, tmp_path, capsys, monkeyp
     import io
 
     import cv2
-    from app.lab import apply_change
+    from app.lab import apply_change, build_lab
     from app.sim_cameras import SimulatedCellCameras
     from core.robot.controller_sim import ControllerSim
     from tests.app.virtual_inputs import true_stereo_yaml

@@ -83,7 +83,8 @@ def test_teach_mode_reads_the_joints_a_controller_reports(cell, tmp_path):
     live = LiveCameras.open(CameraChoice("sources", str(cameras.left), str(cameras.right)))
     driver = open_serial_robot(lab.nominal_robot, RobotChoice("serial", sim.port, "robocal_v1"), reply_timeout=10.0)
     try:
-        check = setup_cell(folder / "calibrated.json", cell_options(rect.calibration.rig, folder / "measurements.csv"), count=5)
+        check = setup_cell(folder / "calibrated.json", cell_options(rect.calibration.rig, folder / "measurements.csv"),
+                           count=5)
         brought = check.Q[0] + np.deg2rad([2.0, 0, 0, 0, 0, 0])
         driver.move_to(brought)                                 # the pendant's work
         taught = record_check_pose(check, 0, live, locator(trained, rect), driver=driver)
