@@ -6,7 +6,8 @@ Where it measures, one of:
   (`DIR/left`, `DIR/right`, as `robocal measure` reads them);
 - `--measurements M.csv`: points measured by another instrument (or by `robocal measure`);
 - `--port PORT --profile P --cameras L,R --stereo S --marker M`: the connected cell, the robot
-  driven to each check pose (unattended: from cron or a systemd timer);
+  driven to each check pose once its motion is confirmed: asked on a terminal, or `--cell-clear`
+  for an unattended run from cron or a systemd timer (app.commands.connected_cell);
 - `--lab` (or any `--lab-…` / `--change` option): the virtual lab, for teaching.
 `--propose-poses P.csv` only writes the check poses (a joints file) and measures nothing.
 
@@ -16,7 +17,7 @@ re-identification then brought it back; 1 bad data or a robot fault, 2 usage).
 from __future__ import annotations
 
 from app.commands import CommandResult, ProgressLine, check_output
-from app.commands import options
+from app.commands import connected_cell, options
 from core.bounds import Bound
 
 HELP = "Check a calibrated robot at its check poses, diagnose a change and re-identify it (exit 3: out of limits)"
@@ -59,12 +60,8 @@ def add_arguments(parser) -> None:
     files.add_argument("--images", metavar="DIR", help="folder with left/ and right/ image folders (with --joints)")
     files.add_argument("--measurements", metavar="M.csv",
                        help="measurements file of the check poses (robocal measure, or import-measurements)")
-    cell = parser.add_argument_group("the connected cell")
-    cell.add_argument("--port", metavar="PORT", help="the robot controller's serial port (e.g. /dev/ttyUSB0)")
-    cell.add_argument("--profile", metavar="NAME", default="robocal_v1",
-                      help="the controller's protocol profile (default robocal_v1; grbl_joint_arm, mecademic_meca500)")
-    cell.add_argument("--cameras", metavar="LEFT,RIGHT",
-                      help="the two cameras: device indices (0,1), device paths, video files or image folders")
+    connected_cell.add_arguments(parser, port_help="the robot controller's serial port (e.g. /dev/ttyUSB0): the "
+                                 "check poses (and with --out the re-identification's) are driven there")
     parser.add_argument("--stereo", metavar="S", help="stereo calibration: locate the marker in the pairs (with "
                         "--marker); with --propose-poses, keep poses both cameras see")
     parser.add_argument("--marker", metavar="M", help="marker training image, description or trained marker")
@@ -96,7 +93,7 @@ def _source(args) -> str:
     """Which of the measuring inputs was given (UsageError when none or several)."""
     lab = bool(args.lab or args.lab_seed is not None or args.lab_robot or args.change)
     given = {"images": bool(args.images or args.joints), "measurements": bool(args.measurements),
-             "port": bool(args.port or args.cameras), "lab": lab}
+             "port": connected_cell.given(args), "lab": lab}
     chosen = [k for k, v in given.items() if v]
     if args.propose_poses:
         if chosen and chosen != ["lab"]:
@@ -124,6 +121,10 @@ def _validate(args, source: str) -> None:
         raise _usage("captured pairs need --joints, --images, --stereo and --marker together")
     if source == "port" and not (args.port and args.cameras and args.stereo and args.marker):
         raise _usage("the connected cell needs --port, --cameras, --stereo and --marker together")
+    if source == "port":
+        connected_cell.require_confirmable(args)
+    elif args.cell_clear:
+        raise _usage(f"{connected_cell.CELL_CLEAR} is for the connected cell (--port): nothing else moves a robot")
     if source == "lab" and bool(args.stereo) != bool(args.marker):
         raise _usage("--stereo and --marker go together (images), or neither (ideal measurements)")
     if source in ("images", "measurements") and args.out:
@@ -249,13 +250,16 @@ def _lab(args, job, monitor, robot, target):
 
 def _reidentified(run):
     """The Update of a re-identification, or the words why it wrote nothing (a RoboCalError other
-    than a robot fault, which ends the command)."""
-    from core.errors import RoboCalError
+    than a robot fault, which ends the command; a run the connected robot's fault cancelled: the
+    caller raises that fault)."""
+    from core.errors import Cancelled, RoboCalError
     from core.robot.driver import RobotFault
     try:
         return run()
     except RobotFault:
         raise
+    except Cancelled:
+        return "the robot stopped during the re-identification"
     except RoboCalError as exc:
         return f"{exc.problem}. {exc.hint or ''}".strip()
 
@@ -285,7 +289,8 @@ def _check_poses(job, cell, poses, log, monitor):
 
     result = run_check(cell.model, cell.unc, cell.Q, poses.measure, target=cell.target, tool=cell.tool,
                        pose_ids=poses.ids, log=log, alpha=cell.limits.alpha, limits=cell.limits,
-                       progress=monitor.sub(0.1, 0.9))
+                       progress=monitor.sub(0.1, 0.9), cancelled=poses.cancelled())
+    poses.raise_fault()                 # a robot fault ended it: the points measured are in the log, exit 1
     diagnosis = diagnose(cell.model, cell.unc, result) if result.points and not result.within else None
     return result, diagnosis
 
@@ -297,31 +302,18 @@ def _port(args, job, monitor, robot, target):
     cell = job.setup(args.robot, lab_options=opts, poses_path=args.poses, count=args.count, alpha=args.alpha,
                      seed=args.seed, tool=args.tool, model=robot, target=target, progress=monitor.sub(0.0, 0.2))
     locator = _locator(args)
-    cameras = check_sources.parse_cameras(args.cameras)
-    with check_sources.connected_cell(cell.model, cell.Q, args.port, args.profile, cameras, locator,
+    reid = ", then to the poses that re-identify a change if one explains the check" if args.out else ""
+    connected_cell.confirm_motion(args, f"{len(cell.Q)} check poses{reid}")
+    with check_sources.connected_cell(cell.model, cell.Q, args.port, args.profile, args.cameras, locator,
                                       target=cell.target) as poses:
         result, diagnosis = _check_poses(job, cell, poses, args.log, monitor)
         update = None
         if diagnosis is not None and args.out and diagnosis.explained and diagnosis.parameters:
             update = _reidentified(lambda: job.reidentify_from_proposed(
-                cell, result, diagnosis, _driven(poses), args.out, lab_options=opts, log=args.log, seed=args.seed,
-                progress=monitor.sub(0.7, 0.9)))
+                cell, result, diagnosis, poses.measure, args.out, lab_options=opts, log=args.log, seed=args.seed,
+                progress=monitor.sub(0.7, 0.9), cancelled=poses.cancelled()))
+            poses.raise_fault()
     return poses.where, cell, result, diagnosis, update, opts
-
-
-def _driven(poses):
-    """measure(q) of the connected cell that returns None where the marker was not found."""
-    from core.errors import RoboCalError
-    from core.robot.driver import RobotFault
-
-    def measure(q):
-        try:
-            return poses.measure(q)
-        except RobotFault:
-            raise
-        except RoboCalError:
-            return None
-    return measure
 
 
 def _payload(args, model) -> tuple[str | None, dict | None]:

@@ -2,11 +2,12 @@
 the arm calibrated. `--poses-out` writes the poses to measure (with `--stereo`, only where both
 cameras see the marker); they are then measured as pairs captured at them (`--joints --images
 --stereo --marker`), by another instrument (`--measurements`), driven on the connected cell
-(`--port --profile --cameras --stereo --marker`), or on the virtual lab (`--lab`)."""
+(`--port --profile --cameras --stereo --marker`, the motion confirmed on the terminal or by
+`--cell-clear`: app.commands.connected_cell), or on the virtual lab (`--lab`)."""
 from __future__ import annotations
 
 from app.commands import CommandResult, ProgressLine
-from app.commands import options
+from app.commands import connected_cell, options
 
 HELP = "Identify a mounted tool's target offsets from a few proposed poses, the arm held at its calibration"
 
@@ -29,11 +30,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--joints", metavar="P.csv", help="joint values of the captured poses (pose,q1..qn), one per "
                         "pair in --images")
     parser.add_argument("--images", metavar="DIR", help="folder with left/ and right/ pairs of the tool's poses")
-    parser.add_argument("--port", metavar="PORT", help="the connected robot's serial port: drive the proposed poses")
-    parser.add_argument("--profile", metavar="NAME", default="robocal_v1",
-                        help="the controller's protocol profile (default robocal_v1)")
-    parser.add_argument("--cameras", metavar="LEFT,RIGHT",
-                        help="the two cameras: device indices (0,1), device paths, video files or image folders")
+    connected_cell.add_arguments(parser, port_help="the connected robot's serial port: the tool's proposed poses are "
+                                 "driven there")
     parser.add_argument("--stereo", metavar="S", help="stereo calibration (pairs and the connected cell; with "
                         "--poses-out keep the poses both cameras see)")
     parser.add_argument("--marker", metavar="M", help="marker training image, description or trained marker")
@@ -66,7 +64,7 @@ def run(args) -> CommandResult:
                          "one or the other")
     lab_asked = bool(args.lab or args.lab_seed is not None or args.lab_robot)
     sources = [k for k, v in (("pairs", args.joints or args.images), ("measurements", args.measurements),
-                              ("port", args.port or args.cameras), ("lab", lab_asked)) if v]
+                              ("port", connected_cell.given(args)), ("lab", lab_asked)) if v]
     if args.poses_out is not None and sources not in ([], ["lab"]):
         raise UsageError("--poses-out only proposes the poses to measure (with --stereo or the lab's cameras); "
                          "measure them in a second run")
@@ -79,6 +77,10 @@ def run(args) -> CommandResult:
         raise UsageError("captured pairs need --joints, --images, --stereo and --marker together")
     if sources == ["port"] and not (args.port and args.cameras and args.stereo and args.marker):
         raise UsageError("the connected cell needs --port, --cameras, --stereo and --marker together")
+    if sources == ["port"]:
+        connected_cell.require_confirmable(args)
+    elif args.cell_clear:
+        raise UsageError(f"{connected_cell.CELL_CLEAR} is for the connected cell (--port): nothing else moves a robot")
     progress = ProgressLine("identify-tool")
     monitor = Monitor(progress)
     try:
@@ -134,8 +136,9 @@ def _measured(args, job, monitor):
     else:
         proposal = job.propose(args.robot, args.tool, lab_options=_options(args, False), count=args.count,
                                seed=args.seed, progress=monitor.sub(0.0, 0.3))
-        poses = check_sources.connected_cell(model, proposal.Q, args.port, args.profile,
-                                             check_sources.parse_cameras(args.cameras), locator, target=target)
+        connected_cell.confirm_motion(args, f"{len(proposal.Q)} poses proposed for the tool '{args.tool}'")
+        poses = check_sources.connected_cell(model, proposal.Q, args.port, args.profile, args.cameras, locator,
+                                             target=target)
     with poses:
         meas = poses.measurements(model, progress=monitor.sub(0.3, 0.8))
     return poses.where, job.identify_from_measurements(args.robot, args.tool, meas, args.out,

@@ -30,7 +30,10 @@ def setup_cell(calibrated, options: dict, *, count: int, tool: str | None = None
 def check_cell(cell: job.CheckSetup, measure: CellMeasure, *, log=None, progress=None, cancelled=None):
     """One check on the cell (appended to `log`) and its diagnosis; a robot fault or Stop ends it
     after the points measured (`measure.fault` says why)."""
-    return job.check(cell, measure, log=log, progress=progress, cancelled=measure.cancelled(cancelled))
+    try:
+        return job.check(cell, measure, log=log, progress=progress, cancelled=measure.cancelled(cancelled))
+    finally:
+        measure.finish()
 
 
 def reidentify_cell(cell: job.CheckSetup, result, diagnosis, measure: CellMeasure, calibrated, options: dict, *,
@@ -39,8 +42,12 @@ def reidentify_cell(cell: job.CheckSetup, result, diagnosis, measure: CellMeasur
     then replace `calibrated` (the previous file kept in history/). A fault or Stop while the
     proposed poses are measured writes nothing; one during the check of the updated robot ends that
     check early (`measure.fault` says why)."""
-    return job.reidentify_from_proposed(cell, result, diagnosis, measure, calibrated, lab_options=options, log=log,
-                                        archive=True, progress=progress, cancelled=measure.cancelled(cancelled))
+    try:
+        return job.reidentify_from_proposed(cell, result, diagnosis, measure, calibrated, lab_options=options,
+                                            log=log, archive=True, progress=progress,
+                                            cancelled=measure.cancelled(cancelled))
+    finally:
+        measure.finish()
 
 
 def identify_tool_cell(calibrated, tool: str, measure: CellMeasure, options: dict, *, count: int | None = None,
@@ -55,19 +62,24 @@ def identify_tool_cell(calibrated, tool: str, measure: CellMeasure, options: dic
                                 progress=monitor.sub(0.0, 0.4), cancelled=measure.cancelled(cancelled))
     target = model.tool_targets(tool)[0]
     Q, poses, xyz = [], [], []
-    for k, q in enumerate(proposal.Q):
-        monitor.step(0.4 + 0.5 * k / len(proposal.Q), f"measuring the tool at pose {k + 1} of {len(proposal.Q)}")
-        try:
-            p = measure(q)
-        except RoboCalError:
-            if measure.fault is not None or measure.driver.stopped:
-                raise RoboCalError(f"the tool was not identified: {measure.fault or 'the robot was stopped'}",
-                                   hint="Nothing was written. Clear the fault, Resume, and identify the tool again.")
-            continue
-        if p is not None:
-            Q.append(q)
-            poses.append(k)
-            xyz.append(p)
+    measure.follow(proposal.Q)
+    try:
+        for k, q in enumerate(proposal.Q):
+            monitor.step(0.4 + 0.5 * k / len(proposal.Q), f"measuring the tool at pose {k + 1} of {len(proposal.Q)}")
+            try:
+                p = measure(q)
+            except RoboCalError:
+                if measure.fault is not None or measure.driver.stopped:
+                    raise RoboCalError(f"the tool was not identified: {measure.fault or 'the robot was stopped'}",
+                                       hint="Nothing was written. Clear the fault, Resume, and identify the tool "
+                                            "again.")
+                continue
+            if p is not None:
+                Q.append(q)
+                poses.append(k)
+                xyz.append(p)
+    finally:
+        measure.finish()
     if not Q:
         raise RoboCalError(f"the marker of tool '{tool}' was found at none of the {len(proposal.Q)} proposed poses",
                            hint="Check that the tool is mounted and the marker faces the cameras.")

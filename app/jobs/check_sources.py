@@ -5,8 +5,9 @@
   measure` reads them) taken at the poses of a joints file, the marker located in each pair;
 - a measurements file: points measured by RoboCal or another instrument (a laser tracker's after
   `robocal import-measurements`), their joints and positions as written;
-- a connected cell: a serial robot (core.robot.serial_robot) driven to each pose, a pair
-  captured from two cameras (device indices, video files or image folders), the marker located.
+- a connected cell: a serial robot (core.robot.serial_robot) and two cameras (device indices,
+  video files or image folders) opened here, then measured as the Check page measures its cell
+  (app.jobs.cell_measure.CellMeasure: driven to each pose, a pair captured, the marker located).
 
 Each gives the poses (rad / mm), their numbers, `measure(q)` -> the marker's position (mm, left
 camera frame) for core.monitoring.check.run_check, and the words saying where it measured.
@@ -19,6 +20,7 @@ from typing import Callable
 
 import numpy as np
 
+from app.jobs.cell_measure import CellMeasure, cell_options
 from core.errors import RoboCalError
 from core.measurement.file import Measurements, read_measurements
 from core.robot.model import RobotModel
@@ -28,7 +30,9 @@ from core.robot.model import RobotModel
 class MeasuredPoses:
     """Poses to measure (Q: rad / mm, ids: their numbers) and how: `measure(q)` is called once per
     pose in this order and gives the marker's position (mm) or None / RoboCalError when it is not
-    found. `where` says where it measures; `close()` releases the robot and cameras."""
+    found. `where` says where it measures; `cell` is the connected cell's measure (None for files);
+    `close()` releases the robot and cameras (the robot is stopped first when the block they were
+    used in failed)."""
 
     Q: np.ndarray
     ids: np.ndarray
@@ -36,29 +40,45 @@ class MeasuredPoses:
     where: str
     target: str = "marker"
     closers: list[Callable] = field(default_factory=list)
+    cell: CellMeasure | None = None
 
     def close(self) -> None:
-        for close in reversed(self.closers):
+        """Run the closers in their order (a move made ahead is waited for before the robot is
+        disconnected)."""
+        for close in self.closers:
             close()
 
     def __enter__(self) -> "MeasuredPoses":
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, kind, *exc) -> None:
+        if kind is not None and self.cell is not None:
+            self.cell.driver.stop()            # interrupted or failed: nothing more moves
         self.close()
+
+    def cancelled(self) -> Callable[[], bool] | None:
+        """The cancel check of a run over these poses: a fault or stop of the connected robot."""
+        return self.cell.cancelled() if self.cell is not None else None
+
+    def raise_fault(self) -> None:
+        """The robot fault that ended a run over the connected cell (core.robot.driver.RobotFault)."""
+        if self.cell is not None:
+            self.cell.raise_fault()
 
     def measurements(self, model: RobotModel, *, progress=None) -> Measurements:
         """Every pose measured (in order), as Measurements of `target` for `model`; poses where
-        the marker was not found are left out. RoboCalError when none was measured."""
+        the marker was not found are left out. RoboCalError when none was measured; RobotFault
+        when the connected robot faulted (nothing is kept)."""
         rows, xyz, reasons = [], [], []
+        ended = self.cancelled() or (lambda: False)
         for k, q in enumerate(self.Q):
+            if ended():
+                break
             if progress is not None:
                 progress(k / max(len(self.Q), 1), f"measuring pose {k + 1} of {len(self.Q)}")
             try:
                 p = self.measure(q)
             except RoboCalError as exc:
-                if _fault(exc):
-                    raise
                 reasons.append(exc.problem)
                 continue
             if p is None:
@@ -66,6 +86,7 @@ class MeasuredPoses:
                 continue
             rows.append(k)
             xyz.append(np.asarray(p, dtype=float).reshape(3))
+        self.raise_fault()
         if not rows:
             why = f" ({reasons[0]})" if reasons else ""
             raise RoboCalError(f"none of the {len(self.Q)} poses could be measured{why}", source=self.where,
@@ -76,21 +97,12 @@ class MeasuredPoses:
                             Q=Q, source=self.where)
 
 
-def _fault(exc: RoboCalError) -> bool:
-    from core.robot.driver import RobotFault
-    return isinstance(exc, RobotFault)
-
-
 def stereo_options(stereo, plate_mm: float | None = None) -> dict:
-    """Pose-choice options (core.poses.candidates) for a real cell: its stereo rig, the marker
-    plate (default: the default marker's) and the default depth range, so that only poses where
-    both cameras see the whole marker facing them are chosen (as `robocal select-poses --stereo`)."""
-    from core.marker.description import MarkerDescription
-    from core.poses.candidates import VisibilityOptions
+    """Pose-choice options for a cell given by its stereo calibration file (any format RoboCal
+    reads): its rig and the marker plate (`plate_mm`; default the shipped marker's), so that only
+    poses where both cameras see the whole marker facing them are chosen (app.jobs.cell_measure.cell_options)."""
     from core.stereo.importers import read_any_stereo
-
-    plate = (plate_mm, plate_mm) if plate_mm else tuple(MarkerDescription.default().plate_size)
-    return {"rig": read_any_stereo(stereo).file.rig, "plate_size": plate, "visibility": VisibilityOptions()}
+    return cell_options(read_any_stereo(stereo).file.rig, plate_mm=plate_mm)
 
 
 def _locate_point(locator, left, right, where: str):
@@ -143,94 +155,28 @@ def measurement_file(model: RobotModel, path, target: str) -> MeasuredPoses:
                          lambda q: next(points), f"measurement file {path}", target)
 
 
-def parse_cameras(text: str) -> tuple:
-    """'LEFT,RIGHT' -> two camera specs: device indices (0), device paths, video files or image folders."""
-    parts = [p.strip() for p in str(text).split(",")]
-    if len(parts) != 2 or not all(parts):
-        raise RoboCalError(f"expected two cameras 'LEFT,RIGHT', got {text!r}", field="--cameras",
-                           hint="Give device indices (0,1), video files or image folders, left first.")
-    return tuple(int(p) if p.isdigit() else p for p in parts)
-
-
 def connected_cell(model: RobotModel, Q, port: str, profile: str, cameras: tuple, locator, *,
                    ids=None, target: str = "marker", reply_timeout: float = 5.0) -> MeasuredPoses:
-    """The robot on serial `port` (protocol `profile`) driven to each pose of Q (rad / mm; joint
-    limits checked before anything is sent), a pair captured from `cameras` (left, right) once it
-    settled, the marker located by `locator`. A robot or connection fault ends the run
-    (core.robot.driver.RobotFault). Close it to stop using the robot and cameras."""
-    from core.measurement.capture import open_stereo
+    """The robot on serial `port` (protocol `profile`) and the `cameras` (left, right: device
+    indices, device paths, video files or image folders), opened as the Setup page opens them
+    (app.hardware), measured as the Check page measures its cell (app.jobs.cell_measure.CellMeasure):
+    driven to each pose of Q (rad / mm; the joint limits of every pose checked before the robot
+    is even connected), a pair captured once it settled, the marker located by `locator` while
+    it moves on to the next pose. A robot or connection fault ends the run with the points
+    measured (`MeasuredPoses.raise_fault`). Close it to stop using the robot and cameras."""
+    from app.hardware import SERIAL, SOURCES, CameraChoice, LiveCameras, RobotChoice, open_serial_robot
     from core.robot.driver import check_joint_values
-    from core.robot.serial_robot import SerialRobot
 
     Q = np.atleast_2d(np.asarray(Q, dtype=float))
     for k, q in enumerate(Q):
-        check_joint_values(model, q, f"check pose {k}")
-    driver = SerialRobot(model, port, profile, reply_timeout=reply_timeout)
-    driver.connect()
+        check_joint_values(model, q, f"pose {k}")
+    driver = open_serial_robot(model, RobotChoice(SERIAL, port, profile), reply_timeout=reply_timeout)
     try:
-        source = open_stereo(*cameras)
+        live = LiveCameras.open(CameraChoice(SOURCES, str(cameras[0]), str(cameras[1])))
     except BaseException:
         driver.disconnect()
         raise
     where = f"serial robot on {port} ({driver.profile.name}), cameras {cameras[0]}, {cameras[1]}"
-    motion = AheadMotion(driver, Q)
-
-    def measure(q):
-        motion.reach(q)
-        frames = source.capture()
-        motion.start_next()                 # the robot moves on while the marker is located in this pair
-        return _locate_point(locator, frames.left, frames.right, where)
+    cell = CellMeasure(driver, live, locator, plan=Q)
     ids = np.arange(len(Q)) if ids is None else np.asarray(ids, dtype=int)
-    return MeasuredPoses(Q, ids, measure, where, target, [motion.finish, driver.disconnect, source.close])
-
-
-class AheadMotion:
-    """Moves a driver through planned poses, one move ahead: once a pose's pair is captured, the
-    move to the next planned pose starts on a thread while the pair is processed. `reach(q)` waits
-    for that move when q is the next planned pose, else moves there itself; a fault of a move made
-    ahead is raised by the next `reach` (or `finish`)."""
-
-    def __init__(self, driver, plan):
-        self.driver, self.plan = driver, np.atleast_2d(np.asarray(plan, dtype=float))
-        self.next = 0                    # index in plan of the pose reached next
-        self._thread = None
-        self._error: BaseException | None = None
-
-    def _join(self) -> None:
-        if self._thread is not None:
-            self._thread.join()
-            self._thread = None
-        if self._error is not None:
-            error, self._error = self._error, None
-            raise error
-
-    def reach(self, q) -> None:
-        q = np.asarray(q, dtype=float)
-        ahead = self._thread is not None
-        self._join()
-        planned = self.next < len(self.plan) and np.array_equal(q, self.plan[self.next])
-        if not (ahead and planned):
-            self.driver.move_to(q)
-        self.next = self.next + 1 if planned else len(self.plan)
-
-    def start_next(self) -> None:
-        import threading
-
-        if self.next >= len(self.plan) or self.driver.stopped:
-            return
-        target = self.plan[self.next]
-
-        def move():
-            try:
-                self.driver.move_to(target)
-            except BaseException as exc:    # handed to the caller by the next reach()
-                self._error = exc
-        self._thread = threading.Thread(target=move, name="robocal-move-ahead", daemon=True)
-        self._thread.start()
-
-    def finish(self) -> None:
-        """Wait for a move made ahead (its fault is dropped: nothing is measured after it)."""
-        if self._thread is not None:
-            self._thread.join()
-            self._thread = None
-        self._error = None
+    return MeasuredPoses(Q, ids, cell, where, target, [cell.finish, driver.disconnect, live.close], cell=cell)

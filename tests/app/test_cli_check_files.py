@@ -135,7 +135,9 @@ def test_a_measurements_file_is_checked(cell, tmp_path, capsys):
     (["--joints", "j.csv"], "--joints, --images, --stereo and --marker together"),
     (["--measurements", "m.csv", "--lab"], "one place to measure"),
     (["--measurements", "m.csv", "--out", "u.json"], "robocal reidentify"),
-    (["--port", "/dev/null"], "--port, --cameras, --stereo and --marker together")])
+    (["--port", "/dev/null"], "--port, --cameras, --stereo and --marker together"),
+    (["--port", "/dev/null", "--cameras", "0"], "expected two cameras LEFT,RIGHT"),
+    (["--measurements", "m.csv", "--cell-clear"], "--cell-clear is for the connected cell (--port)")])
 def test_usage_errors(cell, tmp_path, capsys, argv, message):
     root, ds, calibrated, lab = cell
     code = main(["check", "--robot", str(calibrated), "--log", str(tmp_path / "c.csv")] + argv)

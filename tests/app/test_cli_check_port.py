@@ -1,11 +1,14 @@
 """`robocal check --port --cameras`: an unattended check of a connected cell. The robot is `robocal
 sim-robot` on a real pseudo-terminal (seed 0: the virtual lab's true robot); the cameras are two
 image folders holding the pairs the lab renders at the check poses (read with the camera code
-the Setup page uses). A robot fault stops the check with what was measured in the log, exit 1."""
+the Setup page uses). A robot fault stops the check with what was measured in the log, exit 1.
+The robot's motion is confirmed: asked once on a terminal, or --cell-clear; with neither (no
+terminal) the check is refused (exit 2) and the robot never moves."""
 from __future__ import annotations
 
 import json
 import os
+import pty
 import subprocess
 import sys
 from pathlib import Path
@@ -20,6 +23,7 @@ from core.identification.file import write_calibrated_model
 from core.identification.solver import identify
 from core.monitoring.log import read_check_log
 from core.poses.file import read_poses
+from core.robot.controller_sim import ControllerSim
 from core.virtual_lab.changes import apply_change
 from tests.app.virtual_inputs import true_stereo_yaml
 
@@ -70,12 +74,22 @@ def sim_robot(tmp_path, faults=""):
     return proc, port
 
 
+def check_argv(root, port, cams, log):
+    return ["check", "--robot", str(root / "calibrated.json"), "--log", str(log), "--port", port,
+            "--profile", "robocal_v1", "--cameras", cams, "--stereo", str(root / "stereo.yaml"),
+            "--marker", str(root / "training.png"), "--poses", str(root / "poses.csv")]
+
+
 def check(root, port, cams, log, capsys, extra=()):
-    code = main(["check", "--robot", str(root / "calibrated.json"), "--log", str(log), "--port", port,
-                 "--profile", "robocal_v1", "--cameras", cams, "--stereo", str(root / "stereo.yaml"),
-                 "--marker", str(root / "training.png"), "--poses", str(root / "poses.csv"), "--json", *extra])
+    code = main(check_argv(root, port, cams, log) + ["--json", "--cell-clear", *extra])
     out, err = capsys.readouterr()
     return code, (json.loads(out) if out.strip() else None), err
+
+
+def robocal(argv, stdin):
+    """`robocal ARGV` in its own process, its standard input `stdin` (a terminal or not)."""
+    return subprocess.run([sys.executable, "-m", "app.cli", *argv], stdin=stdin, capture_output=True, text=True,
+                          env=dict(os.environ, PYTHONPATH=str(ROOT)), timeout=600)
 
 
 @pytest.mark.parametrize("change, code, kind", [(None, 0, "none"), ("tool:1.5", 3, "tool")])
@@ -111,3 +125,68 @@ def test_a_robot_fault_stops_the_check_with_the_log_kept(cell, tmp_path, capsys)
     assert code == 1 and data is None and "FAULT" in err and len(err.strip().splitlines()) == 1
     logged = read_check_log(tmp_path / "c.csv").checks
     assert len(logged) == 1 and not logged[0].finished and 1 <= len(logged[0].points) < 8
+
+
+def test_with_no_terminal_and_no_cell_clear_the_robot_never_moves(cell, tmp_path):
+    """Run from cron or a systemd timer without --cell-clear: refused in one line naming the flag,
+    before anything is connected."""
+    root, lab = cell
+    cams = cameras(lab, root, tmp_path / "cams")
+    with ControllerSim(lab.true_robot, time_scale=0.01) as sim:
+        done = robocal(check_argv(root, sim.port, cams, tmp_path / "c.csv"), subprocess.DEVNULL)
+        moves = sim.moves
+    assert done.returncode == 2 and moves == 0
+    assert done.stderr.strip() == ("robocal check: error: no terminal to confirm the robot's motion: add --cell-clear "
+                                   "once the cell is clear and guarded (unattended runs: cron, systemd timers)")
+    assert not (tmp_path / "c.csv").exists()
+
+
+@pytest.mark.parametrize("answer, code, moved", [("n", 1, 0), ("y", 0, 8)])
+def test_on_a_terminal_the_first_motion_is_asked_once(cell, tmp_path, answer, code, moved):
+    """Standard input a pseudo-terminal on which the technician answers: only yes moves the robot."""
+    root, lab = cell
+    cams = cameras(lab, root, tmp_path / "cams")
+    master, terminal = pty.openpty()
+    try:
+        os.write(master, f"{answer}\n".encode())
+        with ControllerSim(lab.true_robot, time_scale=0.01) as sim:
+            done = robocal(check_argv(root, sim.port, cams, tmp_path / "c.csv"), terminal)
+            moves = sim.moves
+    finally:
+        os.close(master)
+        os.close(terminal)
+    assert done.returncode == code, done.stderr
+    assert done.stderr.count(f"The robot on {sim.port} will move to 8 check poses. Is the cell clear and the "
+                             "emergency stop within reach? [y/N]") == 1
+    assert moves == moved
+    if answer == "n":
+        assert done.stderr.endswith("robocal check: motion not confirmed: the robot was not moved. Clear the cell and "
+                                    "answer y, or give --cell-clear.\n")
+        assert not (tmp_path / "c.csv").exists()
+    else:
+        assert len(read_check_log(tmp_path / "c.csv").checks[0].points) == 8
+
+
+def test_a_tool_change_is_reidentified_by_driving_the_proposed_poses(cell, tmp_path, capsys):
+    """`--out`: the check (out of limits after a 1.5 mm tool change only the cameras see) names the
+    tool, the proposed poses are driven, the tool re-identified and the updated robot checked
+    within limits at the check poses; exit 3 (the check itself was out of limits)."""
+    import copy
+    from app.sim_cameras import SimulatedCellCameras
+
+    root, lab = cell
+    changed = copy.copy(lab)
+    apply_change(changed, "tool:1.5", seed=0)
+    cams = SimulatedCellCameras(changed, tmp_path / "cams")
+    with ControllerSim(lab.true_robot, time_scale=0.01, on_rest=cams.on_rest) as sim:
+        code, data, err = check(root, sim.port, f"{cams.left},{cams.right}", tmp_path / "c.csv", capsys,
+                                ["--out", str(tmp_path / "updated.json")])
+        moves = sim.moves
+    assert code == 3, err
+    assert data["change"] == "tool" and data["after"]["rms_mm"] <= data["after"]["rms_limit_mm"], data
+    re = data["reidentification"]
+    assert moves - 2 * 8 >= 1                     # the check, the proposed poses, the check of the update
+    assert re["rms_after_mm"] < 0.1 * re["rms_before_mm"], re
+    assert (tmp_path / "updated.json").is_file()
+    logged = read_check_log(tmp_path / "c.csv").checks
+    assert len(logged) == 2 and all(c.finished and len(c.points) == 8 for c in logged)

@@ -130,3 +130,41 @@ def test_a_tool_identified_from_pairs_captured_at_its_poses(cell, tmp_path, caps
     assert code == 0, err
     np.testing.assert_allclose(from_pairs, data["offsets_mm"]["long_marker"], atol=0.15)   # measured: 0.05 mm apart
     assert read_robot(tmp_path / "u.json").calibration["tools"] == ["gripper", "long_gripper"]
+
+
+def test_a_tool_identified_on_the_connected_cell(cell, tmp_path, capsys, monkeypatch):
+    """`--port --cameras`: the controller simulator on a real pty is driven through the tool's
+    proposed poses while the lab's cameras (the long gripper mounted) write what they see to two
+    image folders. With no terminal and no --cell-clear nothing moves; with it the offsets agree
+    with the virtual lab's."""
+    import copy
+    import io
+
+    import cv2
+    from app.lab import apply_change, build_lab
+    from app.sim_cameras import SimulatedCellCameras
+    from core.robot.controller_sim import ControllerSim
+    from tests.app.virtual_inputs import true_stereo_yaml
+
+    calibrated, robot = cell
+    lab = build_lab(read_robot(robot), 0, 0.5)
+    stereo = true_stereo_yaml(lab, tmp_path / "stereo.yaml")
+    cv2.imwrite(str(tmp_path / "training.png"), lab.render_training_image())
+    mounted = copy.copy(lab)
+    apply_change(mounted, "mount:long_gripper")
+    cameras = SimulatedCellCameras(mounted, tmp_path / "cams")
+    monkeypatch.setattr("sys.stdin", io.StringIO())                 # no terminal: nobody to answer
+    with ControllerSim(lab.true_robot, time_scale=0.01, on_rest=cameras.on_rest) as sim:
+        argv = ["identify-tool", "--robot", str(calibrated), "--tool", "long_gripper", "--port", sim.port,
+                "--cameras", f"{cameras.left},{cameras.right}", "--stereo", str(stereo), "--marker",
+                str(tmp_path / "training.png"), "--out", str(tmp_path / "u.json")]
+        assert main(argv) == 2 and "add --cell-clear once the cell is clear" in capsys.readouterr().err
+        assert sim.moves == 0
+        code, data, err = run_json(capsys, argv + ["--cell-clear"])
+        moves = sim.moves
+    assert code == 0, err
+    assert data["measured_on"].startswith(f"serial robot on {sim.port}") and data["n_poses"] == 5 and moves == 5
+    code, on_lab, err = run_json(capsys, ["identify-tool", "--robot", str(calibrated), "--tool", "long_gripper",
+                                          "--lab-robot", str(robot), "--out", str(tmp_path / "u_lab.json")])
+    assert code == 0, err
+    np.testing.assert_allclose(data["offsets_mm"]["long_marker"], on_lab["offsets_mm"]["long_marker"], atol=0.15)

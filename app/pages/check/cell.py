@@ -61,18 +61,20 @@ class CellMixin:
 
     def _cell_options(self) -> dict:
         """How the real cell's poses are chosen: its calibrated cameras and measured depths."""
-        return cell_options(stereo_source(self.state).rect, self.state.project.path("measurements"))
+        return cell_options(stereo_source(self.state).rect.calibration.rig, self.state.project.path("measurements"))
 
     def _cell_measure(self, Q=()) -> CellMeasure | None:
         """The `measure(q)` of a run on the cell, once the safety checks let the robot move (to the
-        poses Q, when known; internal units); None, with the reason on the page, when they do not."""
+        poses Q, when known; internal units: then the robot moves on to the next while the marker
+        is located); None, with the reason on the page, when they do not."""
         refused = motion_refused(self, self.state, Q)
         if refused:
             self._set_status(f"Nothing measured: {refused}", False)
             return None
         self._where = self.cell_words()
         trained, rect = self.images()
-        self._measure = CellMeasure(self.state.robot_connection, self.state.cameras, locator(trained, rect))
+        self._measure = CellMeasure(self.state.robot_connection, self.state.cameras, locator(trained, rect),
+                                    plan=Q if len(Q) else None)
         return self._measure
 
     def _check_cell(self) -> bool:

@@ -36,14 +36,14 @@ def cell(tmp_path_factory):
 
 def test_cell_options_take_the_calibrated_depth_range(cell):
     lab, folder, rect, _ = cell
-    options = cell_options(rect, folder / "measurements.csv")
+    options = cell_options(rect.calibration.rig, folder / "measurements.csv")
     z = np.asarray(ideal_lab_measurements(lab, 50, sigma_mm=0.05, seed=4).xyz)[:, 2]
     span = z.max() - z.min()
     np.testing.assert_allclose(np.ravel(options["rig"].T), np.ravel(lab.rig.T), atol=1e-6)    # the calibrated rig
     np.testing.assert_allclose(options["rig"].R, lab.rig.R, atol=1e-9)
     assert options["visibility"].min_depth == pytest.approx(z.min() - 0.1 * span, abs=0.5)
     assert options["visibility"].max_depth == pytest.approx(z.max() + 0.1 * span, abs=0.5)
-    assert "visibility" not in cell_options(rect, folder / "absent.csv")
+    assert "visibility" not in cell_options(rect.calibration.rig, folder / "absent.csv")
 
 
 def test_a_mounted_tool_is_identified_by_driving_its_poses(cell, tmp_path):
@@ -57,7 +57,7 @@ def test_a_mounted_tool_is_identified_by_driving_its_poses(cell, tmp_path):
     live = LiveCameras.open(CameraChoice("sources", str(cameras.left), str(cameras.right)))
     driver = open_serial_robot(lab.nominal_robot, RobotChoice("serial", sim.port, "robocal_v1"), reply_timeout=10.0)
     try:
-        options = cell_options(rect, folder / "measurements.csv")
+        options = cell_options(rect.calibration.rig, folder / "measurements.csv")
         measure = CellMeasure(driver, live, locator(trained, rect))
         update = identify_tool_cell(calibrated, "long_gripper", measure, options)
         assert measure.fault is None and measure.moves == len(update.proposed) == sim.moves
@@ -84,7 +84,8 @@ def test_teach_mode_reads_the_joints_a_controller_reports(cell, tmp_path):
     live = LiveCameras.open(CameraChoice("sources", str(cameras.left), str(cameras.right)))
     driver = open_serial_robot(lab.nominal_robot, RobotChoice("serial", sim.port, "robocal_v1"), reply_timeout=10.0)
     try:
-        check = setup_cell(folder / "calibrated.json", cell_options(rect, folder / "measurements.csv"), count=5)
+        check = setup_cell(folder / "calibrated.json", cell_options(rect.calibration.rig, folder / "measurements.csv"),
+                           count=5)
         brought = check.Q[0] + np.deg2rad([2.0, 0, 0, 0, 0, 0])
         driver.move_to(brought)                                 # the pendant's work
         taught = record_check_pose(check, 0, live, locator(trained, rect), driver=driver)
