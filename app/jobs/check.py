@@ -132,9 +132,9 @@ def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: D
                              progress=None, cancelled=None) -> Update:
     """Propose the few poses that, with the check's points (measured after the change), determine
     what changed, measure them, re-identify from them and the check's points with the calibration
-    as prior, check the updated model at the check poses, and only when all that succeeded and
-    that check's overall RMS is within its limit: keep the file at `out` in history/ (`archive`)
-    and write `out` atomically. A failure, or an updated model still out of limits as a whole
+    as prior, check the updated model at the check poses, and only when all that succeeded (that
+    check completed, not stopped or cut short by a fault) and its overall RMS is within its
+    limit: keep the file at `out` in history/ (`archive`) and write `out` atomically. A failure, or an updated model still out of limits as a whole
     (RoboCalError advising a full calibration), leaves no file behind; one point beyond its own
     limit alone does not refuse it (the next check shows it)."""
     monitor = Monitor(progress, cancelled)
@@ -164,7 +164,11 @@ def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: D
     updated = replace(cell, model=re.model, unc=unc, source=str(out),
                       limits=check_limits(re.model, unc, cell.Q, [cell.target] * len(cell.Q), cell.limits.alpha))
     after, _ = check(updated, measure, log=log, progress=monitor.sub(0.7, 1.0), cancelled=cancelled)
-    if not after.cancelled and after.points and after.rms_mm > after.rms_limit_mm:     # as a whole, not one point
+    if after.cancelled or not after.points:
+        raise RoboCalError(f"the check of the updated robot stopped after {len(after.points)} of {len(cell.Q)} "
+                           f"poses, so the re-identification of {', '.join(re.changed)} is not confirmed; {out.name} "
+                           "was not changed", hint="Run Re-identify again once the robot can complete the check.")
+    if after.rms_mm > after.rms_limit_mm:     # as a whole, not one point
         raise RoboCalError(f"after re-identifying {', '.join(re.changed)} the check is still out of limits "
                            f"({after.rms_mm:.3f} mm RMS, limit {after.rms_limit_mm:.3f} mm); {out.name} was not "
                            "changed", hint="The change is not only what the diagnosis found: run a full calibration.")

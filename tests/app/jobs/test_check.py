@@ -11,6 +11,7 @@ from app.lab import build_lab, ideal_lab_measurements, lab_options
 from core.identification.file import write_calibrated_model
 from core.identification.solver import identify
 from core.robot.file import read_robot
+from core.errors import RoboCalError
 from core.robot.model import robot_path
 
 POSES = 6
@@ -57,3 +58,41 @@ def test_choosing_the_poses_gives_most_of_the_bar_to_their_limits(calibrated):
     limits = [f for f, m in marks if m == "limits of the check poses"]
     assert limits == [pytest.approx(job.SELECTION_SHARE)]
     assert max(f for f, m in marks if m != "ready" and m != "limits of the check poses") <= job.SELECTION_SHARE + 1e-9
+
+
+def checked_tool_change(calibrated, tmp_path):
+    """A check after a 1.5 mm tool change on the lab: (cell, result, diagnosis, copy of calibrated.json)."""
+    lab, path = calibrated
+    cell, result, diagnosis = job.check_project(path, lab, count=POSES, change="tool:1.5")
+    assert diagnosis is not None and diagnosis.kind == "tool"
+    out = tmp_path / "calibrated.json"
+    out.write_bytes(path.read_bytes())
+    return cell, result, diagnosis, out
+
+
+def test_a_reidentification_whose_check_is_stopped_leaves_the_calibration_unchanged(calibrated, tmp_path):
+    lab, _ = calibrated
+    cell, result, diagnosis, out = checked_tool_change(calibrated, tmp_path)
+    before = out.read_bytes()
+    stopped = []
+
+    def progress(fraction, message):               # Stop pressed (or a fault) during the updated robot's check
+        if re.fullmatch(r"check pose 3 of \d+", message):
+            stopped.append(fraction)
+
+    with pytest.raises(RoboCalError, match=r"stopped after 3 of 6 poses.*calibrated\.json was not changed"):
+        job.reidentify_on_lab(cell, result, diagnosis, lab, "tool:1.5", out, progress=progress,
+                              cancelled=lambda: bool(stopped))
+    assert stopped and out.read_bytes() == before
+    assert not (tmp_path / "history").exists()
+
+
+def test_a_completed_reidentification_is_written_with_the_previous_file_kept(calibrated, tmp_path):
+    lab, _ = calibrated
+    cell, result, diagnosis, out = checked_tool_change(calibrated, tmp_path)
+    before = out.read_bytes()
+    update = job.reidentify_on_lab(cell, result, diagnosis, lab, "tool:1.5", out)
+    assert update.after.within and not update.after.cancelled
+    assert update.path == out and out.read_bytes() != before
+    kept = list((tmp_path / "history").iterdir())
+    assert len(kept) == 1 and kept[0].read_bytes() == before
