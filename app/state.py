@@ -16,7 +16,8 @@ hand on are typed attributes, each with its signal and its setter:
 A page whose result was made from other inputs than the project now has says so (core.provenance:
 the inputs' hashes recorded beside an output) and its step is not done until it is run again.
 
-The virtual lab is built once, on a worker thread, by `request_lab(callback)`.
+The virtual lab is built once, on a worker thread, by `state.labs` (app.lab_provider), asked
+with `request_lab(callback)`.
 
 The hardware chosen on the Setup page: `robot_choice` (app.hardware.RobotChoice) and
 `robot_connection` (the driver every page moves: the virtual lab's SimulatedRobot, or a
@@ -39,8 +40,8 @@ from typing import Callable
 from PySide6.QtCore import QObject, Signal
 
 from app.hardware import CameraChoice, LiveCameras, RobotChoice, is_real
-from app.lab import VirtualLab, build_lab
-from app.worker import TaskRunner
+from app.lab import VirtualLab
+from app.lab_provider import LabProvider, LabWait
 from core import project as projects
 from core.errors import RoboCalError
 from core.identification.model_comparison import TruthAccuracy
@@ -103,10 +104,8 @@ class WizardState(QObject):
         self.measurements: Path | None = None
         self.identification: IdentificationResult | None = None
         self.accuracy: TruthAccuracy | None = None    # virtual lab: identified vs true robot
-        self._lab: VirtualLab | None = None
-        self._lab_waiting: list[tuple[Callable, Callable | None]] = []
-        self._lab_tasks = TaskRunner(self, max_threads=1)
-        self._lab_token = 0
+        self.labs = LabProvider(self._lab_recipe, self)      # the virtual lab, built on a worker
+        self.labs.changed.connect(self._lab_changed)
         self._temp_dirs: list[Path] = []
 
     # -- project -------------------------------------------------------------------------
@@ -194,7 +193,7 @@ class WizardState(QObject):
             projects.save_robot(self.project, model, source)
         self.robot = model
         self.robot_source = source
-        self._drop_lab()
+        self.labs.reset("the robot changed while the virtual lab was being built")
         self.robotChanged.emit(model)
         self._update_connection()
 
@@ -220,7 +219,7 @@ class WizardState(QObject):
             if old is not None and is_real(old) and old.model is self.robot:
                 return
         elif self.robot is not None and self.virtual:
-            truth = getattr(self._lab, "true_robot", None) if self._lab is not None else None
+            truth = getattr(self.labs.current, "true_robot", None)
             new = SimulatedRobot(truth if isinstance(truth, RobotModel) else self.robot)
             new.connect()
         if old is not None:
@@ -326,82 +325,41 @@ class WizardState(QObject):
     # -- virtual lab ---------------------------------------------------------------------
     @property
     def lab(self) -> VirtualLab:
-        """The virtual lab for the current robot, built here if no page asked for it yet
-        (~2 s: pages use `request_lab` instead, which builds it on a worker thread)."""
-        if self._lab is None:
-            self._lab_token += 1
-            self._take_lab(build_lab(self.robot, self.seed, self.noise))
-        return self._lab
+        """The virtual lab for the current robot, waited for here (scripts and tests: ~2 s on the
+        worker the first time). Pages use `request_lab`, which never blocks."""
+        return self.labs.ready_now()
 
     @property
     def has_lab(self) -> bool:
-        return self._lab is not None
+        return self.labs.current is not None
 
     def request_lab(self, callback: Callable[[VirtualLab], None],
-                    on_error: Callable[[str], None] | None = None) -> None:
+                    on_error: Callable[[str], None] | None = None) -> LabWait:
         """Call `callback(lab)` with the virtual lab of the current robot, seed and noise: at
         once when it exists, otherwise when the one build on the worker thread ends (every
-        page that asks meanwhile waits for the same build). A failed build calls `on_error`."""
-        if self._lab is not None:
-            callback(self._lab)
-            return
-        self._lab_waiting.append((callback, on_error))
-        if len(self._lab_waiting) > 1:
-            return                                # a build is already under way
-        self._lab_token += 1
-        token = self._lab_token
-
-        def built(lab):
-            if token == self._lab_token:
-                self._take_lab(lab)
-
-        def failed(message: str):
-            if token != self._lab_token:
-                return
-            waiting, self._lab_waiting = self._lab_waiting, []
-            for _, err in waiting:
-                if err is not None:
-                    err(message)
-
-        def cancelled():
-            failed("the virtual lab was not built")
-
-        self._lab_tasks.start(build_lab, self.robot, self.seed, float(self.noise), on_result=built,
-                              on_error=failed, on_cancelled=cancelled, label="Building the virtual lab")
+        page that asks meanwhile waits for the same build). A failed build calls `on_error`.
+        `cancel()` the returned wait to stop waiting (the build goes on for the others)."""
+        return self.labs.when_ready(callback, on_error)
 
     def adopt_lab(self, lab: VirtualLab | None) -> None:
         """Take a lab built elsewhere (one lab shared by several states, as the tests do) if it
         matches this state's robot, seed and noise. Pages ask `request_lab` instead."""
-        if self._lab is not None or lab is None or self.robot is None:
+        if self.has_lab or lab is None or self.robot is None:
             return
         if (getattr(lab, "seed", None), getattr(lab, "noise", None)) != (self.seed, float(self.noise)):
             return
         nominal = getattr(lab, "nominal_robot", None)
         if nominal is None or nominal.name != self.robot.name or nominal.dof != self.robot.dof:
             return
-        self._take_lab(lab)
+        self.labs.adopt(lab)
 
-    def _take_lab(self, lab: VirtualLab) -> None:
-        self._set_lab(lab)
-        self._update_connection()
-        waiting, self._lab_waiting = self._lab_waiting, []
-        for callback, _ in waiting:
-            callback(lab)
+    def _lab_recipe(self) -> tuple:
+        return self.robot, self.seed, self.noise
 
-    def _drop_lab(self) -> None:
-        """The robot changed: forget the lab, and any lab being built for the old robot."""
-        self._lab_token += 1
-        waiting, self._lab_waiting = self._lab_waiting, []
-        for _, err in waiting:
-            if err is not None:
-                err("the robot changed while the virtual lab was being built")
-        self._set_lab(None)
-
-    def _set_lab(self, lab) -> None:
-        if lab is self._lab:
-            return
-        self._lab = lab
+    def _lab_changed(self, lab) -> None:
         self.labChanged.emit(lab)
+        if lab is not None:
+            self._update_connection()
 
     # -- results the steps hand on ----------------------------------------------------------
     def set_stereo(self, result: StereoCalibrationResult | None) -> None:
@@ -437,8 +395,7 @@ class WizardState(QObject):
     # -- end -----------------------------------------------------------------------------
     def close(self) -> None:
         """Stop and disconnect the robot, delete temporary projects. Safe to call twice."""
-        self._lab_token += 1
-        self._lab_tasks.shutdown()
+        self.labs.close()
         if self.robot_connection is not None:
             self.robot_connection.stop()
             self.robot_connection.disconnect()

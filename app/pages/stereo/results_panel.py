@@ -273,18 +273,15 @@ class ResultsActions:
         pair = r.detections.pairs[int(index)] if r.detections is not None else None
         if pair is None:
             return
-        self._preview_token += 1
-        token = self._preview_token
 
         def shown(images):
-            if token == self._preview_token and self.result is r:
+            if self.result is r:
                 self.results.draw_preview(r, v, *images)
 
         def failed(message):
-            if token == self._preview_token:
-                self.results.preview.set_image(None)
-                self.results.preview_caption.setText(message)
+            self.results.preview.set_image(None)
+            self.results.preview_caption.setText(message)
 
         self.results.preview_caption.setText("Rectifying this pair…")
-        self.run_task(r.rectification.rectify_files, pair.left_path, pair.right_path, on_result=shown,
-                      on_error=failed, on_cancelled=lambda: None, label="Rectifying the preview")
+        self._preview.start(r.rectification.rectify_files, pair.left_path, pair.right_path, on_result=shown,
+                            on_error=failed, label="Rectifying the preview")
