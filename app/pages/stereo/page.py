@@ -64,7 +64,7 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, StereoFileActions,
         self._queue_total = 0
         self._queue_done = 0
         self._queue_then: Callable[[], None] | None = None
-        self._preview = CurrentTask(tasks)         # the latest rectified preview asked for
+        self._preview_task = CurrentTask(tasks)    # the latest rectified preview asked for
         self._after_adding_note = ""
         self._calibration_note = ""                # said once after the next calibration (a swap)
         self._board = self._default_board()
@@ -150,7 +150,7 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, StereoFileActions,
 
     def _default_board(self) -> Board:
         if self.state.virtual:
-            return self.state.lab.board if self.state.has_lab else DEFAULT_BOARD
+            return self.state.labs.current.board if self.state.has_lab else DEFAULT_BOARD
         return Board(9, 6, 24.0)
 
     def _context_changed(self, *_) -> None:

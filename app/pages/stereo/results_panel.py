@@ -202,7 +202,7 @@ def _hint(text: str = "") -> QLabel:
 
 class ResultsActions:
     """The page's work on its calibration result (a part of StereoPage: uses its `result`,
-    `items`, `results` panel and `calibrate`)."""
+    `items`, `results` panel, `calibrate` and `_preview_task`, the rectified preview's task)."""
 
     def _threshold_selection(self, rows: list) -> None:
         if self.result is None:
@@ -283,5 +283,5 @@ class ResultsActions:
             self.results.preview_caption.setText(message)
 
         self.results.preview_caption.setText("Rectifying this pair…")
-        self._preview.start(r.rectification.rectify_files, pair.left_path, pair.right_path, on_result=shown,
-                            on_error=failed, label="Rectifying the preview")
+        self._preview_task.start(r.rectification.rectify_files, pair.left_path, pair.right_path, on_result=shown,
+                                 on_error=failed, label="Rectifying the preview")
