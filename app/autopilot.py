@@ -9,6 +9,7 @@ from pathlib import Path
 from PySide6.QtCore import QObject, QTimer, Signal
 from PySide6.QtWidgets import QApplication
 
+from app.task_handle import CurrentTask
 from app.worker import error_message
 
 
@@ -33,7 +34,7 @@ class Autopilot(QObject):
         self.index = -1
         self.exit_code: int | None = None
         self.saved: list[Path] = []
-        self._token = 0
+        self._page_run = CurrentTask()     # the current page's autopilot run: a late `done` is cut off
         self._timer = QTimer(self)
         self._timer.setSingleShot(True)
         self._timer.timeout.connect(self._timed_out)
@@ -49,20 +50,19 @@ class Autopilot(QObject):
         if self.exit_code is not None:
             return
         self.index = index
-        self._token += 1
-        token = self._token
+        run = self._page_run.follow()
+        done = run.final(lambda ok=True, message="": self._done(ok, message))   # once, while current
         page = self.window.go_to(index)
         QApplication.processEvents()
         self._timer.start(self.page_timeout_ms)
         try:
-            page.autopilot(lambda ok=True, message="": self._done(token, ok, message))
+            page.autopilot(done)
         except Exception as exc:  # noqa: BLE001 - a failing page fails the run, with its reason
-            self._done(token, False, error_message(exc))
+            done(False, error_message(exc))
 
-    def _done(self, token: int, ok: bool, message: str) -> None:
-        if token != self._token or self.exit_code is not None:
-            return   # a late or repeated callback
-        self._token += 1
+    def _done(self, ok: bool, message: str) -> None:
+        if self.exit_code is not None:
+            return
         self._timer.stop()
         # let the page draw its result, then take the picture and go on
         QTimer.singleShot(0, lambda: self._after(bool(ok), message or ""))
@@ -87,7 +87,7 @@ class Autopilot(QObject):
 
     def _timed_out(self) -> None:
         page = self.window.current_page()
-        self._token += 1
+        self._page_run.forget()
         self.window.tasks.cancel_all()
         self._finish(1, f"the {page.title} step did not finish within {self.page_timeout_ms // 1000} s")
 

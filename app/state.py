@@ -1,5 +1,5 @@
-"""What the wizard's pages share: the project, the robot model, the robot connection, the
-virtual lab, and the results the steps hand to each other.
+"""What the wizard's pages share: the project, the robot model, and the results the steps hand
+to each other; the hardware, the project files and the virtual lab are its parts.
 
 Every page gets the same `WizardState` (``self.state``) and listens to its signals rather
 than to other pages. The project folder stays the durable truth: a step that produces a
@@ -16,43 +16,39 @@ hand on are typed attributes, each with its signal and its setter:
 A page whose result was made from other inputs than the project now has says so (core.provenance:
 the inputs' hashes recorded beside an output) and its step is not done until it is run again.
 
-The virtual lab is built once, on a worker thread, by `request_lab(callback)`.
-
-The hardware chosen on the Setup page: `robot_choice` (app.hardware.RobotChoice) and
-`robot_connection` (the driver every page moves: the virtual lab's SimulatedRobot, or a
-connected SerialRobot given by `use_serial_robot`), `camera_choice` and `cameras`
-(app.hardware.LiveCameras, None for the virtual lab's cameras; `set_cameras`,
-`camerasChanged`), `simulator` (a ControllerSim the Setup page started for a class without a
-robot, closed with the project; `set_simulator`, `simulatorChanged`). The robot connection
-and the cameras opened are recorded in project.json; `camera_changes` says how the cameras
-opened differ from those the project recorded (a swapped cable). `motion_confirmed`: the technician confirmed the first motion of this
-real robot connection (app.safety).
+Its parts, each an object of its own:
+- `state.labs` (app.lab_provider.LabProvider): the virtual lab, built once on a worker thread,
+  asked with `request_lab(callback)`;
+- `state.hardware` (app.cell_hardware.CellHardware): the robot connection every page moves, the
+  cameras and the classroom controller simulator, opened and closed there. The state passes
+  through its attributes and methods (`robot_connection`, `cameras`, `use_serial_robot`,
+  `set_cameras`, `stop_robot`...) and its signals (`connectionChanged`, `camerasChanged`,
+  `simulatorChanged`, `stoppedChanged`);
+- `state.files` (app.project_files.ProjectFiles): the project folder, saved and (for a demo)
+  deleted at close.
 """
 from __future__ import annotations
 
-import shutil
-import tempfile
-from dataclasses import asdict
 from pathlib import Path
 from typing import Callable
 
 from PySide6.QtCore import QObject, Signal
 
-from app.hardware import CameraChoice, LiveCameras, RobotChoice, is_real
-from app.lab import VirtualLab, build_lab
-from app.worker import TaskRunner
+from app.cell_hardware import CellHardware
+from app.hardware import CameraChoice, LiveCameras, RobotChoice
+from app.lab import VirtualLab
+from app.lab_provider import LabProvider, LabWait
+from app.project_files import ProjectFiles
 from core import project as projects
 from core.errors import RoboCalError
 from core.identification.model_comparison import TruthAccuracy
 from core.identification.result import IdentificationResult
 from core.marker.training import TrainedMarker
 from core.poses.selection import PoseSelectionResult
-from core.measurement.capture import CameraIdentity
 from core.robot.controller_sim import ControllerSim
 from core.robot.driver import RobotDriver
 from core.robot.file import read_robot
 from core.robot.model import RobotModel, robot_path
-from core.robot.simulated import SimulatedRobot
 from core.stereo.calibration import StereoCalibrationResult
 
 
@@ -85,16 +81,9 @@ class WizardState(QObject):
 
     def __init__(self, parent: QObject | None = None, *, seed: int = 0, noise: float = 0.5):
         super().__init__(parent)
-        self.project: projects.Project | None = None
+        self.files = ProjectFiles()
         self.robot: RobotModel | None = None
         self.robot_source: str | None = None     # "preset:ur5" or a file path
-        self.robot_connection: RobotDriver | None = None
-        self.robot_choice = RobotChoice()
-        self.motion_confirmed = False
-        self.camera_choice = CameraChoice()
-        self.cameras: LiveCameras | None = None
-        self.camera_changes: list[str] = []      # what differs from the cameras the project recorded
-        self.simulator: ControllerSim | None = None    # the Setup page's classroom controller simulator
         self.seed = seed                          # virtual lab: same seed, same lab
         self.noise = noise                        # virtual lab: sensor noise (grey levels)
         self.stereo: StereoCalibrationResult | None = None
@@ -103,13 +92,18 @@ class WizardState(QObject):
         self.measurements: Path | None = None
         self.identification: IdentificationResult | None = None
         self.accuracy: TruthAccuracy | None = None    # virtual lab: identified vs true robot
-        self._lab: VirtualLab | None = None
-        self._lab_waiting: list[tuple[Callable, Callable | None]] = []
-        self._lab_tasks = TaskRunner(self, max_threads=1)
-        self._lab_token = 0
-        self._temp_dirs: list[Path] = []
+        self.labs = LabProvider(self._lab_recipe, self)      # the virtual lab, built on a worker
+        self.labs.changed.connect(self._lab_changed)
+        self.hardware = CellHardware(lambda: (self.project, self.robot, getattr(self.labs.current, "true_robot", None)),
+                                     self)
+        for signal in ("connectionChanged", "camerasChanged", "simulatorChanged", "stoppedChanged"):
+            getattr(self.hardware, signal).connect(getattr(self, signal))
 
     # -- project -------------------------------------------------------------------------
+    @property
+    def project(self) -> projects.Project | None:
+        return self.files.project
+
     @property
     def mode(self) -> str:
         return self.project.mode if self.project is not None else projects.VIRTUAL_LAB
@@ -124,14 +118,14 @@ class WizardState(QObject):
         robot = projects.load_robot(project) if (project is not None and load_robot) else None
         if project is not self.project:
             self.set_simulator(None)
-        self.project = project
+        self.files.project = project
         self._clear_results()
         self.projectChanged.emit(project)
         if robot is not None:
             self.set_robot(robot, project.robot_source or str(project.path("robot")), persist=False)
-        elif project is not None and self.robot is not None:
-            projects.save_robot(project, self.robot, self.robot_source)
-        self._update_connection()
+        else:
+            self.files.save_robot(self.robot, self.robot_source)
+        self.hardware.update_connection()
 
     @property
     def real_cell(self) -> bool:
@@ -145,8 +139,7 @@ class WizardState(QObject):
 
     def new_project(self, folder: str | Path, name: str | None = None, mode: str = projects.VIRTUAL_LAB, *,
                     robot_connection: dict | None = None, cameras: dict | None = None) -> projects.Project:
-        project = projects.create_project(folder, name=name, mode=mode, robot_connection=robot_connection,
-                                          cameras=cameras)
+        project = self.files.create(folder, name, mode, robot_connection=robot_connection, cameras=cameras)
         self.set_project(project)
         return project
 
@@ -158,10 +151,9 @@ class WizardState(QObject):
             raise RoboCalError("no project", hint="Create or open a project first.")
         projects.save_cell(self.project, mode, robot_connection=robot_connection, cameras=cameras)
         if self.virtual:
-            self.use_virtual_robot()
-        elif not self.real_robot:
-            self.robot_choice = RobotChoice()
-            self._update_connection()
+            self.hardware.use_virtual_robot()
+        else:
+            self.hardware.forget_real_choice()
         self.cellChanged.emit(self.project)
 
     def open_project(self, folder: str | Path) -> projects.Project:
@@ -170,33 +162,28 @@ class WizardState(QObject):
         return project
 
     def save_project(self) -> None:
-        if self.project is None:
-            raise RoboCalError("no project to save", hint="Create or open a project first.")
-        projects.save_project(self.project)
-        if self.robot is not None:
-            projects.save_robot(self.project, self.robot, self.robot_source)
+        self.files.save(self.robot, self.robot_source)
 
     def temporary_project(self, name: str = "RoboCal demo") -> projects.Project:
         """A new project in a temporary folder, deleted by `close()` (demo, autopilot)."""
-        folder = Path(tempfile.mkdtemp(prefix="robocal-demo-"))
-        self._temp_dirs.append(folder)
-        return self.new_project(folder / "project", name=name)
+        project = self.files.create_temporary(name)
+        self.set_project(project)
+        return project
 
     def is_temporary(self) -> bool:
-        return self.project is not None and any(
-            d in self.project.folder.parents for d in self._temp_dirs)
+        return self.files.is_temporary()
 
     # -- robot ---------------------------------------------------------------------------
     def set_robot(self, model: RobotModel | None, source: str | None = None, *,
                   persist: bool = True) -> None:
         """Make `model` the nominal robot; with a project open, also write it to robot.json."""
-        if model is not None and persist and self.project is not None:
-            projects.save_robot(self.project, model, source)
+        if persist:
+            self.files.save_robot(model, source)
         self.robot = model
         self.robot_source = source
-        self._drop_lab()
+        self.labs.reset("the robot changed while the virtual lab was being built")
         self.robotChanged.emit(model)
-        self._update_connection()
+        self.hardware.update_connection()
 
     def choose_preset(self, name: str) -> RobotModel:
         model = read_robot(robot_path(name))
@@ -208,200 +195,100 @@ class WizardState(QObject):
         self.set_robot(model, str(path))
         return model
 
-    # -- robot connection ----------------------------------------------------------------
-    def _update_connection(self) -> None:
-        """The simulated robot chosen, in virtual lab mode: a SimulatedRobot over the lab's
-        true geometry once the lab exists (over the nominal model before). A serial robot
-        stays connected while its model is the robot; another robot disconnects it (connect
-        again on the Setup page)."""
-        old = self.robot_connection
-        new: RobotDriver | None = None
-        if self.robot_choice.real:
-            if old is not None and is_real(old) and old.model is self.robot:
-                return
-        elif self.robot is not None and self.virtual:
-            truth = getattr(self._lab, "true_robot", None) if self._lab is not None else None
-            new = SimulatedRobot(truth if isinstance(truth, RobotModel) else self.robot)
-            new.connect()
-        if old is not None:
-            if old.stopped and new is not None:
-                new.stop()                  # a Stop latches until the user resumes, whatever replaced the driver
-            old.stop()
-            old.disconnect()
-        self.robot_connection = new
-        self.connectionChanged.emit(new)
+    # -- hardware (state.hardware: app.cell_hardware.CellHardware) -------------------------------
+    @property
+    def robot_connection(self) -> RobotDriver | None:
+        return self.hardware.robot_connection
+
+    @property
+    def robot_choice(self) -> RobotChoice:
+        return self.hardware.robot_choice
 
     @property
     def real_robot(self) -> bool:
         """A physical robot is connected (not the virtual lab's simulated robot)."""
-        return is_real(self.robot_connection)
+        return self.hardware.real_robot
+
+    @property
+    def motion_confirmed(self) -> bool:
+        return self.hardware.motion_confirmed
+
+    @motion_confirmed.setter
+    def motion_confirmed(self, confirmed: bool) -> None:
+        self.hardware.motion_confirmed = confirmed
+
+    @property
+    def cameras(self) -> LiveCameras | None:
+        return self.hardware.cameras
+
+    @property
+    def camera_choice(self) -> CameraChoice:
+        return self.hardware.camera_choice
+
+    @property
+    def camera_changes(self) -> list[str]:
+        return self.hardware.camera_changes
+
+    @property
+    def simulator(self) -> ControllerSim | None:
+        return self.hardware.simulator
 
     def use_serial_robot(self, driver: RobotDriver, choice: RobotChoice) -> None:
-        """Make a connected serial robot the robot connection (the old one is stopped and
-        disconnected); its first motion will be confirmed again."""
-        old = self.robot_connection
-        self.robot_choice = choice
-        self.motion_confirmed = False
-        if old is not None and old is not driver:
-            old.stop()
-            old.disconnect()
-        self.robot_connection = driver
-        if self.project is not None:
-            projects.save_hardware(self.project, robot_connection={
-                "kind": choice.kind, "port": choice.port, "profile": choice.profile, "joint_map": choice.joint_map,
-                "baud": choice.baud, "speed": float(driver.speed)})
-        self.connectionChanged.emit(driver)
+        self.hardware.use_serial_robot(driver, choice)
 
     def use_virtual_robot(self) -> None:
-        """Back to the virtual lab's simulated robot (a serial robot is stopped and disconnected)."""
-        self.robot_choice = RobotChoice()
-        old = self.robot_connection
-        if old is not None and is_real(old):
-            old.stop()
-            old.disconnect()
-            self.robot_connection = None
-        self._update_connection()
+        self.hardware.use_virtual_robot()
 
     def set_cameras(self, cameras: LiveCameras | None, choice: CameraChoice | None = None) -> None:
-        """The two cameras to capture from (None: the virtual lab's); the old ones are closed."""
-        old, self.cameras = self.cameras, cameras
-        self.camera_choice = choice or (cameras.choice if cameras is not None else None) or CameraChoice()
-        self.camera_changes = self._remember_cameras(cameras) if cameras is not None else []
-        self.camerasChanged.emit(cameras)          # previews of the old cameras stop first
-        if old is not None and old is not cameras:
-            old.close()
-
-    def _remember_cameras(self, cameras: LiveCameras) -> list[str]:
-        """Record the opened cameras in the project (sources, settings, identity); returns what
-        changed since the identity recorded before (a swapped cable, another camera)."""
-        if self.project is None:
-            return []
-        now = cameras.source.identities()
-        before = (self.project.cameras or {}).get("identity") or {}
-        changes = []
-        try:
-            expected = (CameraIdentity(**before["left"]), CameraIdentity(**before["right"]))
-        except (KeyError, TypeError):
-            expected = None
-        if expected is not None:
-            changes = cameras.source.check_identities(expected)
-        choice = self.camera_choice
-        projects.save_hardware(self.project, cameras={
-            "kind": choice.kind, "left": choice.left, "right": choice.right,
-            "settings": asdict(cameras.settings) if cameras.settings is not None else None,
-            "identity": {side: {"name": i.name, "bus": i.bus} for side, i in zip(("left", "right"), now)}})
-        return changes
+        self.hardware.set_cameras(cameras, choice)
 
     def set_simulator(self, sim: ControllerSim | None) -> None:
-        """The running controller simulator (None: none); the old one is closed, after a robot
-        connected to it was disconnected."""
-        old, self.simulator = self.simulator, sim
-        if old is not None and old is not sim:
-            driver = self.robot_connection
-            if is_real(driver) and getattr(driver, "port", None) == old.port:
-                self.use_virtual_robot()
-            old.close()
-        self.simulatorChanged.emit(sim)
+        self.hardware.set_simulator(sim)
 
     def stop_robot(self) -> bool:
-        """Stop the robot now (the Stop key). Returns True if there was a robot to stop."""
-        if self.robot_connection is None:
-            return False
-        self.robot_connection.stop()
-        self.stoppedChanged.emit(True)
-        return True
+        return self.hardware.stop_robot()
 
     def resume_robot(self) -> bool:
-        """Accept motion again after a stop (the technician checked that the way is clear).
-        Returns True if there was a robot to resume. May raise RobotFault (a controller that
-        refuses to unlock)."""
-        if self.robot_connection is None:
-            return False
-        try:
-            self.robot_connection.resume()
-        finally:
-            self.stoppedChanged.emit(self.robot_connection.stopped)
-        return True
+        return self.hardware.resume_robot()
 
     # -- virtual lab ---------------------------------------------------------------------
     @property
     def lab(self) -> VirtualLab:
-        """The virtual lab for the current robot, built here if no page asked for it yet
-        (~2 s: pages use `request_lab` instead, which builds it on a worker thread)."""
-        if self._lab is None:
-            self._lab_token += 1
-            self._take_lab(build_lab(self.robot, self.seed, self.noise))
-        return self._lab
+        """The virtual lab for the current robot, waited for here (scripts and tests: ~2 s on the
+        worker the first time). Pages use `request_lab`, which never blocks."""
+        return self.labs.ready_now()
 
     @property
     def has_lab(self) -> bool:
-        return self._lab is not None
+        return self.labs.current is not None
 
     def request_lab(self, callback: Callable[[VirtualLab], None],
-                    on_error: Callable[[str], None] | None = None) -> None:
+                    on_error: Callable[[str], None] | None = None) -> LabWait:
         """Call `callback(lab)` with the virtual lab of the current robot, seed and noise: at
         once when it exists, otherwise when the one build on the worker thread ends (every
-        page that asks meanwhile waits for the same build). A failed build calls `on_error`."""
-        if self._lab is not None:
-            callback(self._lab)
-            return
-        self._lab_waiting.append((callback, on_error))
-        if len(self._lab_waiting) > 1:
-            return                                # a build is already under way
-        self._lab_token += 1
-        token = self._lab_token
-
-        def built(lab):
-            if token == self._lab_token:
-                self._take_lab(lab)
-
-        def failed(message: str):
-            if token != self._lab_token:
-                return
-            waiting, self._lab_waiting = self._lab_waiting, []
-            for _, err in waiting:
-                if err is not None:
-                    err(message)
-
-        def cancelled():
-            failed("the virtual lab was not built")
-
-        self._lab_tasks.start(build_lab, self.robot, self.seed, float(self.noise), on_result=built,
-                              on_error=failed, on_cancelled=cancelled, label="Building the virtual lab")
+        page that asks meanwhile waits for the same build). A failed build calls `on_error`.
+        `cancel()` the returned wait to stop waiting (the build goes on for the others)."""
+        return self.labs.when_ready(callback, on_error)
 
     def adopt_lab(self, lab: VirtualLab | None) -> None:
         """Take a lab built elsewhere (one lab shared by several states, as the tests do) if it
         matches this state's robot, seed and noise. Pages ask `request_lab` instead."""
-        if self._lab is not None or lab is None or self.robot is None:
+        if self.has_lab or lab is None or self.robot is None:
             return
         if (getattr(lab, "seed", None), getattr(lab, "noise", None)) != (self.seed, float(self.noise)):
             return
         nominal = getattr(lab, "nominal_robot", None)
         if nominal is None or nominal.name != self.robot.name or nominal.dof != self.robot.dof:
             return
-        self._take_lab(lab)
+        self.labs.adopt(lab)
 
-    def _take_lab(self, lab: VirtualLab) -> None:
-        self._set_lab(lab)
-        self._update_connection()
-        waiting, self._lab_waiting = self._lab_waiting, []
-        for callback, _ in waiting:
-            callback(lab)
+    def _lab_recipe(self) -> tuple:
+        return self.robot, self.seed, self.noise
 
-    def _drop_lab(self) -> None:
-        """The robot changed: forget the lab, and any lab being built for the old robot."""
-        self._lab_token += 1
-        waiting, self._lab_waiting = self._lab_waiting, []
-        for _, err in waiting:
-            if err is not None:
-                err("the robot changed while the virtual lab was being built")
-        self._set_lab(None)
-
-    def _set_lab(self, lab) -> None:
-        if lab is self._lab:
-            return
-        self._lab = lab
+    def _lab_changed(self, lab) -> None:
         self.labChanged.emit(lab)
+        if lab is not None:
+            self.hardware.update_connection()
 
     # -- results the steps hand on ----------------------------------------------------------
     def set_stereo(self, result: StereoCalibrationResult | None) -> None:
@@ -436,15 +323,8 @@ class WizardState(QObject):
 
     # -- end -----------------------------------------------------------------------------
     def close(self) -> None:
-        """Stop and disconnect the robot, delete temporary projects. Safe to call twice."""
-        self._lab_token += 1
-        self._lab_tasks.shutdown()
-        if self.robot_connection is not None:
-            self.robot_connection.stop()
-            self.robot_connection.disconnect()
-        if self.cameras is not None:
-            self.set_cameras(None)
-        self.set_simulator(None)
-        for folder in self._temp_dirs:
-            shutil.rmtree(folder, ignore_errors=True)
-        self._temp_dirs.clear()
+        """Stop the lab's build, stop and disconnect the robot, close the cameras, delete
+        temporary projects. Safe to call twice."""
+        self.labs.close()
+        self.hardware.close()
+        self.files.close()

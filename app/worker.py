@@ -16,6 +16,9 @@ window shows it in a message box): never silently dropped.
 
 Functions that take no ``progress``/``cancelled`` keywords are called without them.
 
+An owner with one task at a time (a page, the virtual lab's build) holds it in an
+`app.task_handle.CurrentTask`, which cancels and disconnects the task it replaces.
+
 Tests wait with ``qtbot.waitUntil(lambda: not runner.busy)`` or ``runner.wait()``, and call
 ``runner.shutdown()`` at teardown so no thread outlives the test.
 """

@@ -29,6 +29,7 @@ from PySide6.QtWidgets import QLabel, QWidget
 from app.messages import show_error
 from app.pages.steps import Step
 from app.state import WizardState
+from app.task_handle import CurrentTask
 from app.worker import TaskHandle, TaskRunner
 from core.errors import RoboCalError
 from widgets.progress_row import ProgressRow
@@ -49,23 +50,27 @@ class TaskMixin:
     ``self.start(fn, *args, on_done=draw, then=next_step, status="Working…")`` runs
     ``fn(*args, progress=…, cancelled=…)`` on the window's worker pool. On the GUI thread:
     ``on_done(value)`` then ``then()``; a failure or a RoboCalError raised by `on_done` goes to
-    `on_failed(message)` (status line, autopilot told); Cancel to `on_cancelled()`. A result that
-    arrives after `forget_task()` (another project or robot) is dropped. `progress_row()` is the
+    `on_failed(message)` (status line, autopilot told); Cancel to `on_cancelled()`. After
+    `forget_task()` (another project or robot) nothing of the task arrives. `progress_row()` is the
     page's progress bar and Cancel button; `on_busy_changed()` is the hook to enable controls.
     `start_with_lab(...)` first asks the state for the virtual lab (built once, on a worker) and
-    counts as busy while it waits. Needs `state`, `run_task`, `_set_status` and
-    `_finish_autopilot` (WizardPage has them).
+    counts as busy while it waits. Needs `state`, `_task` and `_lab_wait` (app.task_handle.
+    CurrentTask: the page's task and its wait for the lab), `_set_status` and `_finish_autopilot`
+    (WizardPage has them).
     """
 
-    _task: TaskHandle | None = None
-    _task_token: int = 0
-    _lab_wait: int = 0                 # token of the task waiting for the virtual lab (0: none)
+    _task: CurrentTask
+    _lab_wait: CurrentTask
     _progress_row: ProgressRow | None = None
 
     @property
     def busy(self) -> bool:
         """A task of this page is running, or waits for the virtual lab."""
-        return self._task is not None or bool(self._lab_wait)
+        return self._task.busy or self._lab_wait.busy
+
+    @property
+    def waiting_for_lab(self) -> bool:
+        return self._lab_wait.busy
 
     def progress_row(self) -> ProgressRow:
         """The page's progress bar with its Cancel button (made on first use)."""
@@ -83,21 +88,11 @@ class TaskMixin:
         if self.busy:
             self._set_status("Busy: wait for the running task or cancel it.", False)
             return False
-        self._task_token += 1
-        token = self._task_token
         failed = on_failed or self.on_failed
         cancelled_ = on_cancelled or self.on_cancelled
 
-        def ended() -> bool:
-            if token != self._task_token:
-                return False
-            self._task = None
-            self._busy_changed()
-            return True
-
         def result(value):
-            if not ended():
-                return
+            self._busy_changed()
             try:
                 on_done(value)
             except RoboCalError as exc:
@@ -107,15 +102,15 @@ class TaskMixin:
                 then()
 
         def error(message: str):
-            if ended():
-                failed(message)
+            self._busy_changed()
+            failed(message)
 
         def cancelled():
-            if ended():
-                cancelled_()
+            self._busy_changed()
+            cancelled_()
 
-        self._task = self.run_task(fn, *args, on_result=result, on_error=error, on_cancelled=cancelled,
-                                   on_progress=self._task_progress, label=label, **kwargs)
+        self._task.start(fn, *args, on_result=result, on_error=error, on_cancelled=cancelled,
+                         on_progress=self._task_progress, label=label or self.title, **kwargs)
         self._busy_changed()
         if status:
             self._set_status(status, None)
@@ -139,51 +134,45 @@ class TaskMixin:
         if self.busy:
             self._set_status("Busy: wait for the running task or cancel it.", False)
             return False
-        self._task_token += 1
-        token = self._lab_wait = self._task_token
-        on_failed = on_failed or self.on_failed
-
         answers = []
-
-        def ready(lab) -> None:
-            if token == self._lab_wait:
-                self._lab_wait = 0
-                self._busy_changed()
-                answers.append(go(lab) is not False)
-
-        def failed(message: str) -> None:
-            if token == self._lab_wait:
-                self._lab_wait = 0
-                self._busy_changed()
-                on_failed(message)
-
-        self._busy_changed()
-        self.state.request_lab(ready, on_error=failed)
-        if self._lab_wait == token:                       # still waiting: the lab is being built
+        self._follow_lab(lambda lab: answers.append(go(lab) is not False), on_failed or self.on_failed)
+        if self._lab_wait.busy:                           # still waiting: the lab is being built
             self.progress_row().set_progress(0.0, "building the virtual lab")
             self._set_status(status or "Building the virtual lab…", None)
         return answers[0] if answers else True
 
+    def _follow_lab(self, go: Callable[[Any], Any], on_failed: Callable[[str], None]) -> None:
+        """Wait (busy) for the state's virtual lab, then `go(lab)`; a failed build: `on_failed`."""
+        wait = self._lab_wait.follow()
+
+        def ready(lab) -> None:
+            self._busy_changed()
+            go(lab)
+
+        def failed(message: str) -> None:
+            self._busy_changed()
+            on_failed(message)
+
+        self._busy_changed()
+        wait.cancel_work = self.state.request_lab(wait.final(ready), on_error=wait.final(failed)).cancel
+
     def cancel(self) -> None:
         """Ask the running task to stop, or stop waiting for the lab (`on_cancelled` follows)."""
-        if self._lab_wait:
-            self._lab_wait = 0
+        if self._lab_wait.busy:
+            self._lab_wait.forget()
             self._busy_changed()
             if self._progress_row is not None:
                 self._progress_row.reset()
             self.on_cancelled()
-        elif self._task is not None:
+        else:
             self._task.cancel()
 
     def forget_task(self) -> None:
-        """Cancel the running task (or the wait for the lab) and drop whatever it returns
-        (the project or robot changed)."""
-        self._task_token += 1
+        """Cancel the running task (or the wait for the lab): nothing of it arrives (the project
+        or robot changed)."""
         was_busy = self.busy
-        self._lab_wait = 0
-        if self._task is not None:
-            self._task.cancel()
-            self._task = None
+        self._lab_wait.forget()
+        self._task.forget()
         if was_busy:
             self._busy_changed()
 
@@ -240,6 +229,8 @@ class WizardPage(TaskMixin, QWidget):
         self.help_name = self.help_name or self.step.slug
         self.state = state
         self.tasks = tasks
+        self._task = CurrentTask(tasks)           # the page's one task at a time (TaskMixin)
+        self._lab_wait = CurrentTask()            # its wait for the virtual lab
         self._autopilot_done: DoneCallback | None = None   # set by a page's autopilot()
         self.status = QLabel()                  # the page's status line; a page puts it in its layout
         self.status.setObjectName("pageStatus")

@@ -103,7 +103,7 @@ def test_start_with_lab_waits_for_the_one_lab_build(page, qtbot, monkeypatch):
     def slow_lab(robot, seed, noise):
         built.wait(5)
         return "the lab"
-    monkeypatch.setattr("app.state.build_lab", slow_lab)
+    monkeypatch.setattr("app.lab_provider.build_lab", slow_lab)
     got = []
     assert page.start_with_lab(lambda *, lab: f"used {lab}", on_done=got.append)
     assert page.busy and "building the virtual lab" in page.progress_row().bar.format()
@@ -115,7 +115,7 @@ def test_start_with_lab_waits_for_the_one_lab_build(page, qtbot, monkeypatch):
 
 def test_cancel_and_forget_while_waiting_for_the_lab(page, qtbot, monkeypatch):
     gate = threading.Event()
-    monkeypatch.setattr("app.state.build_lab", lambda robot, seed, noise: gate.wait(5) and "lab")
+    monkeypatch.setattr("app.lab_provider.build_lab", lambda robot, seed, noise: gate.wait(5) and "lab")
     page.start_with_lab(lambda *, lab: pytest.fail("started after Cancel"), on_done=lambda _: None)
     page.cancel()
     assert not page.busy and page.status.text() == "Cancelled."
@@ -129,7 +129,7 @@ def test_cancel_and_forget_while_waiting_for_the_lab(page, qtbot, monkeypatch):
 
 def test_with_lab_runs_its_callback_once_the_lab_exists_and_at_once_after(page, qtbot, monkeypatch):
     gate = threading.Event()
-    monkeypatch.setattr("app.state.build_lab", lambda robot, seed, noise: gate.wait(5) and "lab")
+    monkeypatch.setattr("app.lab_provider.build_lab", lambda robot, seed, noise: gate.wait(5) and "lab")
     seen = []
     assert page.with_lab(lambda lab: seen.append((lab, page.busy)))
     assert page.busy and seen == []
@@ -142,7 +142,7 @@ def test_with_lab_runs_its_callback_once_the_lab_exists_and_at_once_after(page, 
 def test_a_failed_lab_build_reaches_on_failed(page, qtbot, monkeypatch):
     def broken(robot, seed, noise):
         raise RoboCalError("no robot model", source="robot.json")
-    monkeypatch.setattr("app.state.build_lab", broken)
+    monkeypatch.setattr("app.lab_provider.build_lab", broken)
     page.with_lab(lambda lab: pytest.fail("called without a lab"))
     qtbot.waitUntil(lambda: not page.busy, timeout=5000)
     assert "no robot model" in page.status.text() and page.autopilot_said[-1][0] is False

@@ -35,7 +35,7 @@ class FakeLab:
 
 @pytest.fixture
 def fake_lab(monkeypatch):
-    monkeypatch.setattr("app.state.build_lab",
+    monkeypatch.setattr("app.lab_provider.build_lab",
                         lambda robot, seed, noise: FakeLab.create(robot=robot, seed=seed, noise=noise))
     FakeLab.created.clear()
     return FakeLab
@@ -137,7 +137,7 @@ def test_a_lab_built_for_the_previous_robot_is_dropped(state, fake_lab, qtbot):
     state.request_lab(got.append, errors.append)
     state.choose_preset("ur5")                          # while the build runs
     assert errors == ["the robot changed while the virtual lab was being built"]
-    qtbot.waitUntil(lambda: not state._lab_tasks.busy, timeout=5000)
+    qtbot.waitUntil(lambda: not state.labs._runner.busy, timeout=5000)
     qtbot.wait(20)
     assert got == [] and not state.has_lab
 

@@ -162,7 +162,7 @@ class MarkerPage(MarkerAutopilot, WizardPage):
                    ". Locate it on a pair (Live pair or Verification) to finish the step."), self.verified)
 
     def _refresh_stereo(self) -> None:
-        lab = self.state.lab if self.state.has_lab else None
+        lab = self.state.labs.current
         if self._preview and lab is not None and stereo_source(self.state).rect is None:
             src = preview_source(lab)
         else:

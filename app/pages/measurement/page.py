@@ -136,7 +136,7 @@ class MeasurementPage(RunMixin, TeachMixin, WizardPage):
 
     def _lab(self):
         """The state's virtual lab when it exists (the views draw the nominal model with it)."""
-        return self.state.lab if self.state.has_lab else None
+        return self.state.labs.current
 
     def _lab_changed(self, lab) -> None:
         if lab is not None:

@@ -148,7 +148,7 @@ class RunMixin:
             self._set_status("Paused after the current pose: Continue when ready." if on else "Measuring…", None)
 
     def cancel(self) -> None:
-        waiting = bool(self._lab_wait)
+        waiting = self.waiting_for_lab
         super().cancel()
         if not waiting and self.busy:
             self._set_status("Cancelling after the current pose…", None)

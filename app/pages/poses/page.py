@@ -65,7 +65,7 @@ class PosesPage(WizardPage):
         self.controls.set_index(key)
 
     def _lab(self) -> VirtualLab | None:
-        return self.state.lab if self.state.has_lab else None
+        return self.state.labs.current
 
     def _context_changed(self, *_):
         """Another project or robot: the selection no longer applies."""

@@ -14,11 +14,7 @@ Job = tuple[Callable, str, Callable]
 class JobQueueMixin:
     """For a WizardPage: `_run_queue(jobs, then)`, `_wait_for_lab(then)`, `_stop_jobs()`;
     Cancel and a failure drop the jobs not started. The page sets `_queue`, `_queue_total`,
-    `_queue_done`, `_queue_then`, `_waiting_for_lab` and `_lab_token` in its __init__."""
-
-    @property
-    def busy(self) -> bool:
-        return super().busy or self._waiting_for_lab
+    `_queue_done` and `_queue_then` in its __init__."""
 
     def _run_queue(self, jobs: list[Job], then: Callable[[], None] | None = None) -> None:
         self._queue = list(jobs)
@@ -44,40 +40,18 @@ class JobQueueMixin:
         self._next_job()
 
     def _wait_for_lab(self, then: Callable) -> None:
-        """Busy until `state.request_lab` calls back with the lab; then `then(lab)`."""
-        self._lab_token += 1
-        token = self._lab_token
-        self._waiting_for_lab = True
-        self._busy_changed()
-
-        def ready(lab):
-            if token == self._lab_token:
-                self._waiting_for_lab = False
-                then(lab)
-
-        def failed(message: str):
-            if token == self._lab_token:
-                self._waiting_for_lab = False
-                self._busy_changed()
-                self.on_failed(message)
-
-        self.state.request_lab(ready, on_error=failed)
+        """Busy until the state's virtual lab is built; then `then(lab)` (TaskMixin's wait, which
+        Cancel and `forget_task` end)."""
+        self._follow_lab(then, self.on_failed)
 
     def _stop_jobs(self) -> None:
         self._queue.clear()
         self._queue_then = None
-        self._lab_token += 1
-        self._waiting_for_lab = False
         self.forget_task()
 
     def cancel(self) -> None:
         self._queue.clear()
         self._queue_then = None
-        if self._waiting_for_lab:
-            self._lab_token += 1
-            self._waiting_for_lab = False
-            self._busy_changed()
-            self.on_cancelled()
         super().cancel()
 
     def on_failed(self, message: str) -> None:

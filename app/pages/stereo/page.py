@@ -39,6 +39,7 @@ from app.pages.stereo.file_actions import StereoFileActions
 from app.pages.stereo.results_panel import ResultsActions, ResultsPanel
 from app.pages.stereo.texts import (CAMERA_TOOLTIP_HARDWARE, CAMERA_TOOLTIP_LIVE, CAMERA_TOOLTIP_NO_BOARD,
                                     CAMERA_TOOLTIP_VIRTUAL, VIRTUAL_TOOLTIP)
+from app.task_handle import CurrentTask
 from core.errors import RoboCalError
 from core.stereo.board import Board
 from core.stereo.calibration import StereoCalibrationResult, calibrate_stereo
@@ -64,9 +65,7 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, StereoFileActions,
         self._queue_total = 0
         self._queue_done = 0
         self._queue_then: Callable[[], None] | None = None
-        self._waiting_for_lab = False              # asked state.request_lab, not called back yet
-        self._lab_token = 0
-        self._preview_token = 0                    # the latest rectified preview asked for
+        self._preview_task = CurrentTask(tasks)    # the latest rectified preview asked for
         self._after_adding_note = ""
         self._calibration_note = ""                # said once after the next calibration (a swap)
         self._board = self._default_board()
@@ -152,7 +151,7 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, StereoFileActions,
 
     def _default_board(self) -> Board:
         if self.state.virtual:
-            return self.state.lab.board if self.state.has_lab else DEFAULT_BOARD
+            return self.state.labs.current.board if self.state.has_lab else DEFAULT_BOARD
         return Board(9, 6, 24.0)
 
     def _context_changed(self, *_) -> None:

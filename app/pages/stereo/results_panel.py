@@ -202,7 +202,7 @@ def _hint(text: str = "") -> QLabel:
 
 class ResultsActions:
     """The page's work on its calibration result (a part of StereoPage: uses its `result`,
-    `items`, `results` panel and `calibrate`)."""
+    `items`, `results` panel, `calibrate` and `_preview_task`, the rectified preview's task)."""
 
     def _threshold_selection(self, rows: list) -> None:
         if self.result is None:
@@ -273,18 +273,15 @@ class ResultsActions:
         pair = r.detections.pairs[int(index)] if r.detections is not None else None
         if pair is None:
             return
-        self._preview_token += 1
-        token = self._preview_token
 
         def shown(images):
-            if token == self._preview_token and self.result is r:
+            if self.result is r:
                 self.results.draw_preview(r, v, *images)
 
         def failed(message):
-            if token == self._preview_token:
-                self.results.preview.set_image(None)
-                self.results.preview_caption.setText(message)
+            self.results.preview.set_image(None)
+            self.results.preview_caption.setText(message)
 
         self.results.preview_caption.setText("Rectifying this pair…")
-        self.run_task(r.rectification.rectify_files, pair.left_path, pair.right_path, on_result=shown,
-                      on_error=failed, on_cancelled=lambda: None, label="Rectifying the preview")
+        self._preview_task.start(r.rectification.rectify_files, pair.left_path, pair.right_path, on_result=shown,
+                                 on_error=failed, label="Rectifying the preview")
