@@ -10,7 +10,6 @@ argument (the page asks `WizardState.request_lab` for it first).
 from __future__ import annotations
 
 import contextlib
-import json
 import math
 import re
 import time
@@ -24,14 +23,14 @@ import numpy as np
 from app.lab import ComparisonResult, VirtualLab, candidate_patterns, compare_markers
 from app.pages.measurement_inputs import TRAINING_FILE, VERIFICATION_FORMAT, marker_file, verification_file
 from core.errors import RoboCalError
-from core.files import atomic_write_json, atomic_write_many, read_json, strict_json
+from core.files import atomic_write_json, atomic_write_many, read_json
 from core.locks import output_lock, output_locks
 from core.images import load_gray
 from core.marker.correspondence import WindowSweep
+from core.marker.details_file import DETAILS_FILE, LIVE_IMAGES, MarkerDetails
 from core.marker.location import MarkerLocation, MarkerLocator
 from core.marker.training import TrainedMarker, find_outline, train_marker
 from core.provenance import changed_inputs, record_inputs
-from core.report.marker import DETAILS_FILE, DETAILS_FORMAT, LIVE_IMAGES
 from core.stereo.file import StereoFile
 from core.stereo.point_uncertainty import calibration_covariance, parameter_covariance
 from core.task import Cancelled, Monitor
@@ -538,29 +537,20 @@ def verification_details(v: VerificationResult) -> dict:
             "median_error_mm": v.median_error, "rms_error_mm": v.rms_error}
 
 
-def _details_text(record: dict) -> str:
-    return json.dumps(strict_json(record), separators=(",", ":"), ensure_ascii=False) + "\n"
-
-
 def write_details(project, marker_name: str, *, live: LiveResult | None = None,
                   verification: VerificationResult | None = None) -> Path:
     """Put the located `live` pair (its record and crops) or the `verification` into
     marker_details.json, keeping the other part when it is of the same marker; one atomic write."""
     path = details_file(project)
-    record = {"format": DETAILS_FORMAT, "marker": marker_name}
     try:
-        old = read_json(path) if path.is_file() else {}
+        old = MarkerDetails.read(path) if path.is_file() else None
     except RoboCalError:
-        old = {}
-    if old.get("format") == DETAILS_FORMAT and old.get("marker") == marker_name:
-        record.update({k: old[k] for k in ("live", "verification") if k in old})
-    files: dict = {}
+        old = None
+    details = old if old is not None and old.marker == marker_name else MarkerDetails(marker_name)
+    crops: dict = {}
     if live is not None:
-        record["live"], pngs = live_details(live)
-        files.update({Path(project.folder) / LIVE_IMAGES[side]: png for side, png in pngs.items()})
+        details.live, pngs = live_details(live)
+        crops = {Path(project.folder) / LIVE_IMAGES[side]: png for side, png in pngs.items()}
     if verification is not None:
-        record["verification"] = verification_details(verification)
-    files[path] = _details_text(record)
-    with output_locks(files):
-        atomic_write_many(files)
-    return path
+        details.verification = verification_details(verification)
+    return details.write(path, also=crops)

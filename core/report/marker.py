@@ -3,22 +3,7 @@
 with its crops, its SSD criteria curve and window sweep, and the last verification's per-pose
 errors). Image positions in px, errors in mm.
 
-marker_details.json (format DETAILS_FORMAT), written by the Marker page:
-    {"format", "marker": marker file name,
-     "live": {"pair", "error_mm", "point_mm", "sigma_mm", "disparity_px",
-              "images": {"left"|"right": {"file" (a PNG crop, LIVE_IMAGES), "origin": [x0, y0] image px of
-                         the crop's top-left pixel, "scale": crop px per image px, "image_size": [w, h],
-                         "found", "reason",
-                         "sift": {"mode", "matches", "agreeing", "agreeing_points", "other_points",
-                                  "outline" (4x2), "reference", "roi" [x0, y0, x1, y1]},
-                         "canny": {"ok", "roi", "edge_points" (on the four sides), "fitted" (polyline),
-                                   "corners", "reference", "sigma_px"}}},   all points in image px
-              "ssd": {"window" [h, w] px, "disparities" px, "criteria" (grey level² per pixel),
-                      "searched" (pre-warped curve or null), "minimum" [d, C], "second" [d, C] or null,
-                      "disparity" px, "reliability"},
-              "sweep": {"sizes" px, "minima", "disparities" px, "reliabilities", "located" px}},
-     "verification": {"poses", "located", "stereo", "depth_mm", "errors_mm", "sigmas_mm" (per pose,
-                      null when not located), "median_error_mm", "rms_error_mm"}}
+marker_details.json: core/marker/details_file.py (MarkerDetails), written by the Marker page.
 """
 from __future__ import annotations
 
@@ -30,15 +15,13 @@ from core.errors import RoboCalError
 from core.files import read_json
 from core.images import load_gray
 from core.marker.correspondence import DEFAULT_MAX_RELIABILITY
+from core.marker.details_file import DETAILS_FILE, LIVE_IMAGES, MarkerDetails
 from core.project import Project
 from core.report.document import Figure, Section, esc, not_done, num, pairs_table, panel, series, unreadable
 
 TITLE = "Marker"
 MARKER_FILE = "marker.npz"
 VERIFICATION_FILE = "marker_verification.json"
-DETAILS_FILE = "marker_details.json"
-DETAILS_FORMAT = "robocal.marker_details/1"
-LIVE_IMAGES = {"left": "marker_live_left.png", "right": "marker_live_right.png"}
 EDGE_DOTS = 48           # Canny edge pixels drawn per image (evenly spaced): more would hide the outline
 ZOOM_PX = 8.0            # half-width of the "around the minimum" view of the criteria curve
 MIN_DISPARITY_ERROR = 1e-3   # px: smaller disparity differences are drawn here (log axis)
@@ -84,21 +67,16 @@ def marker_section(project: Project, facts: dict, problems: list[str]) -> Sectio
 
 
 def _details(project: Project, problems: list[str]) -> tuple[dict, str | None]:
-    """marker_details.json's content ({} when absent or unreadable) and why it is missing (None if read)."""
+    """marker_details.json's parts ({} when absent or unreadable) and why it is missing (None if read)."""
     path = project.folder / DETAILS_FILE
     if not path.is_file():
         return {}, NO_DETAILS
     try:
-        data = read_json(path)
+        details = MarkerDetails.read(path)
     except RoboCalError as exc:
         problems.append(f"{DETAILS_FILE}: {exc.message}")
         return {}, f"{DETAILS_FILE} cannot be read: {exc.message}"
-    if not isinstance(data, dict) or data.get("format") != DETAILS_FORMAT:
-        found = data.get("format") if isinstance(data, dict) else type(data).__name__
-        message = f"format {found!r}, expected {DETAILS_FORMAT!r}"
-        problems.append(f"{DETAILS_FILE}: {message}")
-        return {}, f"{DETAILS_FILE} cannot be read: {message}"
-    return data, None
+    return details.to_dict(), None
 
 
 def _message(exc: Exception) -> str:

@@ -21,7 +21,7 @@ from app.pages.measurement_inputs import (MARKER_FILE, TRAINING_FILE, VERIFICATI
 from core.errors import Cancelled, RoboCalError
 from core.marker.location import LocatorOptions, MarkerLocator
 from core.marker.training import TrainedMarker
-from core.report.marker import LIVE_IMAGES
+from core.marker.details_file import LIVE_IMAGES
 from core.project import create_project
 from core.robot.simulated import SimulatedRobot
 

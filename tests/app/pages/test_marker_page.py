@@ -19,7 +19,7 @@ from app.pages.steps import Step
 from app.worker import TaskRunner
 from core.marker.training import TrainedMarker
 from core.report import build_report
-from core.report.marker import DETAILS_FILE, DETAILS_FORMAT, LIVE_IMAGES
+from core.marker.details_file import DETAILS_FILE, DETAILS_FORMAT, LIVE_IMAGES
 from tests.app.virtual_inputs import lab_state, make_lab
 
 @pytest.fixture(scope="module")

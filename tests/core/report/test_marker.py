@@ -14,7 +14,8 @@ from core.files import atomic_write_json
 from core.marker.training import train_marker
 from core.project import create_project, open_project
 from core.report import build_report
-from core.report.marker import DETAILS_FILE, DETAILS_FORMAT, LIVE_IMAGES, MIN_DISPARITY_ERROR, VERIFICATION_FILE
+from core.marker.details_file import DETAILS_FILE, DETAILS_FORMAT, LIVE_IMAGES
+from core.report.marker import MIN_DISPARITY_ERROR, VERIFICATION_FILE
 
 LIVE_KEYS = ["marker_live", "marker_ssd", "marker_sweep"]
 ERRORS = [0.012, None, 0.020, 0.031, 0.008]           # mm per pose; pose 2 not located
@@ -151,7 +152,8 @@ def test_details_without_a_verification_or_of_another_format(tmp_path, trained):
     assert figs["marker_precision"].unavailable == "no verification was run since the marker was trained"
     (project.folder / DETAILS_FILE).write_text(json.dumps({**data, "format": "robocal.marker_details/9"}))
     figs, problems = figures(project)
-    assert problems == [f"{DETAILS_FILE}: format 'robocal.marker_details/9', expected '{DETAILS_FORMAT}'"]
+    assert len(problems) == 1 and problems[0].startswith(f"{DETAILS_FILE}: {project.folder / DETAILS_FILE}: ")
+    assert f"field 'format': format 'robocal.marker_details/9', expected '{DETAILS_FORMAT}'" in problems[0]
     assert all("robocal.marker_details/9" in figs[k].unavailable for k in LIVE_KEYS)
     (project.folder / LIVE_IMAGES["left"]).unlink()
     write_details(project, details())
