@@ -4,7 +4,8 @@
     report = build_report(project, robot=..., identification=result, accuracy=accuracy)
 
 The in-memory results of a session win over the files (they are what the user has just
-seen). A step with no output is listed as not done; a file that cannot be read is named with
+seen). The inputs are loaded once (core/report/inputs.py) and each section, like the summary,
+is drawn from them alone. A step with no output is listed as not done; a file that cannot be read is named with
 its error, never a crash. All lengths in mm, angles in degrees, image errors in px.
 """
 from __future__ import annotations
@@ -14,16 +15,16 @@ import math
 import traceback
 from datetime import datetime, timezone
 
-from core.errors import RoboCalError
-from core.project import Project, load_robot
+from core.project import Project
 from core.report.check import check_section
 from core.report.compensation import compensation_section
 from core.report.document import Report, Section, esc, num, parameter_name, table, unreadable
-from core.report.identification import identification_section
+from core.report.identification import identification_section, not_separable_pairs
+from core.report.inputs import ReportInputs, load_report_inputs
 from core.report.marker import marker_section
 from core.report.measurement import measurement_section
 from core.report.poses import poses_section
-from core.report.stereo import stereo_section
+from core.report.stereo import cameras_summary, stereo_section
 from core.robot.model import RobotModel
 
 CONVENTIONS = ("<p class='note'>Lengths in mm, angles in degrees, image errors in px. RMS = root mean square of the 3D "
@@ -48,26 +49,16 @@ def build_report(project: Project, *, robot: RobotModel | None = None, identific
     serial number, in the title block (left out when not given)."""
     date = date or datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     problems: list[str] = []
-    facts: dict = {}
-    if robot is None and project.robot:
-        try:
-            robot = load_robot(project)
-        except RoboCalError as exc:
-            problems.append(f"{project.robot}: {exc.message}")
-    builders = [
-        ("Stereo calibration", lambda: stereo_section(project, facts, problems)),
-        ("Marker", lambda: marker_section(project, facts, problems)),
-        ("Pose sequence", lambda: poses_section(project, robot, facts, problems)),
-        ("Measurements", lambda: measurement_section(project, robot, facts, problems)),
-        ("Identification", lambda: identification_section(project, robot, identification, accuracy, facts,
-                                                          problems)),
-        ("Check", lambda: check_section(project, facts, problems)),
-        ("Compensation", lambda: compensation_section(project, robot, facts, problems)),
-    ]
+    inputs = load_report_inputs(project, robot=robot, identification=identification, accuracy=accuracy,
+                                problems=problems)
+    robot = inputs.robot
+    builders = [("Stereo calibration", stereo_section), ("Marker", marker_section), ("Pose sequence", poses_section),
+                ("Measurements", measurement_section), ("Identification", identification_section),
+                ("Check", check_section), ("Compensation", compensation_section)]
     sections = []
     for title, build in builders:
         try:
-            sections.append(build())
+            sections.append(build(inputs, problems))
         except Exception as exc:     # noqa: BLE001 - a report names what it could not read, never crashes
             where = traceback.extract_tb(exc.__traceback__)[-1]
             message = f"{type(exc).__name__}: {exc} (in {where.name})"
@@ -80,7 +71,7 @@ def build_report(project: Project, *, robot: RobotModel | None = None, identific
     header += (f"<p class='note'>RoboCal {esc(software_version())} · project folder {esc(project.folder)}</p>")
     report = Report(title=f"RoboCal calibration report: {project.name}", header=header, summary="",
                     sections=sections, conventions=CONVENTIONS, problems=problems)
-    report.summary = summary_html(report, facts)
+    report.summary = summary_html(report, inputs)
     return report
 
 
@@ -132,21 +123,28 @@ def accuracy_table(validation: dict, accuracy) -> str:
                   for label, st in rows], numeric={1, 2, 3})
 
 
-def summary_html(report: Report, facts: dict) -> str:
-    v = facts.get("validation") or {}
+def summary_html(report: Report, inputs: ReportInputs) -> str:
+    """The summary box: the verdict on the held-out poses, the accuracy table, the cameras and
+    what is missing, from the report's inputs (and which sections are done)."""
+    calibration = inputs.calibration.get()
+    statistics = (calibration.section.get("statistics", {}) or {}) if calibration is not None else None
+    validation = statistics.get("validation") if statistics is not None else None
+    v = validation if isinstance(validation, dict) else {}
+    accuracy = inputs.accuracy if calibration is not None else None
     before = (v.get("before") or {}).get("rms_mm")
     after = (v.get("after") or {}).get("rms_mm")
     not_done = [s.title for s in report.sections if not s.done]
-    if "statistics" not in facts:
+    if statistics is None:
         verdict = "Not calibrated yet" + (f": not done or not readable: {', '.join(not_done)}." if not_done else ".")
     else:
         verdict = _verdict(before, after)
     text = f"<p class='verdict'>{esc(verdict)}</p>"
-    if v or facts.get("accuracy") is not None:
-        text += accuracy_table(v, facts.get("accuracy"))
-    rows = [("cameras", esc(facts.get("cameras", "no stereo calibration yet"))),
-            ("stereo reprojection error", num(facts.get("stereo_rms"), 3, "px RMS"))]
-    together = facts.get("not_separable") or []
+    if v or accuracy is not None:
+        text += accuracy_table(v, accuracy)
+    sf = inputs.stereo.get()
+    rows = [("cameras", esc(cameras_summary(sf) if sf is not None else "no stereo calibration yet")),
+            ("stereo reprojection error", num(sf.rms_stereo if sf is not None else None, 3, "px RMS"))]
+    together = not_separable_pairs(calibration.section) if calibration is not None else []
     if together:
         rows.append(("parameters not separable", esc(", ".join(f"{parameter_name(a)}–{parameter_name(b)}"
                                                                   for a, b, _r in together))

@@ -11,6 +11,7 @@ import numpy as np
 
 from core.errors import RoboCalError
 from core.project import Project
+from core.report.inputs import ReportInputs
 from core.report.document import Figure, Section, esc, not_done, num, panel, series, table, unreadable
 
 TITLE = "Check"
@@ -20,8 +21,8 @@ MAX_CHECKS_LISTED = 20
 MAX_TICKS = 12              # check numbers labelled one by one up to this many checks
 
 
-def check_section(project: Project, facts: dict, problems: list[str]) -> Section:
-    """Puts 'checks' (the CheckLog) into `facts` when the project has one."""
+def check_section(inputs: ReportInputs, problems: list[str]) -> Section:
+    project = inputs.project
     log_path = project.folder / LOG_FILE
     model = _calibrated(project)
     history = list(((model.calibration or {}).get("history") or []) if model is not None else [])
@@ -39,7 +40,6 @@ def check_section(project: Project, facts: dict, problems: list[str]) -> Section
             problems.append(f"{LOG_FILE}: {exc.message}")
             blocks.append(unreadable(LOG_FILE, exc.message))
     if log is not None and log.checks:
-        facts["checks"] = log
         blocks += _checks(log)
         blocks.append(_diagnosis(log, model, history))
     elif log is not None or not log_path.is_file():

@@ -8,9 +8,8 @@ import numpy as np
 
 from core.compensation.accuracy_map_file import NAME as MAP_NAME, read_accuracy_map
 from core.errors import RoboCalError
-from core.project import Project
+from core.report.inputs import ReportInputs
 from core.report.document import Figure, Section, esc, not_done, num, pairs_table, panel, series, table, unreadable
-from core.robot.model import RobotModel
 
 TITLE = "Compensation"
 PROGRAM_NAME = "corrected_program.csv"
@@ -27,7 +26,8 @@ def _arrows(xy: np.ndarray, vectors: np.ndarray, scale: float) -> tuple[list, li
     return x, y
 
 
-def compensation_section(project: Project, robot: RobotModel | None, facts: dict, problems: list[str]) -> Section:
+def compensation_section(inputs: ReportInputs, problems: list[str]) -> Section:
+    project, robot = inputs.project, inputs.robot
     path = project.folder / MAP_NAME
     if not path.is_file():
         return Section(TITLE, [not_done(f"no {MAP_NAME}: measure the accuracy map on the Compensation step")],
@@ -39,8 +39,6 @@ def compensation_section(project: Project, robot: RobotModel | None, facts: dict
         problems.append(f"{MAP_NAME}: {exc.message}")
         return Section(TITLE, [unreadable(MAP_NAME, exc.message)], done=False)
     both = amap.both
-    facts["compensation"] = {"rms_before_mm": amap.rms_before_mm, "rms_after_mm": amap.rms_after_mm,
-                             "improvement": amap.improvement, "measured_by": amap.measured_by}
     blocks: list = [
         "<p>The controller computes with the nominal model; RoboCal sends it the joints of the calibrated "
         f"model instead. {int(both.sum())} of {amap.n} targets in the calibrated workspace were reached both "

@@ -11,7 +11,7 @@ import numpy as np
 
 from core.errors import RoboCalError
 from core.report.compliance import deflection_blocks
-from core.project import Project
+from core.report.inputs import ReportInputs
 from core.report.document import (Figure, Section, esc, not_done, num, panel, parameter_name, series, sig,
                                   table, unreadable)
 from core.robot.model import RobotModel
@@ -26,40 +26,29 @@ def _stats_table(rows: list[tuple[str, dict]]) -> str:
                    esc(s.get("n", ""))] for label, s in rows], numeric={1, 2, 3, 4})
 
 
-def identification_section(project: Project, robot: RobotModel | None, identification, accuracy,
-                           facts: dict, problems: list[str]) -> Section:
-    """`identification`: an IdentificationResult of this session (wins over calibrated.json);
-    `accuracy`: a model_comparison.TruthAccuracy or None. Puts 'validation', 'statistics' and
-    'accuracy' into `facts`."""
-    if identification is not None:
-        calibration, model, source = identification.calibration_section(), identification.model, \
-            "this session's identification"
-    elif project.has("calibrated"):
-        path = project.path("calibrated")
-        try:
-            from core.robot.file import read_robot
-            model = read_robot(path)
-            calibration = model.calibration
-            if not isinstance(calibration, dict):
-                raise RoboCalError("no calibration section: this is a robot model, not a calibrated one",
-                                   source=path, field="calibration")
-        except RoboCalError as exc:
-            problems.append(f"calibrated.json: {exc.message}")
-            return Section(TITLE, [unreadable("calibrated.json", exc.message)], done=False)
-        source = path.name
-    else:
+def identification_section(inputs: ReportInputs, problems: list[str]) -> Section:
+    """From this session's identification (wins over calibrated.json), the nominal robot,
+    measurements.csv and (virtual lab) the accuracy against the true robot."""
+    loaded = inputs.calibration
+    if not loaded.present:
         return Section(TITLE, [not_done("no calibrated.json in the project")], done=False)
+    if loaded.error is not None:
+        if not isinstance(loaded.error, RoboCalError):
+            raise loaded.error
+        problems.append(f"calibrated.json: {loaded.error.message}")
+        return Section(TITLE, [unreadable("calibrated.json", loaded.error.message)], done=False)
+    calibration, model, source = loaded.value.section, loaded.value.model, loaded.value.source
     try:
-        return Section(TITLE, _blocks(calibration, model, source, robot, accuracy, facts))
+        return Section(TITLE, _blocks(calibration, model, source, inputs.robot, inputs.accuracy,
+                                      inputs.measurements.get()))
     except _ERRORS as exc:
         message = exc.message if isinstance(exc, RoboCalError) else f"unexpected content ({type(exc).__name__}: {exc})"
         problems.append(f"{source}: {message}")
         return Section(TITLE, [unreadable(source, message)], done=False)
 
 
-def _blocks(calibration: dict, model: RobotModel, source: str, robot, accuracy, facts: dict) -> list:
+def _blocks(calibration: dict, model: RobotModel, source: str, robot, accuracy, measurements) -> list:
     s = calibration.get("statistics", {}) or {}
-    facts["statistics"] = s
     blocks: list = [f"<p class='note'>From {esc(source)}"
                     + (f", {esc(calibration.get('date'))}" if calibration.get("date") else "") + ".</p>"]
     blocks.append(f"<p>{esc(s.get('n_poses', '?'))} poses, {esc(s.get('n_points', '?'))} points; "
@@ -70,7 +59,7 @@ def _blocks(calibration: dict, model: RobotModel, source: str, robot, accuracy, 
                   f"estimated σ = {num(s.get('sigma_hat'), 4)} "
                   f"{'× the measurements’ own σ' if s.get('sigma_hat_unit') == '1' else 'mm per axis'}.</p>")
     v = s.get("validation")
-    errors = _pose_errors(model, robot, v, facts.get("measurements"))
+    errors = _pose_errors(model, robot, v, measurements)
     before = {"rms_mm": s.get("rms_before_mm")}
     why_before = ""
     if isinstance(errors, PoseErrors):
@@ -85,7 +74,6 @@ def _blocks(calibration: dict, model: RobotModel, source: str, robot, accuracy, 
                                                                 "max_mm": s.get("max_after_mm"),
                                                                 "n": s.get("n_points", "")})]) + why_before)
     if isinstance(v, dict):
-        facts["validation"] = v
         how = (f"{v.get('n_test_poses')} held-out poses ({float(v.get('fraction', 0)):.0%})"
                if v.get("method") == "holdout" else f"{v.get('folds')}-fold cross validation")
         blocks.append(f"<h3>Validation on poses left out of the fit (mm): {esc(how)}</h3>"
@@ -93,7 +81,6 @@ def _blocks(calibration: dict, model: RobotModel, source: str, robot, accuracy, 
     blocks += _error_figures(errors)
     blocks.append(_convergence(s))
     if accuracy is not None:
-        facts["accuracy"] = accuracy
         a = accuracy.summary()
         blocks.append(f"<h3>Real accuracy against the virtual lab's true robot (mm): "
                       f"{esc(a.get('n_configurations'))} fresh random visible poses</h3>"
@@ -107,10 +94,9 @@ def _blocks(calibration: dict, model: RobotModel, source: str, robot, accuracy, 
                    [series("nominal", values=accuracy.nominal.errors, color=1)]),
              panel("histogram", "calibrated model", "error (mm)", "points",
                    [series("calibrated", values=accuracy.calibrated.errors, color=0)])]))
-    blocks += deflection_blocks(calibration, model, facts.get("measurements"))
+    blocks += deflection_blocks(calibration, model, measurements)
     names, matrix = _correlation_matrix(calibration)
     together = not_separable(names, matrix)
-    facts["not_separable"] = together
     blocks.append(_parameters(calibration, together))
     blocks.append(_correlation(names, matrix))
     return blocks
@@ -132,6 +118,15 @@ def _correlation_matrix(calibration: dict) -> tuple[list[str], np.ndarray | None
     if m.shape != (len(names), len(names)):
         raise ValueError(f"correlation matrix of shape {m.shape} for {len(names)} parameters")
     return names, m
+
+
+def not_separable_pairs(calibration: dict) -> list[tuple[str, str, float]]:
+    """not_separable of the calibration's recorded correlation ([] when it records none or it
+    cannot be read)."""
+    try:
+        return not_separable(*_correlation_matrix(calibration))
+    except _ERRORS:
+        return []
 
 
 def not_separable(names: list[str], matrix: np.ndarray | None) -> list[tuple[str, str, float]]:

@@ -15,8 +15,9 @@ from core.errors import RoboCalError
 from core.files import read_json
 from core.images import load_gray
 from core.marker.correspondence import DEFAULT_MAX_RELIABILITY
-from core.marker.details_file import DETAILS_FILE, LIVE_IMAGES, MarkerDetails
+from core.marker.details_file import DETAILS_FILE, MarkerDetails
 from core.project import Project
+from core.report.inputs import ReportInputs
 from core.report.document import Figure, Section, esc, not_done, num, pairs_table, panel, series, unreadable
 
 TITLE = "Marker"
@@ -29,7 +30,8 @@ NO_DETAILS = (f"the project holds no {DETAILS_FILE}; the Marker page writes it w
               "and when a verification ends: locate a live pair and run a verification to add this figure")
 
 
-def marker_section(project: Project, facts: dict, problems: list[str]) -> Section:
+def marker_section(inputs: ReportInputs, problems: list[str]) -> Section:
+    project = inputs.project
     path = project.folder / MARKER_FILE
     if not path.is_file():
         return Section(TITLE, [not_done(f"no {MARKER_FILE} in the project")], done=False)
@@ -40,7 +42,6 @@ def marker_section(project: Project, facts: dict, problems: list[str]) -> Sectio
         problems.append(f"{MARKER_FILE}: {exc.message}")
         return Section(TITLE, [unreadable(MARKER_FILE, exc.message)], done=False)
     w, h = marker.image_size
-    facts["marker"] = marker.name
     blocks: list = [pairs_table([
         ("marker", esc(marker.name)),
         ("outer square", f"{num(marker.outer_size, 1)} mm, {num(marker.px_per_mm, 2)} px/mm in the training image"),

@@ -7,32 +7,30 @@ import numpy as np
 
 from core.errors import RoboCalError
 from core.measurement.synthetic import synthetic_description
-from core.project import Project
+from core.report.inputs import ReportInputs
 from core.report.document import Figure, Section, esc, not_done, panel, series, table, unreadable
-from core.robot.model import RobotModel
 
 TITLE = "Measurements"
 MAX_REJECTS_LISTED = 40
 
 
-def measurement_section(project: Project, robot: RobotModel | None, facts: dict, problems: list[str]) -> Section:
-    path = project.path("measurements")
-    if not path.is_file():
+def measurement_section(inputs: ReportInputs, problems: list[str]) -> Section:
+    path, loaded = inputs.project.path("measurements"), inputs.measurements
+    if not loaded.present:
         return Section(TITLE, [not_done("no measurements.csv in the project")], done=False)
-    from core.measurement.file import read_measurements
-    try:
-        meas = read_measurements(path, robot)
-    except RoboCalError as exc:
-        problems.append(f"measurements.csv: {exc.message}")
-        return Section(TITLE, [unreadable("measurements.csv", exc.message)], done=False)
-    facts["measurements"] = meas
+    if loaded.error is not None:
+        if not isinstance(loaded.error, RoboCalError):
+            raise loaded.error
+        problems.append(f"measurements.csv: {loaded.error.message}")
+        return Section(TITLE, [unreadable("measurements.csv", loaded.error.message)], done=False)
+    meas = loaded.value
     blocks: list = [f"<p>{meas.n_poses} poses, {meas.n_points} measured points "
                     f"(targets: {esc(', '.join(meas.target_names))}).</p>"]
     synthetic = synthetic_description(path)
     if synthetic:
         blocks.append(f"<p class='warn'><b>Synthetic:</b> {esc(synthetic)}.</p>")
     right = None
-    sf = facts.get("stereo")
+    sf = inputs.stereo.get()
     if sf is not None:
         right = -sf.R.T @ np.asarray(sf.T, dtype=float).reshape(3)       # right camera centre, left frame
     P = meas.xyz

@@ -9,6 +9,7 @@ import numpy as np
 from core.errors import RoboCalError
 from core.poses.selection import indices_from_eigenvalues, minimum_poses, random_indices, scaled_blocks
 from core.project import Project
+from core.report.inputs import ReportInputs
 from core.report.document import Figure, Section, esc, not_done, panel, series, sig, unreadable
 from core.robot.model import RobotModel
 
@@ -16,7 +17,8 @@ TITLE = "Pose sequence"
 RANDOM_TRIALS = 50
 
 
-def poses_section(project: Project, robot: RobotModel | None, facts: dict, problems: list[str]) -> Section:
+def poses_section(inputs: ReportInputs, problems: list[str]) -> Section:
+    project, robot = inputs.project, inputs.robot
     path = project.path("poses")
     if not path.is_file():
         return Section(TITLE, [not_done("no poses.csv in the project")], done=False)
@@ -27,7 +29,6 @@ def poses_section(project: Project, robot: RobotModel | None, facts: dict, probl
         problems.append(f"poses.csv: {exc.message}")
         return Section(TITLE, [unreadable("poses.csv", exc.message)], done=False)
     n = len(poses)
-    facts["poses"] = n
     blocks: list = [f"<p>{n} poses in poses.csv, in the order the robot visits them.</p>"]
     x = np.arange(n)
     names = ([j.name or f"J{i + 1}" for i, j in enumerate(robot.joints)] if robot is not None
@@ -48,10 +49,10 @@ def poses_section(project: Project, robot: RobotModel | None, facts: dict, probl
         blocks += [Figure("poses_index", "Condition number against the number of poses", "", unavailable=why),
                    Figure("poses_views", "Marker positions", "", unavailable=why)]
         return Section(TITLE, blocks)
-    blocks.append(_index_curve(robot, poses.Q, target, facts))
+    blocks.append(_index_curve(robot, poses.Q, target))
     P = robot.target_positions(poses.Q, target)
     b = robot.base[:3, 3]
-    cams = _cameras_in_world(project, robot, facts.get("stereo"))
+    cams = _cameras_in_world(project, robot, inputs.stereo.get())
     where = ("; the squares are the two cameras, placed by the calibrated model's base" if cams is not None
              else " (the cameras are drawn once the project has a calibrated model)")
 
@@ -84,7 +85,7 @@ def _cameras_in_world(project: Project, robot: RobotModel, stereo) -> np.ndarray
     return centres @ world_from_camera[:3, :3].T + world_from_camera[:3, 3]
 
 
-def _index_curve(robot: RobotModel, Q: np.ndarray, target: str, facts: dict) -> Figure:
+def _index_curve(robot: RobotModel, Q: np.ndarray, target: str) -> Figure:
     title = "Condition number against the number of poses"
     A, names, _scales, _ident = scaled_blocks(robot, Q, [target])
     G = np.einsum("nki,nkj->nij", A, A)
@@ -98,7 +99,6 @@ def _index_curve(robot: RobotModel, Q: np.ndarray, target: str, facts: dict) -> 
     rng = np.random.default_rng(0)
     rand = [float(np.median(random_indices(G, int(k), RANDOM_TRIALS, rng)["cond"])) for k in ns]
     finite = [(k, v) for k, v in zip(ns, prefix) if np.isfinite(v)]
-    facts["pose_kappa"] = prefix[-1]
     return Figure(
         "poses_index", title,
         f"κ of the scaled identification Jacobian ({len(names)} parameters; lower is better) of the first N poses "

@@ -7,6 +7,7 @@ import numpy as np
 from core.errors import RoboCalError
 from core.files import read_json
 from core.project import Project
+from core.report.inputs import ReportInputs
 from core.report.document import (Figure, Section, esc, not_done, num, pairs_table, panel, series, side_by_side, sig,
                                   unreadable)
 
@@ -15,22 +16,24 @@ NO_DETAILS = ("the project has stereo.yaml but not its details stereo.json, whic
               "step saves with it; calibrate again to get this figure")
 
 
-def stereo_section(project: Project, facts: dict, problems: list[str]) -> Section:
-    """The section; puts 'stereo_rms', 'cameras' and 'stereo' (the StereoFile) into `facts`."""
-    path = project.path("stereo")
-    if not path.is_file():
-        return Section(TITLE, [not_done("no stereo.yaml in the project")], done=False)
-    try:
-        from core.stereo.file import read_stereo_yaml
-        sf = read_stereo_yaml(path)
-    except RoboCalError as exc:
-        problems.append(f"stereo.yaml: {exc.message}")
-        return Section(TITLE, [unreadable("stereo.yaml", exc.message)], done=False)
+def cameras_summary(sf) -> str:
+    """One line on the two cameras of the StereoFile `sf`, for the report's summary."""
     w, h = sf.image_size
-    facts["stereo"] = sf
-    facts["stereo_rms"] = sf.rms_stereo
-    facts["cameras"] = (f"two cameras, {w} × {h} px, focal length {num(sf.K1[0, 0], 0)} / {num(sf.K2[0, 0], 0)} px, "
-                        f"baseline {num(sf.baseline_mm, 1)} mm")
+    return (f"two cameras, {w} × {h} px, focal length {num(sf.K1[0, 0], 0)} / {num(sf.K2[0, 0], 0)} px, "
+            f"baseline {num(sf.baseline_mm, 1)} mm")
+
+
+def stereo_section(inputs: ReportInputs, problems: list[str]) -> Section:
+    project, stereo = inputs.project, inputs.stereo
+    if not stereo.present:
+        return Section(TITLE, [not_done("no stereo.yaml in the project")], done=False)
+    if stereo.error is not None:
+        if not isinstance(stereo.error, RoboCalError):
+            raise stereo.error
+        problems.append(f"stereo.yaml: {stereo.error.message}")
+        return Section(TITLE, [unreadable("stereo.yaml", stereo.error.message)], done=False)
+    sf = stereo.value
+    w, h = sf.image_size
     rows = [("image size", f"{w} × {h} px"),
             ("reprojection error, left camera", _rms(sf.rms_left)),
             ("reprojection error, right camera", _rms(sf.rms_right)),
