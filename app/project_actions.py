@@ -17,7 +17,7 @@ from app.new_folder_dialog import ask_new_folder
 from app.pages.setup.cell_dialog import ask_cell
 from app.state import WizardState
 from core.errors import RoboCalError
-from core.project import PROJECT_FILE, Project
+from core.project import Output, PROJECT_FILE, Project
 
 
 def new_project(parent: QWidget | None, state: WizardState, folder: str | Path | None = None,
@@ -68,7 +68,7 @@ def demo_has_results(state: WizardState) -> bool:
     project = state.project
     if project is None or not state.is_temporary():
         return False
-    setup = {PROJECT_FILE, project.path("robot").name}
+    setup = {PROJECT_FILE, project.path(Output.ROBOT).name}
     return any(p.name not in setup for p in project.folder.iterdir())
 
 

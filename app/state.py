@@ -3,7 +3,7 @@ to each other; the hardware, the project files and the virtual lab are its parts
 
 Every page gets the same `WizardState` (``self.state``) and listens to its signals rather
 than to other pages. The project folder stays the durable truth: a step that produces a
-file writes it with ``state.project.path("stereo")`` etc. The in-memory results the steps
+file writes it with ``state.project.path(Output.STEREO)`` etc. The in-memory results the steps
 hand on are typed attributes, each with its signal and its setter:
 
     state.set_stereo(result)          # stereoChanged(result)          StereoCalibrationResult
@@ -45,6 +45,7 @@ from core.identification.model_comparison import TruthAccuracy
 from core.identification.result import IdentificationResult
 from core.marker.training import TrainedMarker
 from core.poses.selection import PoseSelectionResult
+from core.project import Output
 from core.robot.controller_sim import ControllerSim
 from core.robot.driver import RobotDriver
 from core.robot.file import read_robot
@@ -122,7 +123,7 @@ class WizardState(QObject):
         self._clear_results()
         self.projectChanged.emit(project)
         if robot is not None:
-            self.set_robot(robot, project.robot_source or str(project.path("robot")), persist=False)
+            self.set_robot(robot, project.robot_source or str(project.path(Output.ROBOT)), persist=False)
         else:
             self.files.save_robot(self.robot, self.robot_source)
         self.hardware.update_connection()

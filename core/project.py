@@ -23,6 +23,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from datetime import datetime, timezone
+from enum import StrEnum
 from pathlib import Path, PurePath
 
 from core.errors import RoboCalError
@@ -43,14 +44,29 @@ TEACH = "teach"             # robot_connection kind: no connection, poses brough
 SOURCES = "sources"         # cameras kind: two devices, video files or image folders
 LAB_WORDS = "the virtual lab (simulated robot and cameras)"
 
-#: the step outputs kept beside project.json
+class Output(StrEnum):
+    """A step output kept beside project.json (its file name: `file_name`). The value is the
+    output's short name, the one `WizardState.outputSaved` carries."""
+    ROBOT = "robot"                        # the nominal robot model (Setup)
+    STEREO = "stereo"                      # the stereo calibration (Stereo calibration)
+    STEREO_DETAILS = "stereo_details"      # its details for the report
+    POSES = "poses"                        # the pose sequence (Pose sequence)
+    MEASUREMENTS = "measurements"          # the measured marker positions (Measurement)
+    CALIBRATED = "calibrated"              # the identified robot model (Identification)
+
+    @property
+    def file_name(self) -> str:
+        return OUTPUT_FILES[self]
+
+
+#: the step outputs' file names
 OUTPUT_FILES = {
-    "robot": "robot.json",
-    "stereo": "stereo.yaml",
-    "stereo_details": "stereo.json",
-    "poses": "poses.csv",
-    "measurements": "measurements.csv",
-    "calibrated": "calibrated.json",
+    Output.ROBOT: "robot.json",
+    Output.STEREO: "stereo.yaml",
+    Output.STEREO_DETAILS: "stereo.json",
+    Output.POSES: "poses.csv",
+    Output.MEASUREMENTS: "measurements.csv",
+    Output.CALIBRATED: "calibrated.json",
 }
 
 
@@ -69,17 +85,18 @@ class Project:
     def file(self) -> Path:
         return self.folder / PROJECT_FILE
 
-    def path(self, output: str) -> Path:
-        """Path of a step output ("robot", "stereo", "poses", "measurements", "calibrated")."""
-        if output == "robot" and self.robot:
-            return self.folder / self.robot
+    def path(self, output: Output) -> Path:
+        """Path of a step output (the robot file is the one project.json names)."""
         try:
-            return self.folder / OUTPUT_FILES[output]
-        except KeyError:
+            output = Output(output)
+        except ValueError:
             raise RoboCalError(f"unknown project output {output!r}",
                                hint=f"Use one of {', '.join(OUTPUT_FILES)}.") from None
+        if output is Output.ROBOT and self.robot:
+            return self.folder / self.robot
+        return self.folder / output.file_name
 
-    def has(self, output: str) -> bool:
+    def has(self, output: Output) -> bool:
         return self.path(output).is_file()
 
     @property
@@ -190,8 +207,8 @@ def command_line_folder(path: str | Path) -> Project:
     calibrated.json under the names the wizard uses), read as a project without project.json:
     named after the folder, a virtual-lab one when `robocal simulate`'s truth.json is there."""
     folder = Path(path)
-    if not folder.is_dir() or not any((folder / OUTPUT_FILES[k]).is_file()
-                                      for k in ("stereo", "measurements", "calibrated")):
+    if not folder.is_dir() or not any((folder / k.file_name).is_file()
+                                      for k in (Output.STEREO, Output.MEASUREMENTS, Output.CALIBRATED)):
         raise RoboCalError("no project here (project.json is missing) and no results of the command line "
                            "(stereo.yaml, measurements.csv or calibrated.json)", source=folder,
                            hint="Choose a folder made with New project, or the folder the commands wrote into.")
@@ -226,8 +243,8 @@ def save_robot(project: Project, model: RobotModel, source: str | None = None) -
     """Write the robot model into the project (robot.json) and record it in project.json."""
     from core.robot.file import write_robot
 
-    project.robot = project.robot or OUTPUT_FILES["robot"]
-    path = write_robot(model, project.path("robot"))
+    project.robot = project.robot or Output.ROBOT.file_name
+    path = write_robot(model, project.path(Output.ROBOT))
     project.robot_source = source
     save_project(project)
     return path
@@ -239,7 +256,7 @@ def load_robot(project: Project) -> RobotModel | None:
 
     if not project.robot:
         return None
-    path = project.path("robot")
+    path = project.path(Output.ROBOT)
     if not path.exists():
         raise RoboCalError("the project's robot file is missing", source=path,
                            hint="Choose the robot again in the Setup step.")

@@ -30,6 +30,7 @@ from core.marker.correspondence import WindowSweep
 from core.marker.details_file import DETAILS_FILE, LIVE_IMAGES, MarkerDetails
 from core.marker.location import MarkerLocation, MarkerLocator
 from core.marker.training import TrainedMarker, find_outline, train_marker
+from core.project import Output
 from core.provenance import changed_inputs, record_inputs
 from core.stereo.file import StereoFile
 from core.stereo.point_uncertainty import calibration_covariance, parameter_covariance
@@ -399,7 +400,7 @@ def write_verification(project, marker_name: str, record: dict) -> None:
 def marker_inputs(project) -> dict[str, Path]:
     """The project files the marker's training and verification are made with: stereo.yaml (when
     the project has one; a marker checked with the Stereo step's unsaved result records none)."""
-    path = project.path("stereo")
+    path = project.path(Output.STEREO)
     return {path.name: path} if path.is_file() else {}
 
 
@@ -411,7 +412,7 @@ def record_marker_inputs(project) -> None:
 def marker_changed_inputs(project) -> list[str]:
     """The inputs changed since the project's marker was trained or verified with them ([]: up to
     date, or nothing recorded)."""
-    path = project.path("stereo")
+    path = project.path(Output.STEREO)
     return changed_inputs(marker_file(project), {path.name: path})
 
 

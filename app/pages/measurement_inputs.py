@@ -15,6 +15,7 @@ from pathlib import Path
 from app.html import number
 from core.errors import RoboCalError
 from core.marker.training import TrainedMarker
+from core.project import Output
 from core.stereo.rectification import StereoRectification, load_rectification
 
 MARKER_FILE = "marker.npz"
@@ -30,7 +31,7 @@ def marker_file(project) -> Path:
 def measurement_inputs(project) -> dict[str, Path]:
     """The project files a measurement run locates the marker with, by name: stereo.yaml and
     marker.npz (core.provenance records them beside measurements.csv)."""
-    return {path.name: path for path in (project.path("stereo"), marker_file(project))}
+    return {path.name: path for path in (project.path(Output.STEREO), marker_file(project))}
 
 
 def verification_file(project) -> Path:
@@ -63,8 +64,8 @@ def stereo_source(state) -> StereoSource:
     """The project's stereo.yaml; else the Stereo step's result in memory; else none, with why."""
     project = state.project
     problem = ""
-    if project is not None and project.has("stereo"):
-        path = project.path("stereo")
+    if project is not None and project.has(Output.STEREO):
+        path = project.path(Output.STEREO)
         try:
             rect = load_rectification(path)
         except RoboCalError as exc:

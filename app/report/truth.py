@@ -12,7 +12,7 @@ from core.identification.model_comparison import TruthAccuracy, accuracy_against
 from core.identification.fit import register_base
 from core.identification.validation import split_poses
 from core.measurement.file import read_measurements
-from core.project import VIRTUAL_LAB, Project, load_robot
+from core.project import Output, Project, VIRTUAL_LAB, load_robot
 from core.robot.file import read_robot
 
 LAB_SEED, LAB_NOISE = 0, 0.5
@@ -23,14 +23,14 @@ def project_truth_accuracy(project: Project, *, robot=None, lab_seed: int = LAB_
     at TRUTH_POSES fresh visible poses, as the Identification step computes it; None for a
     hardware project or one without robot, measurements and calibrated model (or unreadable).
     `robot`: the nominal model (else the project's); `lab_seed`: the lab's (a dataset's truth.json)."""
-    if project.mode != VIRTUAL_LAB or not (project.has("calibrated") and project.has("measurements")):
+    if project.mode != VIRTUAL_LAB or not (project.has(Output.CALIBRATED) and project.has(Output.MEASUREMENTS)):
         return None
     try:
         robot = robot if robot is not None else load_robot(project)
         if robot is None:
             return None
-        model = read_robot(project.path("calibrated"))
-        meas = read_measurements(project.path("measurements"), robot)
+        model = read_robot(project.path(Output.CALIBRATED))
+        meas = read_measurements(project.path(Output.MEASUREMENTS), robot)
         v = ((model.calibration or {}).get("statistics") or {}).get("validation") or {}
         seed = int(v.get("seed", 0))
         test = set(v.get("test_poses") or (split_poses(meas.pose_ids, float(v["fraction"]), seed)[1]

@@ -1,8 +1,8 @@
 """Measurement files marked synthetic: an ordinary measurements.csv with one extra comment
 line (``# synthetic: …``) saying how it was made, so every screen and report can label it.
 
-    write_synthetic_measurements(meas, project.path("measurements"), note="ideal virtual-lab …")
-    is_synthetic(project.path("measurements"))   # True
+    write_synthetic_measurements(meas, project.path(Output.MEASUREMENTS), note="ideal virtual-lab …")
+    is_synthetic(project.path(Output.MEASUREMENTS))   # True
 """
 from __future__ import annotations
 

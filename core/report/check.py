@@ -10,7 +10,7 @@ from datetime import datetime
 import numpy as np
 
 from core.errors import RoboCalError
-from core.project import Project
+from core.project import Output, Project
 from core.report.inputs import ReportInputs
 from core.report.document import Figure, Section, esc, not_done, num, panel, series, table, unreadable
 
@@ -54,11 +54,11 @@ def check_section(inputs: ReportInputs, problems: list[str]) -> Section:
 def _calibrated(project: Project):
     """The calibrated robot, None when there is none or it cannot be read (the Identification
     section names the problem)."""
-    if not project.has("calibrated"):
+    if not project.has(Output.CALIBRATED):
         return None
     from core.robot.file import read_robot
     try:
-        return read_robot(project.path("calibrated"))
+        return read_robot(project.path(Output.CALIBRATED))
     except RoboCalError:
         return None
 

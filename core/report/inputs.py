@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, Generic, TypeVar
 
 from core.errors import RoboCalError
-from core.project import Project, load_robot
+from core.project import Output, Project, load_robot
 from core.robot.model import RobotModel
 
 T = TypeVar("T")
@@ -79,10 +79,10 @@ def load_report_inputs(project: Project, *, robot: RobotModel | None = None, ide
     from core.stereo.file import read_stereo_yaml
     return ReportInputs(
         project=project, robot=robot,
-        stereo=load(project.path("stereo").is_file(), lambda: read_stereo_yaml(project.path("stereo"))),
-        measurements=load(project.path("measurements").is_file(),
-                          lambda: read_measurements(project.path("measurements"), robot)),
-        calibration=load(identification is not None or project.has("calibrated"),
+        stereo=load(project.path(Output.STEREO).is_file(), lambda: read_stereo_yaml(project.path(Output.STEREO))),
+        measurements=load(project.path(Output.MEASUREMENTS).is_file(),
+                          lambda: read_measurements(project.path(Output.MEASUREMENTS), robot)),
+        calibration=load(identification is not None or project.has(Output.CALIBRATED),
                          lambda: _calibration(project, identification)),
         accuracy=accuracy)
 
@@ -92,7 +92,7 @@ def _calibration(project: Project, identification) -> Calibration:
         return Calibration(identification.calibration_section(), identification.model,
                            "this session's identification")
     from core.robot.file import read_robot
-    path = project.path("calibrated")
+    path = project.path(Output.CALIBRATED)
     model = read_robot(path)
     if not isinstance(model.calibration, dict):
         raise RoboCalError("no calibration section: this is a robot model, not a calibrated one",

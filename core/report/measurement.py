@@ -7,6 +7,7 @@ import numpy as np
 
 from core.errors import RoboCalError
 from core.measurement.synthetic import synthetic_description
+from core.project import Output
 from core.report.inputs import ReportInputs
 from core.report.document import Figure, Section, esc, not_done, panel, series, table, unreadable
 
@@ -15,7 +16,7 @@ MAX_REJECTS_LISTED = 40
 
 
 def measurement_section(inputs: ReportInputs, problems: list[str]) -> Section:
-    path, loaded = inputs.project.path("measurements"), inputs.measurements
+    path, loaded = inputs.project.path(Output.MEASUREMENTS), inputs.measurements
     if not loaded.present:
         return Section(TITLE, [not_done("no measurements.csv in the project")], done=False)
     if loaded.error is not None:

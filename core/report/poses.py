@@ -8,7 +8,7 @@ import numpy as np
 
 from core.errors import RoboCalError
 from core.poses.selection import indices_from_eigenvalues, minimum_poses, random_indices, scaled_blocks
-from core.project import Project
+from core.project import Output, Project
 from core.report.inputs import ReportInputs
 from core.report.document import Figure, Section, esc, not_done, panel, series, sig, unreadable
 from core.robot.model import RobotModel
@@ -19,7 +19,7 @@ RANDOM_TRIALS = 50
 
 def poses_section(inputs: ReportInputs, problems: list[str]) -> Section:
     project, robot = inputs.project, inputs.robot
-    path = project.path("poses")
+    path = project.path(Output.POSES)
     if not path.is_file():
         return Section(TITLE, [not_done("no poses.csv in the project")], done=False)
     from core.poses.file import read_poses
@@ -73,11 +73,11 @@ def poses_section(inputs: ReportInputs, problems: list[str]) -> Section:
 def _cameras_in_world(project: Project, robot: RobotModel, stereo) -> np.ndarray | None:
     """The left and right camera centres (2, 3) in the nominal model's world frame (mm), through
     the calibrated model's base (robot base in the left camera frame); None without both files."""
-    if stereo is None or not project.has("calibrated"):
+    if stereo is None or not project.has(Output.CALIBRATED):
         return None
     from core.robot.file import read_robot
     try:
-        base_in_camera = read_robot(project.path("calibrated")).base
+        base_in_camera = read_robot(project.path(Output.CALIBRATED)).base
     except RoboCalError:
         return None                       # the identification section names the unreadable file
     centres = np.array([np.zeros(3), -stereo.R.T @ stereo.T])          # left camera frame

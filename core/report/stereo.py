@@ -6,7 +6,7 @@ import numpy as np
 
 from core.errors import RoboCalError
 from core.files import read_json
-from core.project import Project
+from core.project import Output, Project
 from core.report.inputs import ReportInputs
 from core.report.document import (Figure, Section, esc, not_done, num, pairs_table, panel, series, side_by_side, sig,
                                   unreadable)
@@ -61,7 +61,7 @@ def _rms(value) -> str:
 
 
 def _details(project: Project, problems: list[str], rms_stereo: float) -> list:
-    path = project.path("stereo_details")
+    path = project.path(Output.STEREO_DETAILS)
     titles = ("Reprojection error per pair", "Corner residuals")
     if not path.is_file():
         return [Figure("stereo_pairs", titles[0], "", unavailable=NO_DETAILS),

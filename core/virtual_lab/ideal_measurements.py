@@ -6,8 +6,8 @@ is an ordinary measurements.csv with one extra comment line saying it is synthet
 screen and report can label it as such:
 
     meas = ideal_lab_measurements(lab, 50, sigma_mm=0.05, seed=0)
-    write_ideal_measurements(meas, project.path("measurements"), sigma_mm=0.05)
-    core.measurement.synthetic.is_synthetic(project.path("measurements"))   # True
+    write_ideal_measurements(meas, project.path(Output.MEASUREMENTS), sigma_mm=0.05)
+    core.measurement.synthetic.is_synthetic(project.path(Output.MEASUREMENTS))   # True
 """
 from __future__ import annotations
 

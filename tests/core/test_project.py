@@ -31,7 +31,7 @@ def test_create_writes_a_versioned_project_file(tmp_path):
 def test_open_round_trip_with_robot(tmp_path, model):
     p = proj.create_project(tmp_path, name="Lab arm")
     proj.save_robot(p, model, source="preset:educational_6r")
-    assert (tmp_path / "robot.json").is_file() and p.has("robot")
+    assert (tmp_path / "robot.json").is_file() and p.has(proj.Output.ROBOT)
     for where in (tmp_path, tmp_path / "project.json"):
         q = proj.open_project(where)
         assert (q.name, q.mode, q.robot, q.robot_source) == ("Lab arm", "virtual-lab", "robot.json",
@@ -43,12 +43,20 @@ def test_open_round_trip_with_robot(tmp_path, model):
 
 def test_output_paths_sit_beside_the_project_file(tmp_path):
     p = proj.create_project(tmp_path)
-    assert p.path("stereo") == tmp_path / "stereo.yaml"
-    assert p.path("measurements") == tmp_path / "measurements.csv"
-    assert p.path("poses") == tmp_path / "poses.csv"
-    assert p.path("calibrated") == tmp_path / "calibrated.json"
-    assert not p.has("stereo")
-    with pytest.raises(RoboCalError, match="unknown project output"):
+    Output = proj.Output
+    assert p.path(Output.STEREO) == tmp_path / "stereo.yaml"
+    assert p.path(Output.STEREO_DETAILS) == tmp_path / "stereo.json"
+    assert p.path(Output.MEASUREMENTS) == tmp_path / "measurements.csv"
+    assert p.path(Output.POSES) == tmp_path / "poses.csv"
+    assert p.path(Output.CALIBRATED) == tmp_path / "calibrated.json"
+    assert p.path(Output.ROBOT) == tmp_path / "robot.json"
+    p.robot = "arms/irb120.json"                 # the robot file is the one project.json names
+    assert p.path(Output.ROBOT) == tmp_path / "arms" / "irb120.json"
+    assert not p.has(Output.STEREO)
+    (tmp_path / "stereo.yaml").write_text("%YAML:1.0\n")
+    assert p.has(Output.STEREO)
+    assert p.path("poses") == p.path(Output.POSES)       # the short name, as WizardState.outputSaved carries it
+    with pytest.raises(RoboCalError, match="unknown project output 'nonsense'"):
         p.path("nonsense")
 
 

@@ -15,6 +15,7 @@ from app.jobs import cell_check
 from app.jobs.cell_measure import CellMeasure, cell_options, locator
 from app.pages.measurement_inputs import stereo_source
 from app.safety import motion_refused
+from core.project import Output
 
 
 class CellMixin:
@@ -61,7 +62,7 @@ class CellMixin:
 
     def _cell_options(self) -> dict:
         """How the real cell's poses are chosen: its calibrated cameras and measured depths."""
-        return cell_options(stereo_source(self.state).rect.calibration.rig, self.state.project.path("measurements"))
+        return cell_options(stereo_source(self.state).rect.calibration.rig, self.state.project.path(Output.MEASUREMENTS))
 
     def _cell_measure(self, Q=()) -> CellMeasure | None:
         """The `measure(q)` of a run on the cell, once the safety checks let the robot move (to the

@@ -34,6 +34,7 @@ from app.pages.measurement_inputs import project_marker, stereo_source
 from app.pages.steps import Step
 from core.errors import RoboCalError
 from core.monitoring.log import CheckLog, read_check_log
+from core.project import Output
 
 LOG_NAME = "checks.csv"
 MISSING = "No calibrated robot in the project (calibrated.json). Run the Identification step first."
@@ -109,7 +110,7 @@ class CheckPage(CellMixin, TeachMixin, WizardPage):
 
     # -- sources -------------------------------------------------------------------------
     def calibrated_path(self) -> Path | None:
-        return self.state.project.path("calibrated") if self.state.project is not None else None
+        return self.state.project.path(Output.CALIBRATED) if self.state.project is not None else None
 
     def log_path(self) -> Path | None:
         return self.state.project.folder / LOG_NAME if self.state.project is not None else None

@@ -23,6 +23,7 @@ from app.pages.steps import Step
 from app.safety import motion_refused
 from core.compensation.accuracy_map_file import NAME as MAP_NAME, read_accuracy_map
 from core.errors import RoboCalError
+from core.project import Output
 
 AUTOPILOT_TARGETS = 8
 MISSING = "No calibrated robot in the project (calibrated.json). Run the Identification step first."
@@ -70,10 +71,10 @@ class CompensationPage(WizardPage):
         return self.state.project.folder / name if self.state.project is not None else None
 
     def calibrated_path(self) -> Path | None:
-        return self.state.project.path("calibrated") if self.state.project is not None else None
+        return self.state.project.path(Output.CALIBRATED) if self.state.project is not None else None
 
     def measurements_path(self) -> Path | None:
-        return self.state.project.path("measurements") if self.state.project is not None else None
+        return self.state.project.path(Output.MEASUREMENTS) if self.state.project is not None else None
 
     def images(self):
         """(trained marker, stereo rectification) when the project has both, else None."""

@@ -11,6 +11,7 @@ from core.errors import RoboCalError
 from core.files import atomic_write_bytes, atomic_write_many
 from core.identification.exports import export_model
 from core.identification.file import write_calibrated_model
+from core.project import Output
 from core.robot.file import read_robot
 from core.robot.model import RobotModel
 from core.stereo import file as stereo_file
@@ -61,7 +62,7 @@ class ExportSources:
         """'result' (this session's identification), 'file' (the project's calibrated.json) or None."""
         if self.state.identification is not None:
             return "result"
-        if self.state.project is not None and self.state.project.has("calibrated"):
+        if self.state.project is not None and self.state.project.has(Output.CALIBRATED):
             return "file"
         return None
 
@@ -70,7 +71,7 @@ class ExportSources:
         if source == "result":
             return self.state.identification.model
         if source == "file":
-            return read_robot(self.state.project.path("calibrated"))
+            return read_robot(self.state.project.path(Output.CALIBRATED))
         raise RoboCalError("no calibrated model yet", hint="Run the Identification step first.")
 
     def _missing_model(self) -> str | None:
@@ -81,7 +82,7 @@ class ExportSources:
     def _missing_stereo(self) -> str | None:
         if self.state.project is None:
             return "needs a project (Setup step)"
-        if not self.state.project.has("stereo"):
+        if not self.state.project.has(Output.STEREO):
             return "available after the Stereo calibration step"
         return None
 
@@ -93,7 +94,7 @@ class ExportSources:
         dest = folder / "calibrated.json"
         if self.calibrated_source() == "result":
             return [write_calibrated_model(self.state.identification, dest)]
-        return [atomic_write_bytes(dest, self.state.project.path("calibrated").read_bytes())]
+        return [atomic_write_bytes(dest, self.state.project.path(Output.CALIBRATED).read_bytes())]
 
     def _write_dh(self, folder: Path) -> list[Path]:
         return [export_model(self.calibrated_model(), "dh-csv", folder / "calibrated_dh.csv")]
@@ -102,7 +103,7 @@ class ExportSources:
         return [export_model(self.calibrated_model(), "urdf", folder / "calibrated.urdf")]
 
     def _write_stereo(self, folder: Path) -> list[Path]:
-        src = self.state.project.path("stereo")
+        src = self.state.project.path(Output.STEREO)
         data = stereo_file.read_stereo_yaml(src)          # checks the file before copying it
         files = {folder / "stereo.yaml": src.read_bytes(), **stereo_file.ros_camera_info_files(folder, data)}
         return atomic_write_many(files)                   # all three, or none changed

@@ -31,6 +31,7 @@ from core.identification.result import IdentificationResult
 from core.identification.file import write_calibrated_model
 from core.measurement.file import read_measurements
 from core.measurement.synthetic import synthetic_description
+from core.project import Output
 from core.provenance import changed_inputs, changed_since, fingerprint, record_inputs
 
 
@@ -81,7 +82,7 @@ class IdentificationPage(WizardPage):
         return self.run_result.result if self.run_result is not None else None
 
     def measurements_path(self) -> Path | None:
-        return self.state.project.path("measurements") if self.state.project is not None else None
+        return self.state.project.path(Output.MEASUREMENTS) if self.state.project is not None else None
 
     def inputs(self) -> dict[str, Path]:
         """The project files an identification is made from, by name."""
@@ -95,7 +96,7 @@ class IdentificationPage(WizardPage):
             return []
         if self.run_result is not None:
             return changed_since(self._made_from, self.inputs())
-        return changed_inputs(self.state.project.path("calibrated"), self.inputs())
+        return changed_inputs(self.state.project.path(Output.CALIBRATED), self.inputs())
 
     def _inputs_changed(self) -> None:
         """New measurements: say whether the result is still the one made from them."""
@@ -267,7 +268,7 @@ class IdentificationPage(WizardPage):
         """Write calibrated.json into the project (atomically)."""
         if self.result is None or self.state.project is None:
             return False
-        path = self.state.project.path("calibrated")
+        path = self.state.project.path(Output.CALIBRATED)
         try:
             write_calibrated_model(self.result, path)
             if self._made_from is not None:

@@ -33,6 +33,7 @@ from app.pages.steps import Step
 from core.errors import RoboCalError
 from core.marker.location import LocatorOptions, MarkerLocator
 from core.marker.training import TrainedMarker
+from core.project import Output
 
 TAB_TRAINING, TAB_LIVE, TAB_SSD, TAB_VERIFY, TAB_COMPARE, TAB_CONDITIONS = range(6)
 AGAIN = "Run a verification (or a live pair) again."      # what makes an out-of-date marker current
@@ -382,7 +383,7 @@ class MarkerPage(MarkerAutopilot, WizardPage):
             self.tabs.setCurrentIndex(TAB_VERIFY)
             self._verifying = self._verify_count
             project, rect = self.state.project, self.stereo.rect
-            details = project.path("stereo_details") if project is not None and self.stereo.kind == "file" else None
+            details = project.path(Output.STEREO_DETAILS) if project is not None and self.stereo.kind == "file" else None
             covariance = stereo_parameter_covariance(rect.calibration if rect is not None else None, details,
                                                      self.state.stereo)
             return self.start(run_verification, lab, locator, n, int(self.state.seed), self._verify_count,

@@ -46,6 +46,7 @@ from app.pages.steps import Step
 from core.errors import RoboCalError
 from core.measurement.run import rejects_path_for
 from core.poses.file import PoseList, read_pose_list
+from core.project import Output
 from core.provenance import changed_inputs
 from widgets.workspace_views import camera_wedges
 
@@ -125,7 +126,7 @@ class MeasurementPage(RunMixin, TeachMixin, WizardPage):
         return self._pause.is_set()
 
     def measurements_path(self) -> Path | None:
-        return self.state.project.path("measurements") if self.state.project is not None else None
+        return self.state.project.path(Output.MEASUREMENTS) if self.state.project is not None else None
 
     def counts(self):
         return counts(self.rows)
@@ -170,7 +171,7 @@ class MeasurementPage(RunMixin, TeachMixin, WizardPage):
         self.poses, self.poses_label = None, ""
         if state.project is None or robot is None:
             return "No project or robot yet (Setup step)."
-        project_poses = state.project.path("poses") if state.project.has("poses") else None
+        project_poses = state.project.path(Output.POSES) if state.project.has(Output.POSES) else None
         self.poses, self.poses_label, problem = choose_pose_list(robot, loaded_csv=self.loaded_csv,
                                                                  project_poses=project_poses, selection=state.poses)
         self.n_min = poses_needed(robot, state.poses)

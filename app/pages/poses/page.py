@@ -22,6 +22,7 @@ from core.errors import RoboCalError
 from core.locks import output_lock
 from core.poses.file import PoseList, read_poses
 from core.poses.selection import PoseSelectionResult, write_selection
+from core.project import Output
 
 
 class PosesPage(WizardPage):
@@ -79,10 +80,10 @@ class PosesPage(WizardPage):
     def _load_existing(self) -> None:
         """A poses.csv already in the project (an earlier session) counts as the selection."""
         project, robot = self.state.project, self.state.robot
-        if self.result is not None or project is None or robot is None or not project.has("poses"):
+        if self.result is not None or project is None or robot is None or not project.has(Output.POSES):
             return
         try:
-            self.loaded = read_poses(project.path("poses"), robot)
+            self.loaded = read_poses(project.path(Output.POSES), robot)
         except RoboCalError as exc:
             self.loaded = None
             self._set_status(f"The project's poses.csv cannot be used ({exc.message}); select the poses again.",
@@ -139,8 +140,8 @@ class PosesPage(WizardPage):
         written = ""
         if self.state.project is not None:
             try:
-                with output_lock(self.state.project.path("poses")):     # not while a robocal command writes it
-                    path = write_selection(r, self.state.project.path("poses"))
+                with output_lock(self.state.project.path(Output.POSES)):     # not while a robocal command writes it
+                    path = write_selection(r, self.state.project.path(Output.POSES))
                 written = f" Written to {path.name} for the Measurement step."
             except RoboCalError as exc:
                 self.show_error(exc.message)

@@ -11,6 +11,7 @@ from PySide6.QtWidgets import QFileDialog
 from app.html import number
 from core.errors import RoboCalError
 from core.locks import output_lock, output_locks
+from core.project import Output
 from core.stereo.file import write_ros_camera_info, write_stereo_json, write_stereo_yaml
 from core.stereo.importers import read_any_stereo
 
@@ -24,9 +25,9 @@ class StereoFileActions:
             self._set_status("Nothing to save: calibrate first." if project is not None
                              else "No project: create or open one in the Setup step (1).", ok=False)
             return None
-        path = project.path("stereo")
+        path = project.path(Output.STEREO)
         try:
-            details = project.path("stereo_details")
+            details = project.path(Output.STEREO_DETAILS)
             with output_locks([path, details]):         # not while a robocal command writes them
                 write_stereo_yaml(path, r)
                 write_stereo_json(details, r)
@@ -56,7 +57,7 @@ class StereoFileActions:
                 return None
         try:
             imported = read_any_stereo(sorted(paths, key=_left_first))
-            path = write_stereo_yaml(project.path("stereo"), imported.file)
+            path = write_stereo_yaml(project.path(Output.STEREO), imported.file)
         except RoboCalError as exc:
             self._set_status(f"Not imported: {exc.message}", ok=False)
             return None

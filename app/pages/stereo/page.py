@@ -41,6 +41,7 @@ from app.pages.stereo.texts import (CAMERA_TOOLTIP_HARDWARE, CAMERA_TOOLTIP_LIVE
                                     CAMERA_TOOLTIP_VIRTUAL, VIRTUAL_TOOLTIP)
 from app.task_handle import CurrentTask
 from core.errors import RoboCalError
+from core.project import Output
 from core.stereo.board import Board
 from core.stereo.calibration import StereoCalibrationResult, calibrate_stereo
 from core.stereo.screening import screen_pairs
@@ -183,9 +184,9 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, StereoFileActions,
         project = self.state.project
         if project is None:
             return "No project yet: create or open one in the Setup step (1).", False
-        if not project.has("stereo"):
+        if not project.has(Output.STEREO):
             return "", False
-        path = project.path("stereo")
+        path = project.path(Output.STEREO)
         try:
             sf = read_stereo_yaml(path)
         except RoboCalError as exc:
