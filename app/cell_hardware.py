@@ -90,9 +90,8 @@ class CellHardware(QObject):
         self.robot_connection = driver
         project = self._cell()[0]
         if project is not None:
-            projects.save_hardware(project, robot_connection={
-                "kind": choice.kind, "port": choice.port, "profile": choice.profile, "joint_map": choice.joint_map,
-                "baud": choice.baud, "speed": float(driver.speed)})
+            projects.save_hardware(project, robot_connection=projects.RobotConnection(
+                choice.kind, choice.port, choice.profile, choice.joint_map, choice.baud, float(driver.speed)))
         self.connectionChanged.emit(driver)
 
     def use_virtual_robot(self) -> None:
@@ -148,7 +147,7 @@ class CellHardware(QObject):
         if project is None:
             return []
         now = cameras.source.identities()
-        before = (project.cameras or {}).get("identity") or {}
+        before = (project.cameras.identity if project.cameras is not None else None) or {}
         changes = []
         try:
             expected = (CameraIdentity(**before["left"]), CameraIdentity(**before["right"]))
@@ -157,10 +156,10 @@ class CellHardware(QObject):
         if expected is not None:
             changes = cameras.source.check_identities(expected)
         choice = self.camera_choice
-        projects.save_hardware(project, cameras={
-            "kind": choice.kind, "left": choice.left, "right": choice.right,
-            "settings": asdict(cameras.settings) if cameras.settings is not None else None,
-            "identity": {side: {"name": i.name, "bus": i.bus} for side, i in zip(("left", "right"), now)}})
+        projects.save_hardware(project, cameras=projects.CameraSources(
+            choice.kind, choice.left, choice.right,
+            settings=asdict(cameras.settings) if cameras.settings is not None else None,
+            identity={side: {"name": i.name, "bus": i.bus} for side, i in zip(("left", "right"), now)}))
         return changes
 
     def set_simulator(self, sim: ControllerSim | None) -> None:

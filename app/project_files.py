@@ -20,7 +20,8 @@ class ProjectFiles:
         self._temp_dirs: list[Path] = []
 
     def create(self, folder: str | Path, name: str | None = None, mode: str = projects.VIRTUAL_LAB, *,
-               robot_connection: dict | None = None, cameras: dict | None = None) -> projects.Project:
+               robot_connection: projects.RobotConnection | None = None,
+               cameras: projects.CameraSources | None = None) -> projects.Project:
         """A new project folder (not yet the current project)."""
         return projects.create_project(folder, name=name, mode=mode, robot_connection=robot_connection,
                                        cameras=cameras)

@@ -139,12 +139,14 @@ class WizardState(QObject):
         return self.project.describe_cell() if self.project is not None else projects.LAB_WORDS
 
     def new_project(self, folder: str | Path, name: str | None = None, mode: str = projects.VIRTUAL_LAB, *,
-                    robot_connection: dict | None = None, cameras: dict | None = None) -> projects.Project:
+                    robot_connection: projects.RobotConnection | None = None,
+                    cameras: projects.CameraSources | None = None) -> projects.Project:
         project = self.files.create(folder, name, mode, robot_connection=robot_connection, cameras=cameras)
         self.set_project(project)
         return project
 
-    def set_cell(self, mode: str, *, robot_connection: dict | None = None, cameras: dict | None = None) -> None:
+    def set_cell(self, mode: str, *, robot_connection: projects.RobotConnection | None = None,
+                 cameras: projects.CameraSources | None = None) -> None:
         """Change the project's cell (saved in project.json). To the virtual lab: a serial robot is
         stopped and disconnected. To a real cell: the virtual lab's simulated robot is no longer the
         robot connection (connect the real one on the Setup page)."""

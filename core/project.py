@@ -21,7 +21,7 @@ the wizard and the command line share this module.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from datetime import datetime, timezone
 from enum import StrEnum
 from pathlib import Path, PurePath
@@ -71,6 +71,93 @@ OUTPUT_FILES = {
 
 
 @dataclass
+class RobotConnection:
+    """A real cell's robot as project.json records it: `kind` SERIAL (a controller on `port`
+    speaking `profile`, joints mapped by the `joint_map` file, at `baud`, `speed` % of full
+    speed) or TEACH (no connection: the technician brings the robot to each pose)."""
+    kind: str
+    port: str | None = None
+    profile: str | None = None
+    joint_map: str | None = None
+    baud: int | None = None
+    speed: float | None = None
+
+    def to_dict(self) -> dict:
+        return _fields_given(self)
+
+    @classmethod
+    def from_dict(cls, data, source: str | Path = PROJECT_FILE) -> "RobotConnection":
+        data = _object(data, "robot_connection", source)
+        return cls(kind=_str(data, "kind", "robot_connection", source, default=""),
+                   **{k: _str(data, k, "robot_connection", source) for k in ("port", "profile", "joint_map")},
+                   baud=_number(data, "baud", "robot_connection", source, int),
+                   speed=_number(data, "speed", "robot_connection", source, float))
+
+
+@dataclass
+class CameraSources:
+    """A real cell's two cameras as project.json records them: `kind` SOURCES, `left` and
+    `right` (each a device number, a video file or an image folder), `settings` (a
+    core.camera CameraSettings as a dict) and `identity` ({"left"|"right": {"name", "bus"}}:
+    the cameras seen when they were last opened)."""
+    kind: str
+    left: str | None = None
+    right: str | None = None
+    settings: dict | None = None
+    identity: dict | None = None
+
+    def to_dict(self) -> dict:
+        return _fields_given(self)
+
+    @classmethod
+    def from_dict(cls, data, source: str | Path = PROJECT_FILE) -> "CameraSources":
+        data = _object(data, "cameras", source)
+        return cls(kind=_str(data, "kind", "cameras", source, default=""),
+                   left=_str(data, "left", "cameras", source), right=_str(data, "right", "cameras", source),
+                   settings=_object(data.get("settings"), "cameras.settings", source, optional=True),
+                   identity=_object(data.get("identity"), "cameras.identity", source, optional=True))
+
+
+HARDWARE_HINT = "Delete the field and choose the hardware again on the Setup page."
+
+
+def _fields_given(record) -> dict:
+    """The record's fields that are set (None ones left out, as project.json has always had them)."""
+    return {f.name: getattr(record, f.name) for f in fields(record) if getattr(record, f.name) is not None}
+
+
+def _object(value, field: str, source, optional: bool = False) -> dict | None:
+    if value is None and optional:
+        return None
+    if not isinstance(value, dict):
+        raise RoboCalError("expected an object", source=source, field=field, hint=HARDWARE_HINT)
+    return value
+
+
+def _str(data: dict, key: str, field: str, source, default: str | None = None) -> str | None:
+    value = data.get(key, default)
+    if value is not None and not isinstance(value, str):
+        raise RoboCalError(f"expected text, found {value!r}", source=source, field=f"{field}.{key}",
+                           hint=HARDWARE_HINT)
+    return value
+
+
+def _number(data: dict, key: str, field: str, source, kind: type):
+    value = data.get(key)
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or (kind is int and value != int(value)):
+        raise RoboCalError(f"expected a number, found {value!r}", source=source, field=f"{field}.{key}",
+                           hint=HARDWARE_HINT)
+    return kind(value)
+
+
+def _record(value, kind: type):
+    """`value` as a `kind` record (a dict is read as project.json holds it); None stays None."""
+    return kind.from_dict(value, "<new project>") if isinstance(value, dict) else value
+
+
+@dataclass
 class Project:
     folder: Path
     name: str
@@ -78,8 +165,8 @@ class Project:
     robot: str | None = None          # robot file name, relative to the folder
     robot_source: str | None = None   # where it came from ("preset:ur5", a path), for the user
     created: str = ""                 # ISO 8601, UTC
-    robot_connection: dict | None = None   # Setup: the serial robot (port, profile, joint_map, baud, speed)
-    cameras: dict | None = None            # Setup: the two sources (left, right, settings, identity)
+    robot_connection: RobotConnection | None = None   # Setup: the serial robot, or teach mode
+    cameras: CameraSources | None = None               # Setup: the two camera sources
 
     @property
     def file(self) -> Path:
@@ -106,22 +193,22 @@ class Project:
     @property
     def teach_mode(self) -> bool:
         """A real cell whose robot RoboCal does not drive (joints typed or read, poses by hand)."""
-        return self.real_cell and (self.robot_connection or {}).get("kind") == TEACH
+        return self.real_cell and self.robot_connection is not None and self.robot_connection.kind == TEACH
 
     def describe_cell(self) -> str:
         """The cell in words: the virtual lab, or the real robot connection and cameras."""
         if not self.real_cell:
             return LAB_WORDS
-        robot = self.robot_connection or {}
-        if robot.get("kind") == SERIAL:
-            where = f"the serial robot on {robot.get('port') or '(no port yet)'} ({robot.get('profile') or 'robocal_v1'})"
-        elif robot.get("kind") == TEACH:
+        robot = self.robot_connection or RobotConnection(kind="")
+        if robot.kind == SERIAL:
+            where = f"the serial robot on {robot.port or '(no port yet)'} ({robot.profile or 'robocal_v1'})"
+        elif robot.kind == TEACH:
             where = "the robot in teach mode (brought to each pose by hand)"
         else:
             where = "no robot connection chosen yet"
-        cams = self.cameras or {}
-        if cams.get("kind") == SOURCES and (cams.get("left") or cams.get("right")):
-            seen = f"cameras {cams.get('left') or '?'} and {cams.get('right') or '?'}"
+        cams = self.cameras or CameraSources(kind="")
+        if cams.kind == SOURCES and (cams.left or cams.right):
+            seen = f"cameras {cams.left or '?'} and {cams.right or '?'}"
         else:
             seen = "no cameras chosen yet"
         return f"a real cell: {where}, {seen}"
@@ -130,9 +217,9 @@ class Project:
         data = {"format": FORMAT, "name": self.name, "robot": self.robot,
                 "robot_source": self.robot_source, "mode": self.mode, "created": self.created}
         if self.robot_connection is not None:
-            data["robot_connection"] = self.robot_connection
+            data["robot_connection"] = self.robot_connection.to_dict()
         if self.cameras is not None:
-            data["cameras"] = self.cameras
+            data["cameras"] = self.cameras.to_dict()
         return data
 
 
@@ -148,9 +235,11 @@ def _check_mode(mode, source) -> str:
 
 
 def create_project(folder: str | Path, *, name: str | None = None, mode: str = VIRTUAL_LAB,
-                   robot_connection: dict | None = None, cameras: dict | None = None) -> Project:
+                   robot_connection: RobotConnection | dict | None = None,
+                   cameras: CameraSources | dict | None = None) -> Project:
     """Make `folder` (created if needed) a new project on its cell (`mode`, and for a real cell its
-    robot connection and cameras, see the module); refuses a folder that already is one."""
+    robot connection and cameras: records, or dicts as project.json holds them); refuses a folder
+    that already is one."""
     folder = Path(folder)
     if (folder / PROJECT_FILE).exists():
         raise RoboCalError("this folder already holds a project", source=folder / PROJECT_FILE,
@@ -160,7 +249,8 @@ def create_project(folder: str | Path, *, name: str | None = None, mode: str = V
     _check_mode(mode, "<new project>")
     ensure_writable_dir(folder)
     project = Project(folder=folder, name=name or folder.resolve().name or "project", mode=mode,
-                      created=_now(), robot_connection=robot_connection, cameras=cameras)
+                      created=_now(), robot_connection=_record(robot_connection, RobotConnection),
+                      cameras=_record(cameras, CameraSources))
     save_project(project)
     return project
 
@@ -187,15 +277,11 @@ def open_project(path: str | Path) -> Project:
     if source is not None:
         source = text(source, file, "robot_source")
     created = text(data.get("created", ""), file, "created")
-    hardware = {}
-    for key in ("robot_connection", "cameras"):
-        value = data.get(key)
-        if value is not None and not isinstance(value, dict):
-            raise RoboCalError("expected an object", source=file, field=key,
-                               hint="Delete the field and choose the hardware again on the Setup page.")
-        hardware[key] = value
-    return Project(folder=file.parent, name=name, mode=mode, robot=robot, robot_source=source,
-                   created=created, **hardware)
+    robot_connection, cameras = data.get("robot_connection"), data.get("cameras")
+    return Project(folder=file.parent, name=name, mode=mode, robot=robot, robot_source=source, created=created,
+                   robot_connection=RobotConnection.from_dict(robot_connection, file) if robot_connection is not None
+                   else None,
+                   cameras=CameraSources.from_dict(cameras, file) if cameras is not None else None)
 
 
 #: what `robocal simulate` writes into a dataset folder last: the folder is a virtual-lab one
@@ -221,18 +307,19 @@ def save_project(project: Project) -> Path:
     return atomic_write_json(project.file, project.to_dict())
 
 
-def save_hardware(project: Project, *, robot_connection: dict | None = None, cameras: dict | None = None) -> Path:
-    """Record the Setup page's robot connection and/or cameras in project.json (atomically);
-    a section not given is kept."""
+def save_hardware(project: Project, *, robot_connection: RobotConnection | dict | None = None,
+                  cameras: CameraSources | dict | None = None) -> Path:
+    """Record the Setup page's robot connection and/or cameras (records, or dicts as project.json
+    holds them) in project.json (atomically); a section not given is kept."""
     if robot_connection is not None:
-        project.robot_connection = robot_connection
+        project.robot_connection = _record(robot_connection, RobotConnection)
     if cameras is not None:
-        project.cameras = cameras
+        project.cameras = _record(cameras, CameraSources)
     return save_project(project)
 
 
-def save_cell(project: Project, mode: str, *, robot_connection: dict | None = None,
-              cameras: dict | None = None) -> Path:
+def save_cell(project: Project, mode: str, *, robot_connection: RobotConnection | dict | None = None,
+              cameras: CameraSources | dict | None = None) -> Path:
     """Change the project's cell (project.json, atomically): the virtual lab, or a real cell with
     its robot connection and cameras (a section not given is kept)."""
     project.mode = _check_mode(mode, project.file)

@@ -123,16 +123,50 @@ def test_a_real_cell_is_saved_read_back_and_described(tmp_path):
     p = proj.create_project(tmp_path / "cell", mode=proj.HARDWARE, robot_connection=robot, cameras=cams)
     back = proj.open_project(tmp_path / "cell")
     assert back.mode == proj.HARDWARE and back.real_cell and not back.teach_mode
-    assert back.robot_connection == robot and back.cameras == cams
+    assert back.robot_connection == proj.RobotConnection("serial", "/dev/ttyUSB0", "grbl_joint_arm")
+    assert back.cameras == proj.CameraSources("sources", "0", "/data/right")
+    saved = json.loads((tmp_path / "cell" / "project.json").read_text())
+    assert saved["robot_connection"] == robot and saved["cameras"] == cams     # the file as before
     assert back.describe_cell() == ("a real cell: the serial robot on /dev/ttyUSB0 (grbl_joint_arm), "
                                     "cameras 0 and /data/right")
     proj.save_cell(p, proj.VIRTUAL_LAB)
     lab = proj.open_project(tmp_path / "cell")
     assert lab.mode == proj.VIRTUAL_LAB and lab.describe_cell() == "the virtual lab (simulated robot and cameras)"
-    assert lab.robot_connection == robot                        # kept for when the cell is real again
+    assert lab.robot_connection.to_dict() == robot              # kept for when the cell is real again
     proj.save_cell(lab, proj.HARDWARE, robot_connection={"kind": "teach"})
     teach = proj.open_project(tmp_path / "cell")
     assert teach.teach_mode and "teach mode" in teach.describe_cell()
+
+
+def test_the_hardware_records_round_trip_through_project_json(tmp_path):
+    robot = proj.RobotConnection("serial", "/dev/ttyACM0", "grbl_joint_arm", joint_map="map.json", baud=57600,
+                                 speed=40.0)
+    cams = proj.CameraSources("sources", "0", "1", settings={"width": 1280, "height": 1024},
+                              identity={"left": {"name": "cam A", "bus": "usb-1"}, "right": {"name": "cam B", "bus": ""}})
+    proj.create_project(tmp_path / "cell", mode=proj.HARDWARE, robot_connection=robot, cameras=cams)
+    saved = json.loads((tmp_path / "cell" / "project.json").read_text())
+    assert saved["robot_connection"] == {"kind": "serial", "port": "/dev/ttyACM0", "profile": "grbl_joint_arm",
+                                         "joint_map": "map.json", "baud": 57600, "speed": 40.0}
+    assert saved["cameras"]["identity"]["left"] == {"name": "cam A", "bus": "usb-1"}
+    back = proj.open_project(tmp_path / "cell")
+    assert back.robot_connection == robot and back.cameras == cams
+    assert proj.RobotConnection.from_dict({"kind": "teach"}) == proj.RobotConnection("teach")
+
+
+@pytest.mark.parametrize("key, value, field", [
+    ("robot_connection", {"kind": "serial", "port": 3}, "robot_connection.port"),
+    ("robot_connection", {"kind": "serial", "baud": "fast"}, "robot_connection.baud"),
+    ("robot_connection", {"kind": "serial", "speed": True}, "robot_connection.speed"),
+    ("robot_connection", ["serial"], "robot_connection"),
+    ("cameras", {"kind": "sources", "settings": [1280]}, "cameras.settings"),
+    ("cameras", "0 and 1", "cameras"),
+])
+def test_a_bad_hardware_record_is_refused_naming_the_field(tmp_path, key, value, field):
+    (tmp_path / "project.json").write_text(json.dumps({"format": "robocal.project/1", "name": "p", key: value}))
+    with pytest.raises(RoboCalError) as err:
+        proj.open_project(tmp_path)
+    assert err.value.field == field and err.value.source == str(tmp_path / "project.json")
+    assert "Setup page" in err.value.message
 
 
 def test_an_older_project_file_without_a_cell_reads_as_the_virtual_lab(tmp_path):

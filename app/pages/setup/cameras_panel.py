@@ -78,13 +78,13 @@ class CameraPanel(QGroupBox):
 
     def restore(self, project) -> None:
         """Fill the fields with the cameras the project recorded (opened with Open cameras)."""
-        saved = (project.cameras if project is not None else None) or {}
-        if saved.get("kind") != SOURCES:
+        saved = project.cameras if project is not None else None
+        if saved is None or saved.kind != SOURCES:
             return
-        self.left_edit.setText(str(saved.get("left") or ""))
-        self.right_edit.setText(str(saved.get("right") or ""))
+        self.left_edit.setText(saved.left or "")
+        self.right_edit.setText(saved.right or "")
         try:
-            self.settings_form.set_settings(CameraSettings(**(saved.get("settings") or {})))
+            self.settings_form.set_settings(CameraSettings(**(saved.settings or {})))
         except TypeError:                       # settings of another version: the form's defaults
             pass
         self.sources_radio.setChecked(True)

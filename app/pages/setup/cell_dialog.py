@@ -89,14 +89,14 @@ class CellDialog(QDialog):
         self.show_cell(project)
 
     def show_cell(self, project: projects.Project | None) -> None:
-        robot = (project.robot_connection if project is not None else None) or {}
-        cams = (project.cameras if project is not None else None) or {}
+        robot = (project.robot_connection if project is not None else None) or projects.RobotConnection("")
+        cams = (project.cameras if project is not None else None) or projects.CameraSources("")
         (self.real_radio if project is not None and project.real_cell else self.virtual_radio).setChecked(True)
-        (self.teach_radio if robot.get("kind") == projects.TEACH else self.serial_radio).setChecked(True)
-        self.port_edit.setText(str(robot.get("port") or ""))
-        self.profile_combo.setCurrentText(str(robot.get("profile") or "robocal_v1"))
-        self.left_edit.setText(str(cams.get("left") or ""))
-        self.right_edit.setText(str(cams.get("right") or ""))
+        (self.teach_radio if robot.kind == projects.TEACH else self.serial_radio).setChecked(True)
+        self.port_edit.setText(robot.port or "")
+        self.profile_combo.setCurrentText(robot.profile or "robocal_v1")
+        self.left_edit.setText(cams.left or "")
+        self.right_edit.setText(cams.right or "")
         self._refresh()
 
     def _refresh(self) -> None:
@@ -106,17 +106,17 @@ class CellDialog(QDialog):
         self.port_edit.setEnabled(self.serial_radio.isChecked())
         self.profile_combo.setEnabled(self.serial_radio.isChecked())
 
-    def cell(self) -> tuple[str, dict | None, dict | None]:
+    def cell(self) -> tuple[str, projects.RobotConnection | None, projects.CameraSources | None]:
         """(mode, robot_connection, cameras) for core.project; the last two None for the lab."""
         if not self.real_radio.isChecked():
             return projects.VIRTUAL_LAB, None, None
         if self.serial_radio.isChecked():
-            robot = {"kind": projects.SERIAL, "port": self.port_edit.text().strip(),
-                     "profile": self.profile_combo.currentText().strip() or "robocal_v1"}
+            robot = projects.RobotConnection(projects.SERIAL, port=self.port_edit.text().strip(),
+                                             profile=self.profile_combo.currentText().strip() or "robocal_v1")
         else:
-            robot = {"kind": projects.TEACH}
-        cameras = {"kind": projects.SOURCES, "left": self.left_edit.text().strip(),
-                   "right": self.right_edit.text().strip()}
+            robot = projects.RobotConnection(projects.TEACH)
+        cameras = projects.CameraSources(projects.SOURCES, left=self.left_edit.text().strip(),
+                                         right=self.right_edit.text().strip())
         return projects.HARDWARE, robot, cameras
 
 

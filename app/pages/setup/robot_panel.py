@@ -146,15 +146,15 @@ class RobotPanel(QGroupBox):
 
     def restore(self, project) -> None:
         """Fill the fields with the serial robot the project recorded (not connected yet)."""
-        saved = (project.robot_connection if project is not None else None) or {}
-        if saved.get("kind") != SERIAL:
+        saved = project.robot_connection if project is not None else None
+        if saved is None or saved.kind != SERIAL:
             return
-        self.port_edit.setText(str(saved.get("port") or ""))
-        self.profile_combo.setCurrentText(str(saved.get("profile") or "robocal_v1"))
-        self.joint_map_edit.setText(str(saved.get("joint_map") or ""))
-        self.baud_combo.setCurrentText(str(saved.get("baud") or "115200"))
-        if isinstance(saved.get("speed"), (int, float)):
-            self.speed_spin.setValue(int(round(saved["speed"])))
+        self.port_edit.setText(saved.port or "")
+        self.profile_combo.setCurrentText(saved.profile or "robocal_v1")
+        self.joint_map_edit.setText(saved.joint_map or "")
+        self.baud_combo.setCurrentText(str(saved.baud or "115200"))
+        if saved.speed is not None:
+            self.speed_spin.setValue(int(round(saved.speed)))
         self.serial_radio.setChecked(True)
 
     def _browse_joint_map(self) -> None:

@@ -40,11 +40,11 @@ def test_the_dialog_gives_a_real_cell_with_a_serial_robot_or_teach_mode(qtbot):
     dialog.left_edit.setText("0")
     dialog.right_edit.setText("/data/right")
     assert dialog.cell() == (projects.HARDWARE,
-                             {"kind": "serial", "port": "/dev/ttyACM0", "profile": "grbl_joint_arm"},
-                             {"kind": "sources", "left": "0", "right": "/data/right"})
+                             projects.RobotConnection("serial", port="/dev/ttyACM0", profile="grbl_joint_arm"),
+                             projects.CameraSources("sources", left="0", right="/data/right"))
     dialog.teach_radio.setChecked(True)
     assert not dialog.port_edit.isEnabled()
-    assert dialog.cell()[1] == {"kind": "teach"}
+    assert dialog.cell()[1] == projects.RobotConnection("teach")
 
 
 def test_a_new_real_cell_project_is_saved_shown_and_changed(page, tmp_path):
