@@ -149,7 +149,6 @@ def _image_cell(tmp):
     """The lab (seed 0), its true stereo calibration and trained marker as files, a locator, and the
     arm calibrated from IMAGE_POSES poses measured through rendered images (25 % held out, as the
     README's chain), written to tmp/calibrated.json."""
-    import cv2
     from core.identification.solver import write_calibrated_model
     from core.marker.location import MarkerLocator
     from core.marker.training import train_marker

@@ -7,7 +7,9 @@ the prior on the others is the marginal of C over them). Gauss–Newton minimise
     Σ |x_measured − x_model|² / σ²  +  δ_Uᵀ·C_UU⁻¹·δ_U
 
 over the corrections δ of all those parameters (δ_U those of the unchanged ones), so that
-the new poses mostly move K and the unchanged parameters only as far as the data ask. The
+the new poses mostly move K and the unchanged parameters only as far as the data ask; σ is
+per point (`noise_scale`): the check's points count with the noise the proposal gave them
+(`measured_scale` below), so the fit weighs them as the poses were chosen for. The
 posterior covariance (ΦᵀΦ/σ² + prior)⁻¹ is written into the new calibrated file, so the next
 checks take their limits from it.
 
@@ -195,11 +197,14 @@ def _prior_rows(C: np.ndarray) -> np.ndarray:
 
 
 def reidentify(model: RobotModel, unc: CalibrationUncertainty, changed: Sequence[Parameter],
-               meas: Measurements, *, reason: str = "", previous: str = "", alpha: float = 0.01,
-               progress=None, cancelled=None) -> Reidentification:
+               meas: Measurements, *, noise_scale=None, reason: str = "", previous: str = "",
+               alpha: float = 0.01, progress=None, cancelled=None) -> Reidentification:
     """Re-estimate `changed` from `meas` (new poses, check points) with the previous calibration
-    as the prior (see the module). Raises RoboCalError when the new fit does not explain the
-    measurements (then nothing is to be written)."""
+    as the prior (see the module). `noise_scale`: per point of `meas`, its noise as a multiple
+    (≥ 1) of the calibration's σ (None: all 1), e.g. the check's points' `measured_scale` of
+    `propose_poses`, so that they weigh in the fit as they did in the proposal. Raises
+    RoboCalError when the new fit does not explain the measurements (then nothing is to be
+    written)."""
     monitor = Monitor(progress, cancelled)
     changed_names = [p.name for p in changed]
     if not changed_names:
@@ -209,14 +214,14 @@ def reidentify(model: RobotModel, unc: CalibrationUncertainty, changed: Sequence
     params = list(unc.parameters) + [p for p in changed if p.name not in set(unc.names)]
     u_idx = [k for k, p in enumerate(unc.parameters) if p.name not in set(changed_names)]
     R = _prior_rows(unc.covariance[np.ix_(u_idx, u_idx)])
-    sigma = unc.sigma_mm
+    sigma = unc.sigma_mm * _point_scales(noise_scale, meas.n_points)[:, None]      # (N, 1) mm
     m = 3 * meas.n_points
     total = np.zeros(len(params))
     current = model
 
     def stacked(mdl, tot):
         r = ((meas.xyz - predict_points(mdl, meas.Q, meas.target)) / sigma).reshape(-1)
-        J = calibration_jacobian(mdl, meas.Q, meas.target, params) / sigma
+        J = calibration_jacobian(mdl, meas.Q, meas.target, params) / np.repeat(sigma, 3, axis=0)
         Jp = np.zeros((R.shape[0], len(params)))
         Jp[:, u_idx] = R
         return np.concatenate([r, -R @ tot[u_idx]]), np.vstack([J, Jp])
@@ -251,6 +256,14 @@ def reidentify(model: RobotModel, unc: CalibrationUncertainty, changed: Sequence
                                            previous, meas.n_poses, before, after)
     monitor.step(1.0, "re-identified")
     return Reidentification(out, model, changed_names, params, cov, before, after, meas.n_poses, reason)
+
+
+def _point_scales(noise_scale, n: int) -> np.ndarray:
+    """Per point σ multipliers (n,), each at least 1; all 1 for None."""
+    if noise_scale is None:
+        return np.ones(n)
+    scale = np.broadcast_to(np.asarray(noise_scale, dtype=float), (n,))
+    return np.maximum(scale, 1.0)
 
 
 def _updated_calibration(old: dict | None, model: RobotModel, params: Sequence[Parameter], cov: np.ndarray,
