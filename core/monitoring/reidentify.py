@@ -40,7 +40,7 @@ What bounds the result is the prior: a re-identification keeps the previous cali
 in the parameters that did not change, and through images one calibration's held-out error
 scatters by a factor 2–3 between pose draws (0.0027–0.0067 mm for 30 poses of the lab). Points
 measured through images at 160 random poses erred 0.0075 mm RMS (3D, mostly along the cameras'
-depth, about four fifths of it the same at a pose every time it is imaged). With that error
+depth; about four fifths of its variance the same at a pose every time it is imaged). With that error
 model the predicted ratio after N new random poses matched the measured one pooled over six
 calibrations (tool, 8 poses: 1.03 predicted, 1.05 measured; 20 poses: 0.75 and 0.76; a joint
 zero, 8 poses: 0.89 and 0.92; the base is the least well predicted, 1.16 and 1.37 at 8 poses,
