@@ -364,7 +364,8 @@ def _reidentification_through_images(report, lab, locator, calibrated, tmp) -> N
                    f"worst {ratios.max():.2f}")
         report.info("  the priors' own held-out error / the full recalibrations' (RMS)",
                     math.sqrt(sum(r[4] ** 2 for r in rows) / sum(r[3] ** 2 for r in rows)), "")
-        report.info("  poses used (proposed + check), fewest – most", f"{min(r[5] for r in rows)} – {max(r[5] for r in rows)}")
+        report.info("  poses used (proposed + check), fewest – most",
+                    f"{min(r[5] for r in rows)} – {max(r[5] for r in rows)}")
     for where, errors in (("the check poses", check_err), ("the full recalibrations' poses", calibration_err)):
         e = np.array(errors)
         report.info(f"  image error at {where} (located − true), RMS 3D", float(np.sqrt(np.mean(np.sum(e ** 2, 1)))),
