@@ -196,9 +196,10 @@ class _LocatedOnce:
 def _file_path_verdicts(report, lab, locator, calibrated, tmp) -> None:
     """Per scenario, FILE_DRAWS draws of the change (its direction) and FILE_NOISE renders of each
     check pose's pair per draw (image noise and light), each rendered pair written once as two PNG
-    files. A trial takes one render per check pose (FILE_TRIALS distinct combinations, FILE_DRAWS^…
-    per draw): the lab path checks the rendered pairs in memory; the file path writes the trial's
-    folder (left/NN.png, right/NN.png: hard links to the written files) and the joints file, and
+    files. A trial takes one render per check pose (FILE_TRIALS distinct combinations, out of
+    FILE_NOISE^8 per draw): the lab path checks the rendered pairs in memory; the file path makes
+    the trial's folder (left/NN.png, right/NN.png: hard links to the written files) and, with the
+    joints file written once,
     runs `check --images`'s code on them: pairs found and read from the files, located, judged,
     diagnosed. Each distinct pair is located once (_LocatedOnce), in memory for the lab path; a
     pair read from files reuses it only when its pixels are the same bytes."""
