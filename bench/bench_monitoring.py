@@ -199,9 +199,8 @@ def _file_path_verdicts(report, lab, locator, calibrated, tmp) -> None:
     files. A trial takes one render per check pose (FILE_TRIALS distinct combinations, out of
     FILE_NOISE^8 per draw): the lab path checks the rendered pairs in memory; the file path makes
     the trial's folder (left/NN.png, right/NN.png: hard links to the written files) and, with the
-    joints file written once,
-    runs `check --images`'s code on them: pairs found and read from the files, located, judged,
-    diagnosed. Each distinct pair is located once (_LocatedOnce), in memory for the lab path; a
+    joints file written once, runs `check --images`'s code on them: pairs found and read from the
+    files, located, judged, diagnosed. Each distinct pair is located once (_LocatedOnce), in memory for the lab path; a
     pair read from files reuses it only when its pixels are the same bytes."""
     import itertools
     import os
