@@ -142,7 +142,8 @@ FILE_DRAWS = 2            # draws of each change (its direction) per scenario
 FILE_NOISE = 2            # renders of each check pose's pair per draw: 2^8 combinations per draw
 IMAGE_POSES = 40          # poses of the calibration through images, and of a full recalibration
 SCENARIOS = {"none": None, "tool": "tool:1.5", "base": "base:2", "joint zero": "joint2:0.3"}
-REID_CHAIN = ("tool:0.5", "base:0.5", "joint2:0.05", "tool:3", "base:3", "joint3:0.5")   # one after the other
+REID_CHAINS = (("tool:0.5", "base:0.5", "joint2:0.05", "tool:3", "base:3", "joint3:0.5"),   # one after the other
+               ("tool:1.5", "joint5:0.2", "tool:2.5", "base:1.5"))          # again from the first calibration
 
 
 def _image_cell(tmp):
@@ -294,14 +295,15 @@ def _shuffled_products(poses: int, renders: int, *, seed: int):
 
 
 def _reidentification_through_images(report, lab, locator, calibrated, tmp) -> None:
-    """A cell that changes REID_CHAIN's changes one after the other, each after its own
-    calibration through images: at each, the check, its diagnosis and the proposed poses measured
-    through images and re-identified with the cell's calibration as prior; then a full
-    recalibration of the changed robot through images of the same kind (IMAGE_POSES poses, 25 %
-    held out), which is the calibration the next change is checked and re-identified against. So
-    every re-identification has its own prior (a different calibration, as luck drew it) and the
-    ratio re-identified / full recalibration is pooled over as many calibrations as changes. Both
-    held-out errors on the same 40 poses, against the true marker of the changed robot."""
+    """A cell that changes, one after the other, each of REID_CHAINS' changes (each chain from the
+    first calibration), each after its own calibration through images: at each, the check, its
+    diagnosis and the proposed poses measured through images and re-identified with the cell's
+    calibration as prior; then a full recalibration of the changed robot through images of the
+    same kind (IMAGE_POSES poses, 25 % held out), which is the calibration the next change is
+    checked and re-identified against. So every re-identification has its own prior (a different
+    calibration, as luck drew it) and the ratio re-identified / full recalibration is pooled over
+    as many calibrations as changes. Both held-out errors on the same 40 poses, against the true
+    marker of the changed robot."""
     import shutil
     from app.jobs import check as job
     from core.errors import RoboCalError
@@ -315,39 +317,41 @@ def _reidentification_through_images(report, lab, locator, calibrated, tmp) -> N
         return Measurements(pose=np.arange(40), target=[lab.target] * 40, q_file=lab.nominal_robot.q_to_file(held_Q),
                             xyz=predict_points(robot, held_Q, [lab.target] * 40), Q=held_Q)
 
-    prior_path = calibrated
     rows = []           # (kind, spec, re-identified mm, full mm, prior's own mm before the change, poses, new)
     check_err, calibration_err, notes = [], [], []
-    for i, spec in enumerate(REID_CHAIN):
-        kind = "joint zero" if spec.startswith("joint") else spec.split(":")[0]
-        before = error_stats(read_robot(prior_path), held_out(lab.true_robot)).rms_mm
-        path = tmp / f"reid-{i}.json"
-        shutil.copy(prior_path, path)
-        cell, result, diagnosis = job.check_project(path, lab, change=spec, images=(locator.trained, locator.rect),
-                                                    seed=40 + i)
-        changed = lab_copy_truth(lab, spec)
-        truth = predict_points(changed.true_robot, result.Q, [lab.target] * len(result.Q))
-        check_err += [p.measured - t for p, t in zip(result.points, truth)]
-        held = held_out(changed.true_robot)
-        full_meas = _through_images(changed, locator, changed.random_visible_poses(
-            IMAGE_POSES, np.random.default_rng(60 + i)), seed=61 + i)
-        full_result = identify(lab.nominal_robot, full_meas, holdout=0.25)
-        calibration_err += list(full_meas.xyz - predict_points(changed.true_robot, full_meas.Q, full_meas.target))
-        full = error_stats(full_result.model, held).rms_mm
-        prior_path = write_calibrated_model(full_result, tmp / f"calibrated-{i + 1}.json")   # the next change's prior
-        if diagnosis is None or not diagnosis.explained:
-            notes.append(f"{spec}: {'within limits' if diagnosis is None else 'unexplained'}")
-        else:
-            try:
-                update = job.reidentify_on_lab(cell, result, diagnosis, lab, spec, path,
-                                               images=(locator.trained, locator.rect), lab_options=lab_options(lab),
-                                               seed=50 + i)
-                re = error_stats(update.reidentification.model, held).rms_mm
-                rows.append((kind, spec, re, full, before, len(update.proposed) + len(result.points),
-                             len(update.proposed)))
-            except RoboCalError as exc:
-                notes.append(f"{spec}: refused ({exc.problem[:60]})")
-        lab.true_robot = changed.true_robot                  # the cell as it is now, for the next change
+    for c, chain in enumerate(REID_CHAINS):
+        lab.true_robot = true
+        prior_path = calibrated
+        for i, spec in enumerate(chain):
+            kind = "joint zero" if spec.startswith("joint") else spec.split(":")[0]
+            before = error_stats(read_robot(prior_path), held_out(lab.true_robot)).rms_mm
+            path = tmp / f"reid-{c}-{i}.json"
+            shutil.copy(prior_path, path)
+            cell, result, diagnosis = job.check_project(path, lab, change=spec, images=(locator.trained, locator.rect),
+                                                        seed=40 + i)
+            changed = lab_copy_truth(lab, spec)
+            truth = predict_points(changed.true_robot, result.Q, [lab.target] * len(result.Q))
+            check_err += [p.measured - t for p, t in zip(result.points, truth)]
+            held = held_out(changed.true_robot)
+            full_meas = _through_images(changed, locator, changed.random_visible_poses(
+                IMAGE_POSES, np.random.default_rng(60 + i)), seed=61 + i)
+            full_result = identify(lab.nominal_robot, full_meas, holdout=0.25)
+            calibration_err += list(full_meas.xyz - predict_points(changed.true_robot, full_meas.Q, full_meas.target))
+            full = error_stats(full_result.model, held).rms_mm
+            prior_path = write_calibrated_model(full_result, tmp / f"calibrated-{c}-{i + 1}.json")   # the next prior
+            if diagnosis is None or not diagnosis.explained:
+                notes.append(f"{spec}: {'within limits' if diagnosis is None else 'unexplained'}")
+            else:
+                try:
+                    update = job.reidentify_on_lab(cell, result, diagnosis, lab, spec, path,
+                                                   images=(locator.trained, locator.rect), lab_options=lab_options(lab),
+                                                   seed=50 + i)
+                    re = error_stats(update.reidentification.model, held).rms_mm
+                    rows.append((kind, spec, re, full, before, len(update.proposed) + len(result.points),
+                                 len(update.proposed)))
+                except RoboCalError as exc:
+                    notes.append(f"{spec}: refused ({exc.problem[:60]})")
+            lab.true_robot = changed.true_robot              # the cell as it is now, for the next change
     lab.true_robot = true
     for kind in dict.fromkeys(k for k, *_ in rows):
         mine = [r for r in rows if r[0] == kind]
