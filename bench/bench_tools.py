@@ -42,7 +42,6 @@ def run(report) -> None:
         model = res.model.copy()
         model.calibration = res.calibration_section()
         unc = calibration_uncertainty(model)
-        truth = equivalent_offset(lab, model, "long_marker")
         proposal = propose_tool_poses(model, "long_gripper", candidates=600, seed=s, **opts)
         for k in range(TRIALS):
             measure = ideal_measure(long_lab, sigma_mm=SIGMA, seed=1000 * s + k)
@@ -50,6 +49,7 @@ def run(report) -> None:
             meas = Measurements(pose=np.arange(len(xyz)), target=["long_marker"] * len(xyz),
                                 q_file=model.q_to_file(proposal.Q), xyz=xyz, Q=proposal.Q)
             result = identify_tool(model, unc, "long_gripper", meas)
+            truth = equivalent_offset(lab, result.model, "long_marker")     # in the re-identified arm's tool frame
             errors.append(float(np.linalg.norm(result.offsets["long_marker"] - truth)))
             sigmas.append(result.sigma_mm)
             poses.append(len(proposal.Q))

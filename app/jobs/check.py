@@ -157,7 +157,8 @@ def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: D
                         xyz=np.array(xyz), Q=Q)
     out = Path(out)
     kept = history_path(out) if archive and out.is_file() else None
-    re = reidentify(cell.model, cell.unc, diagnosis.parameters, meas, reason=diagnosis.text,
+    scale = [1.0] * (len(Q) - len(result.points)) + [diagnosis.chosen.noise_scale] * len(result.points)
+    re = reidentify(cell.model, cell.unc, diagnosis.parameters, meas, noise_scale=scale, reason=diagnosis.text,
                     previous=str(kept) if kept is not None else cell.source, progress=monitor.sub(0.6, 0.7),
                     cancelled=cancelled)
     unc = updated_uncertainty(re, cell.unc, out)

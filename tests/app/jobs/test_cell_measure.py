@@ -21,7 +21,8 @@ from app.jobs.cell_measure import CellMeasure, cell_options, locator
 from app.lab import build_lab, ideal_lab_measurements, write_ideal_measurements
 from app.sim_cameras import SimulatedCellCameras
 from core.errors import RoboCalError
-from core.identification.solver import identify, write_calibrated_model
+from core.identification.file import write_calibrated_model
+from core.identification.solver import identify
 from core.monitoring.log import read_check_log
 from core.robot.controller_sim import ControllerSim
 from core.robot.driver import RobotFault

@@ -88,3 +88,34 @@ def test_reidentified_from_the_check_and_the_proposed_poses_is_as_accurate_as_a_
     assert diag.kind == "tool"
     assert max(used) <= 8 + 3               # the check's points and one new pose per changed parameter
     assert math.sqrt(np.mean(np.square(reid)) / np.mean(np.square(full))) <= 1.35
+
+
+def test_points_of_larger_noise_weigh_less_in_the_re_identification():
+    """The check's 8 points err 4σ (as through images at the workspace's edges), 6 new points σ:
+    given that scale, the tool's change is re-identified closer to the true change (pooled over 8
+    draws) and its covariance is that of the weighted fit (larger than if every point had σ)."""
+    c = cell()
+    names = [p.name for p in tool(c)]
+    weighted, equal = [], []
+    try:
+        apply_change(c.lab, "tool:2", seed=0)
+        moved = c.lab.true_robot.targets["marker"] - c.true.targets["marker"]
+        proposal = propose_poses(c.model, c.unc, tool(c), c.Q, count=6, measured_scale=4.0, candidates=300,
+                                 **c.options)
+        Q = np.vstack([proposal.Q, c.Q])
+        for k in range(8):
+            rng = np.random.default_rng(700 + k)
+            xyz = c.lab.true_robot.target_positions(Q, "marker") + rng.normal(0.0, SIGMA, (len(Q), 3)) * \
+                np.repeat([1.0, 4.0], [len(proposal.Q), len(c.Q)])[:, None]
+            meas = Measurements(pose=np.arange(len(Q)), target=["marker"] * len(Q), q_file=c.model.q_to_file(Q),
+                                xyz=xyz, Q=Q)
+            scale = [1.0] * len(proposal.Q) + [4.0] * len(c.Q)
+            a = reidentify(c.model, c.unc, tool(c), meas, noise_scale=scale, alpha=0.0)
+            b = reidentify(c.model, c.unc, tool(c), meas, alpha=0.0)
+            weighted.append(np.linalg.norm(a.model.targets["marker"] - c.model.targets["marker"] - moved))
+            equal.append(np.linalg.norm(b.model.targets["marker"] - c.model.targets["marker"] - moved))
+    finally:
+        c.reset()
+    assert np.sqrt(np.mean(np.square(weighted))) < 0.8 * np.sqrt(np.mean(np.square(equal)))
+    k = [a.parameters.index(p) for p in a.parameters if p.name in names]
+    assert np.trace(a.covariance[np.ix_(k, k)]) > np.trace(b.covariance[np.ix_(k, k)])

@@ -54,16 +54,16 @@ def test_the_calibration_records_the_tool_it_measured():
     assert calibrated_tools(model, calibration_uncertainty(model)) == ["gripper"]
 
 
-@pytest.mark.xfail(reason="with numpy 2.4.6 / scipy 1.17.1 / OpenCV 5.0.0 (installed fresh this round) the offset error "
-                          "gives a chi-square statistic of 25.5 against the 99.9 % bound 16.3; it fails at the previous round's commit too",
-                   strict=False)
 def test_second_tool_identified_from_its_proposed_poses_within_its_predicted_sigma():
     lab, model = calibrated_cell()
     proposal, result = identified()
     assert len(proposal.Q) == tool_poses(model, "long_gripper") == 5
     axes = model.fk_many(proposal.Q)[:, :3, 2]                 # the tool's z axis at each pose
     assert np.linalg.svd(axes, compute_uv=False).min() > 0.3    # well-spread orientations, not one direction
-    error = result.offsets["long_marker"] - equivalent_offset(lab, model, "long_marker")
+    # the offset is a parameter of the re-identified model, whose arm the prior let move too (the
+    # last frame's orientation, which the calibration's marker near the flange hardly fixes, moves
+    # a target 110 mm out by tenths of a mm): its truth is in that model's tool frame
+    error = result.offsets["long_marker"] - equivalent_offset(lab, result.model, "long_marker")
     assert error @ np.linalg.solve(result.covariance, error) < chi2.ppf(0.999, 3)
     assert np.linalg.norm(error) < 3 * result.sigma_mm and result.sigma_mm < 0.2
     assert result.held_out_rms_mm < 2 * np.sqrt(3) * SIGMA          # ≈ √3·σ·√(1 + 1/4) expected
