@@ -16,8 +16,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from PySide6.QtCore import QTimer
-from PySide6.QtWidgets import QHBoxLayout, QVBoxLayout
+from PySide6.QtCore import Qt, QTimer
+from PySide6.QtWidgets import QFrame, QHBoxLayout, QScrollArea, QStyle, QVBoxLayout, QWidget
 
 from app.jobs import cell_check, cell_teach
 from app.jobs import check as job
@@ -38,6 +38,7 @@ from core.monitoring.log import CheckLog, read_check_log
 LOG_NAME = "checks.csv"
 MISSING = "No calibrated robot in the project (calibrated.json). Run the Identification step first."
 NO_PROJECT = "No project: choose one in the Setup step."
+LEFT_WIDTH = 320          # px, the column of controls
 
 
 def short_verdict(result) -> str:
@@ -67,14 +68,11 @@ class CheckPage(CellMixin, TeachMixin, WizardPage):
         self.taught: dict[int, cell_teach.TaughtCheckPose] = {}     # teach mode: check pose -> recorded
 
         self.controls = CheckControls()
-        self.controls.setFixedWidth(320)
         self.results = CheckResults()
         self.fixture = FixturePanel()
-        self.fixture.setFixedWidth(320)
         self.fixture.locate_button.clicked.connect(lambda *_: self.locate_fixture())
         self.fixture_run = None
         self.teach = TeachCheckPanel()
-        self.teach.setFixedWidth(320)
         self.teach.record_button.clicked.connect(lambda *_: self.record_pose())
         self.teach.check_button.clicked.connect(lambda *_: self.run_check())
         self.controls.run_button.clicked.connect(lambda *_: self.run_check())
@@ -87,11 +85,7 @@ class CheckPage(CellMixin, TeachMixin, WizardPage):
         self.schedule_timer.timeout.connect(self._scheduled)
 
         body = QHBoxLayout()
-        left = QVBoxLayout()
-        left.addWidget(self.controls, 1)
-        left.addWidget(self.teach)
-        left.addWidget(self.fixture)
-        body.addLayout(left)
+        body.addWidget(self._left_column(), 0)
         body.addWidget(self.results, 1)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
@@ -106,6 +100,25 @@ class CheckPage(CellMixin, TeachMixin, WizardPage):
         state.robotChanged.connect(lambda *_: self._calibration_changed())
         state.outputSaved.connect(lambda key: self.refresh() if key == "calibrated" else None)
         self.refresh()
+
+    def _left_column(self) -> QScrollArea:
+        """The controls, teach and fixture panels in a column of fixed width that scrolls on its
+        own when taller than the page (a small screen), beside the results."""
+        column = QWidget()
+        column.setFixedWidth(LEFT_WIDTH)
+        left = QVBoxLayout(column)
+        left.setContentsMargins(0, 0, 0, 0)
+        left.addWidget(self.controls, 1)
+        left.addWidget(self.teach)
+        left.addWidget(self.fixture)
+        scroll = QScrollArea()
+        scroll.setObjectName("checkControlsScroll")
+        scroll.setWidgetResizable(True)
+        scroll.setFrameShape(QFrame.Shape.NoFrame)
+        scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+        scroll.setWidget(column)
+        scroll.setFixedWidth(LEFT_WIDTH + scroll.style().pixelMetric(QStyle.PixelMetric.PM_ScrollBarExtent) + 2)
+        return scroll
 
     # -- sources -------------------------------------------------------------------------
     def calibrated_path(self) -> Path | None:
