@@ -336,7 +336,6 @@ class MainWindow(QMainWindow):
         bar = self.statusBar()
         self.progress_bar = QProgressBar()
         self.progress_bar.setRange(0, 1000)
-        self.progress_bar.setMaximumWidth(360)
         self.progress_bar.setMinimumWidth(240)
         self.progress_bar.setTextVisible(True)
         self.cancel_button = QPushButton("Cancel")
@@ -518,6 +517,10 @@ class MainWindow(QMainWindow):
         self.progress_bar.setValue(int(round(1000 * min(max(fraction, 0.0), 1.0))))
         text = f"{label}: {message}" if message else label
         self.progress_bar.setFormat(f"{text.replace('%', '%%')}  %p%")
+        # wide enough for its words (on one line), up to half the window; the rest in the tooltip
+        needed = self.progress_bar.fontMetrics().horizontalAdvance(f"{text}  100%") + 24
+        self.progress_bar.setMinimumWidth(max(240, min(needed, self.width() // 2)))
+        self.progress_bar.setToolTip(text)
 
     def _on_busy(self, busy: bool) -> None:
         self.progress_bar.setVisible(busy)
