@@ -112,6 +112,9 @@ class _PageHolder(QWidget):
     def event(self, event) -> bool:
         if event.type() == QEvent.Type.LayoutRequest:     # the page's size hints changed
             self.updateGeometry()
+            scroll = self.parentWidget().parentWidget() if self.parentWidget() is not None else None
+            if isinstance(scroll, QScrollArea):
+                QApplication.postEvent(scroll, QEvent(QEvent.Type.LayoutRequest))
         return super().event(event)
 
 

@@ -1,24 +1,24 @@
-"""A widget whose minimum height follows its width, for a box of wrapping rows (word-wrapped
-labels, a FlowLayout) placed where Qt asks only for a minimum size, not a height for a width —
-a QSplitter's pane, for example: on a narrow window the rows wrap onto more lines, and the pane
-keeps room for them instead of letting them overlap."""
+"""Keep a widget's wrapped rows visible where Qt asks only for a minimum size, not a height
+for a width — a QSplitter's pane, a page in a scroll area: `hold_height_for_width(box)` makes the
+box's minimum height its layout's height at its current width, so on a narrow window its
+word-wrapped labels and FlowLayout rows take more lines instead of overlapping or being cut."""
 from __future__ import annotations
 
-from PySide6.QtCore import QSize
+from PySide6.QtCore import QEvent, QObject
 from PySide6.QtWidgets import QWidget
 
 
-class WrappingBox(QWidget):
-    """Give it a layout as any QWidget; its minimum height is the layout's height at its width."""
+class _HeightFollowsWidth(QObject):
+    def eventFilter(self, obj, event) -> bool:
+        if event.type() == QEvent.Type.Resize and event.size().width() != event.oldSize().width():
+            layout = obj.layout()
+            if layout is not None and layout.hasHeightForWidth():
+                obj.setMinimumHeight(layout.totalHeightForWidth(obj.width()))
+        return False
 
-    def minimumSizeHint(self) -> QSize:
-        hint = super().minimumSizeHint()
-        layout = self.layout()
-        if layout is not None and layout.hasHeightForWidth() and self.width() > 0:
-            hint.setHeight(max(hint.height(), layout.totalHeightForWidth(max(self.width(), hint.width()))))
-        return hint
 
-    def resizeEvent(self, event) -> None:
-        super().resizeEvent(event)
-        if event.size().width() != event.oldSize().width():
-            self.updateGeometry()          # the rows wrap differently: a new minimum height
+def hold_height_for_width(widget: QWidget) -> QWidget:
+    """`widget`'s minimum height follows its width (its layout's height for that width)."""
+    keeper = _HeightFollowsWidth(widget)
+    widget.installEventFilter(keeper)
+    return widget

@@ -19,6 +19,7 @@ from app.report.render import write_report
 from core.errors import RoboCalError
 from core.files import ensure_writable_dir
 from core.locks import output_locks
+from widgets.wrapping_box import hold_height_for_width
 
 EXPORT_FOLDER = "export"
 
@@ -48,7 +49,7 @@ class ExportPage(WizardPage):
         fl.addWidget(self.folder_button)
         fl.addWidget(self.all_button)
 
-        self.rows_panel = ExportRows(self.items, lambda key: self.export(key))
+        self.rows_panel = hold_height_for_width(ExportRows(self.items, lambda key: self.export(key)))   # all lines shown
         self.rows = self.rows_panel.rows
 
         self.status.setTextFormat(Qt.TextFormat.PlainText)

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Callable
 
 from PySide6.QtCore import Qt, QTimer
-from PySide6.QtWidgets import QSplitter, QVBoxLayout
+from PySide6.QtWidgets import QSplitter, QVBoxLayout, QWidget
 
 from app.jobs.stereo import AddedPair
 from app.html import number
@@ -45,7 +45,7 @@ from core.stereo.calibration import StereoCalibrationResult, calibrate_stereo
 from core.stereo.checkerboard import MIN_PAIRS_TO_CALIBRATE, screen_pairs
 from core.stereo.file import read_stereo_yaml
 from core.stereo.importers import FORMATS
-from widgets.wrapping_box import WrappingBox
+from widgets.wrapping_box import hold_height_for_width
 
 RESULTS_MIN_HEIGHT = 230     # px: the results' plots stay readable; a small screen scrolls the page instead
 
@@ -99,7 +99,7 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, StereoFileActions,
         self.json_button = button("JSON…", on_click=self.export_json, tooltip="Write the calibration, its "
                                   "parameter table and per-pair errors as JSON")
         self.status.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
-        top = WrappingBox()             # its rows wrap on a narrow window: the splitter keeps room for them
+        top = hold_height_for_width(QWidget())     # the splitter keeps room for its wrapped rows
         tl = QVBoxLayout(top)
         tl.setContentsMargins(0, 0, 0, 0)
         tl.setSpacing(6)

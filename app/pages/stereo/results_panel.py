@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 from PySide6.QtCore import Qt
-from PySide6.QtWidgets import QComboBox, QHBoxLayout, QLabel, QTabWidget, QTextBrowser, QVBoxLayout, QWidget
+from PySide6.QtWidgets import (QComboBox, QFrame, QHBoxLayout, QLabel, QScrollArea, QTabWidget, QTextBrowser, QVBoxLayout,
+                               QWidget)
 
 from app.pages.forms import button, row
 from app.pages.stereo.texts import GROUP_NAMES, PARAM_NAMES, UNIT_NAMES, residual_stats_html, summary_html
@@ -66,11 +67,16 @@ class ResultsPanel(QTabWidget):
         self.table.setObjectName("stereoParameterTable")
         note = _hint(TABLE_NOTE)
         note.setAlignment(Qt.AlignmentFlag.AlignTop | Qt.AlignmentFlag.AlignLeft)
+        scroll = QScrollArea()              # the note scrolls beside the table when the tab is short
+        scroll.setWidgetResizable(True)
+        scroll.setFrameShape(QFrame.Shape.NoFrame)
+        scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+        scroll.setWidget(note)
         tab = QWidget()
         layout = QHBoxLayout(tab)
         layout.setContentsMargins(4, 4, 4, 4)
         layout.addWidget(self.table, 3)
-        layout.addWidget(note, 2)
+        layout.addWidget(scroll, 2)
         return tab
 
     def _preview_tab(self) -> QWidget:
