@@ -178,3 +178,23 @@ def test_closing_the_explain_panel_gives_its_room_to_the_page(window):
     win.action_explain.setChecked(True)
     settle(win, 1920, 1080)
     assert win.explain_dock.width() > 400           # room again on a large screen
+
+
+def test_the_simulated_change_is_shown_whole_on_a_small_screen(window):
+    """The Check page's "Simulate a change (virtual lab)" box at 1280×720 beside the explain panel:
+    its title, its note (every line), the change chosen and its joint and size boxes uncut."""
+    win = window
+    page = win.go_to(Step.CHECK)
+    settle(win, 1280, 720)
+    box = page.controls.change_box
+    page.controls.choose_change("joint", 0.4, joint=3)
+    QApplication.processEvents()
+    assert box.isVisibleTo(win)
+    assert cut_controls(win) == []
+    metrics = QFontMetrics(box.font())
+    assert box.width() >= metrics.horizontalAdvance("Simulate a change (virtual lab)") + 16
+    note = next(label for label in box.findChildren(QLabel) if label.wordWrap())
+    assert note.height() >= note.heightForWidth(note.width()) and note.width() >= 200
+    assert page.controls.joint_spin.width() >= page.controls.joint_spin.minimumSizeHint().width()
+    assert page.controls.size_spin.width() >= page.controls.size_spin.sizeHint().width()
+    page.controls.choose_change("", 1.5)

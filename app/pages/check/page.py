@@ -202,10 +202,24 @@ class CheckPage(CellMixin, TeachMixin, WizardPage):
         self.fixture.set_virtual(self.state.virtual)
         teach = self.teach_mode
         self.teach.setVisible(teach)
-        self.controls.schedule_check.setEnabled(not teach and not self.busy)
+        self.controls.allow_schedule(self._schedule_blocked(), self.busy)
         self.controls.identify_tool_button.setEnabled(self.controls.identify_tool_button.isEnabled() and not teach)
         if teach:
             self._show_next_pose()
+
+    def _schedule_blocked(self) -> str | None:
+        """Why checks cannot run on a schedule here (None: they can)."""
+        if self.state.project is None:
+            return "there is no project: choose one on the Setup page"
+        if not self._ready():
+            return "the project has no calibrated robot (calibrated.json): run the Identification step first"
+        if self.teach_mode:
+            return "in teach mode the robot is brought to every check pose by hand"
+        if not self.state.virtual:
+            problem = self.cell_problem()
+            if problem is not None:
+                return f"nothing can be measured: {problem}"
+        return None
 
     # -- actions -------------------------------------------------------------------------
     def _cell(self) -> job.CheckSetup | None:

@@ -67,16 +67,11 @@ class ResultsPanel(QTabWidget):
         self.table.setObjectName("stereoParameterTable")
         note = _hint(TABLE_NOTE)
         note.setAlignment(Qt.AlignmentFlag.AlignTop | Qt.AlignmentFlag.AlignLeft)
-        scroll = QScrollArea()              # the note scrolls beside the table when the tab is short
-        scroll.setWidgetResizable(True)
-        scroll.setFrameShape(QFrame.Shape.NoFrame)
-        scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
-        scroll.setWidget(note)
         tab = QWidget()
         layout = QHBoxLayout(tab)
         layout.setContentsMargins(4, 4, 4, 4)
         layout.addWidget(self.table, 3)
-        layout.addWidget(scroll, 2)
+        layout.addWidget(_scrolling(note), 2)
         return tab
 
     def _preview_tab(self) -> QWidget:
@@ -110,7 +105,7 @@ class ResultsPanel(QTabWidget):
         layout.setContentsMargins(4, 4, 4, 4)
         line = row(stretch=False)
         line.addWidget(self.scatter, 3)
-        line.addWidget(self.scatter_stats, 2)
+        line.addWidget(_scrolling(self.scatter_stats), 2)
         layout.addLayout(line, 1)
         layout.addWidget(self.scatter_caption)
         return tab
@@ -197,6 +192,16 @@ def outlier_text(r) -> str:
                 "Drag the line below them to drop them.")
     return (f"No pair flagged as an outlier (threshold {r.outlier_threshold:.3f} px). Drag the line down to "
             "drop pairs with the largest errors.")
+
+
+def _scrolling(label: QLabel) -> QScrollArea:
+    """A label beside a plot or table, scrolling when the tab is shorter than its text."""
+    scroll = QScrollArea()
+    scroll.setWidgetResizable(True)
+    scroll.setFrameShape(QFrame.Shape.NoFrame)
+    scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+    scroll.setWidget(label)
+    return scroll
 
 
 def _hint(text: str = "") -> QLabel:
