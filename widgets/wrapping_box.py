@@ -4,17 +4,22 @@ box's minimum height its layout's height at its current width, so on a narrow wi
 word-wrapped labels and FlowLayout rows take more lines instead of overlapping or being cut."""
 from __future__ import annotations
 
-from PySide6.QtCore import QEvent, QObject
+from PySide6.QtCore import QEvent, QObject, QTimer
 from PySide6.QtWidgets import QWidget
 
 
 class _HeightFollowsWidth(QObject):
     def eventFilter(self, obj, event) -> bool:
         if event.type() == QEvent.Type.Resize and event.size().width() != event.oldSize().width():
-            layout = obj.layout()
-            if layout is not None and layout.hasHeightForWidth():
-                obj.setMinimumHeight(layout.totalHeightForWidth(obj.width()))
+            # after the resize is laid out: changed during it, the layout would keep its old geometry
+            QTimer.singleShot(0, obj, lambda: self._follow(obj))
         return False
+
+    @staticmethod
+    def _follow(widget: QWidget) -> None:
+        layout = widget.layout()
+        if layout is not None and layout.hasHeightForWidth():
+            widget.setMinimumHeight(layout.totalHeightForWidth(widget.width()))
 
 
 def hold_height_for_width(widget: QWidget) -> QWidget:
