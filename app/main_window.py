@@ -302,6 +302,8 @@ class MainWindow(QMainWindow):
             self.action_explain.setChecked(False)
         elif visible:
             self.action_explain.setChecked(True)
+            if getattr(self, "_docks_sized", False) and not self.explain_dock.isFloating():
+                self.resizeDocks([self.explain_dock], [explain_width(self.width())], Qt.Orientation.Horizontal)
 
     def _build_menus_and_toolbar(self) -> None:
         menu = self.menuBar()
@@ -375,12 +377,11 @@ class MainWindow(QMainWindow):
 
     def resizeEvent(self, event) -> None:
         super().resizeEvent(event)
-        # a narrower window narrows the explain panel too (the page keeps its room); a wider
-        # one leaves the width the user gave it
-        limit = explain_width(self.width())
-        if (getattr(self, "_docks_sized", False) and self.explain_dock.isVisible()
-                and not self.explain_dock.isFloating() and self.explain_dock.width() > limit):
-            self.resizeDocks([self.explain_dock], [limit], Qt.Orientation.Horizontal)
+        # the explain panel takes its share of a window that changed width: narrow beside the page
+        # on a small screen, wider on a large one (the user may drag it after)
+        if (getattr(self, "_docks_sized", False) and event.size().width() != event.oldSize().width()
+                and self.explain_dock.isVisible() and not self.explain_dock.isFloating()):
+            self.resizeDocks([self.explain_dock], [explain_width(self.width())], Qt.Orientation.Horizontal)
 
     # -- navigation ----------------------------------------------------------------------
     def page(self, step: Step | int) -> WizardPage:

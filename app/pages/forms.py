@@ -3,7 +3,9 @@ from __future__ import annotations
 
 from typing import Callable
 
-from PySide6.QtWidgets import QDoubleSpinBox, QHBoxLayout, QLabel, QPushButton, QSpinBox, QWidget
+from PySide6.QtCore import Qt
+from PySide6.QtWidgets import (QDoubleSpinBox, QFrame, QHBoxLayout, QLabel, QPushButton, QScrollArea, QSpinBox,
+                               QStyle, QWidget)
 
 
 def button(text: str, name: str = "", *, on_click: Callable[[], object] | None = None,
@@ -50,6 +52,23 @@ def _labelled(s, name: str, suffix: str, tooltip: str):
     if tooltip:
         s.setToolTip(tooltip)
     return s
+
+
+def scrolling(label: QWidget) -> QScrollArea:
+    """A text (a wrapped label beside a plot or a table) that scrolls up and down when its place is
+    shorter than the text, instead of being cut; the label's minimum and maximum widths (px) go to
+    the scroll area, with room for its scroll bar."""
+    scroll = QScrollArea()
+    scroll.setWidgetResizable(True)
+    scroll.setFrameShape(QFrame.Shape.NoFrame)
+    scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+    bar = scroll.style().pixelMetric(QStyle.PixelMetric.PM_ScrollBarExtent) + 2
+    if label.minimumWidth() > 0:
+        scroll.setMinimumWidth(label.minimumWidth() + bar)
+    if label.maximumWidth() < 16777215:
+        scroll.setMaximumWidth(label.maximumWidth() + bar)
+    scroll.setWidget(label)
+    return scroll
 
 
 def row(*items, stretch: bool = True) -> QHBoxLayout:

@@ -6,10 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 from PySide6.QtCore import Qt
-from PySide6.QtWidgets import (QComboBox, QFrame, QHBoxLayout, QLabel, QScrollArea, QTabWidget, QTextBrowser, QVBoxLayout,
-                               QWidget)
+from PySide6.QtWidgets import QComboBox, QHBoxLayout, QLabel, QTabWidget, QTextBrowser, QVBoxLayout, QWidget
 
-from app.pages.forms import button, row
+from app.pages.forms import button, row, scrolling
 from app.pages.stereo.texts import GROUP_NAMES, PARAM_NAMES, UNIT_NAMES, residual_stats_html, summary_html
 from widgets.error_bar_chart import ErrorBarChart
 from widgets.image_view import ImageView
@@ -71,7 +70,7 @@ class ResultsPanel(QTabWidget):
         layout = QHBoxLayout(tab)
         layout.setContentsMargins(4, 4, 4, 4)
         layout.addWidget(self.table, 3)
-        layout.addWidget(_scrolling(note), 2)
+        layout.addWidget(scrolling(note), 2)
         return tab
 
     def _preview_tab(self) -> QWidget:
@@ -105,7 +104,7 @@ class ResultsPanel(QTabWidget):
         layout.setContentsMargins(4, 4, 4, 4)
         line = row(stretch=False)
         line.addWidget(self.scatter, 3)
-        line.addWidget(_scrolling(self.scatter_stats), 2)
+        line.addWidget(scrolling(self.scatter_stats), 2)
         layout.addLayout(line, 1)
         layout.addWidget(self.scatter_caption)
         return tab
@@ -192,16 +191,6 @@ def outlier_text(r) -> str:
                 "Drag the line below them to drop them.")
     return (f"No pair flagged as an outlier (threshold {r.outlier_threshold:.3f} px). Drag the line down to "
             "drop pairs with the largest errors.")
-
-
-def _scrolling(label: QLabel) -> QScrollArea:
-    """A label beside a plot or table, scrolling when the tab is shorter than its text."""
-    scroll = QScrollArea()
-    scroll.setWidgetResizable(True)
-    scroll.setFrameShape(QFrame.Shape.NoFrame)
-    scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
-    scroll.setWidget(label)
-    return scroll
 
 
 def _hint(text: str = "") -> QLabel:
