@@ -1,6 +1,6 @@
 """Keep a widget's wrapped rows visible where Qt asks only for a minimum size, not a height
-for a width — a QSplitter's pane, a page in a scroll area: `hold_height_for_width(box)` makes the
-box's minimum height its layout's height at its current width, so on a narrow window its
+for a width — a page in a scroll area: `hold_height_for_width(box)` makes the
+box's minimum height its layout's height at its current width (again when its rows change), so on a narrow window its
 word-wrapped labels and FlowLayout rows take more lines instead of overlapping or being cut."""
 from __future__ import annotations
 
@@ -10,7 +10,8 @@ from PySide6.QtWidgets import QWidget
 
 class _HeightFollowsWidth(QObject):
     def eventFilter(self, obj, event) -> bool:
-        if event.type() == QEvent.Type.Resize and event.size().width() != event.oldSize().width():
+        if ((event.type() == QEvent.Type.Resize and event.size().width() != event.oldSize().width())
+                or event.type() == QEvent.Type.LayoutRequest):       # or its rows changed
             # after the resize is laid out: changed during it, the layout would keep its old geometry
             QTimer.singleShot(0, obj, lambda: self._follow(obj))
         return False
@@ -18,8 +19,28 @@ class _HeightFollowsWidth(QObject):
     @staticmethod
     def _follow(widget: QWidget) -> None:
         layout = widget.layout()
-        if layout is not None and layout.hasHeightForWidth():
-            widget.setMinimumHeight(layout.totalHeightForWidth(widget.width()))
+        if layout is None or not layout.hasHeightForWidth():
+            return
+        height = layout.totalHeightForWidth(widget.width())
+        if height == widget.minimumHeight():
+            return
+        widget.setMinimumHeight(height)
+        parent = widget.parentWidget()
+        if parent is not None and parent.layout() is not None:
+            parent.layout().activate()      # place it and its siblings again now, at its new height
+
+
+class WrappingBox(QWidget):
+    """A box whose minimum height follows its width (as `hold_height_for_width`) and that asks
+    its parent's layout for that height only, not a height for a width: a box layout would place
+    it at a height for width it computed before its rows changed."""
+
+    def __init__(self, parent: QWidget | None = None):
+        super().__init__(parent)
+        hold_height_for_width(self)
+
+    def hasHeightForWidth(self) -> bool:
+        return False
 
 
 def hold_height_for_width(widget: QWidget) -> QWidget:

@@ -54,10 +54,10 @@ def _labelled(s, name: str, suffix: str, tooltip: str):
     return s
 
 
-def scrolling(label: QWidget) -> QScrollArea:
-    """A text (a wrapped label beside a plot or a table) that scrolls up and down when its place is
-    shorter than the text, instead of being cut; the label's minimum and maximum widths (px) go to
-    the scroll area, with room for its scroll bar."""
+def scrolling(label: QWidget, *, min_height: int = 0) -> QScrollArea:
+    """A text (a wrapped label beside a plot or a table, or a box of wrapping rows) that scrolls up
+    and down when its place is shorter than the text, instead of being cut; the label's minimum and
+    maximum widths (px) go to the scroll area, with room for its scroll bar."""
     scroll = QScrollArea()
     scroll.setWidgetResizable(True)
     scroll.setFrameShape(QFrame.Shape.NoFrame)
@@ -67,6 +67,8 @@ def scrolling(label: QWidget) -> QScrollArea:
         scroll.setMinimumWidth(label.minimumWidth() + bar)
     if label.maximumWidth() < 16777215:
         scroll.setMaximumWidth(label.maximumWidth() + bar)
+    if min_height:
+        scroll.setMinimumHeight(min_height)
     scroll.setWidget(label)
     return scroll
 

@@ -1,7 +1,8 @@
 """A new user on a 1280×720 screen, start to finish without leaving the wizard: New project in a
 folder typed by name (a real cell, teach mode), Load URDF… with the UR5's tip chosen, one mixed
 folder of real leftNN/rightNN pairs, the swapped cameras fixed on the spot, and a calibrated
-stereo rig saved. The window keeps the screen's size and no control is cut at every stage; a
+stereo rig saved. The window keeps the screen's size, no control is cut and none overlaps another at
+every stage; a
 screenshot of each stage is saved (besides pytest's folder, in $ROBOCAL_SMALL_SCREEN_SHOTS)."""
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ from app.pages.setup.cell_dialog import CellDialog
 from app.pages.setup.urdf_dialog import UrdfDialog
 from app.pages.steps import Step
 from core.stereo.file import read_stereo_yaml
-from tests.app.test_small_screens import SHOTS_ENV, cut_controls
+from tests.app.test_small_screens import SHOTS_ENV, cut_controls, overlapping
 from tests.core.stereo_synth import REAL_DATA
 
 UR5 = Path(__file__).resolve().parents[1] / "data" / "real" / "ur5_robot.urdf"
@@ -64,10 +65,10 @@ def test_a_new_user_reaches_a_calibrated_stereo_rig_on_a_small_screen(window, qt
 
     def stage(name: str) -> None:
         """The window still the screen's size, nothing cut on the page, and its picture."""
-        for _ in range(3):
-            QApplication.processEvents()
+        qtbot.wait(200)                    # the layouts settle (a wrapped row's new height travels up)
         assert (win.width(), win.height()) == (1280, 720), name
         assert cut_controls(win) == [], name
+        assert overlapping(win.current_page()) == [], name
         image = win.grab()
         for folder in shots:
             folder.mkdir(parents=True, exist_ok=True)

@@ -12,10 +12,11 @@ import os
 from pathlib import Path
 
 import pytest
-from PySide6.QtCore import QEventLoop, QTimer
+from PySide6.QtCore import QEventLoop, Qt, QTimer
 from PySide6.QtGui import QFontMetrics
+from PySide6.QtTest import QTest
 from PySide6.QtWidgets import (QAbstractButton, QAbstractSpinBox, QApplication, QComboBox, QGroupBox, QLabel,
-                               QScrollArea, QTabWidget, QWidget)
+                               QScrollArea, QSplitter, QSplitterHandle, QTabWidget, QWidget)
 
 from app.pages.steps import Step
 from tests.app.windows import close_window
@@ -79,9 +80,9 @@ def shots(tmp_path_factory) -> list[Path]:
 
 
 def settle(win, width: int, height: int) -> None:
+    """Resize the window and let the layouts settle (a wrapped row's new height travels up)."""
     win.resize(width, height)
-    for _ in range(3):
-        QApplication.processEvents()
+    QTest.qWait(150)
 
 
 def cut_controls(win) -> list[str]:
@@ -105,6 +106,47 @@ def cut_controls(win) -> list[str]:
         if box.isVisibleTo(win) and box.width() < QFontMetrics(box.font()).horizontalAdvance(box.title()) + 16:
             cut.append(f"group box {box.title()!r} {box.width()} px")
     return cut
+
+
+def overlapping(page) -> list[str]:
+    """Controls a layout or splitter placed over each other or beyond their parent: siblings in one
+    layout or splitter that intersect, and children reaching out of their parent (a box squeezed below what its
+    rows need). Scroll areas' contents are left alone: they reach beyond their viewport."""
+    out = []
+    for parent in [page] + page.findChildren(QWidget):
+        if not parent.isVisible() or parent.objectName() == "qt_scrollarea_viewport":
+            continue
+        direct = [k for k in parent.findChildren(QWidget, options=Qt.FindChildOption.FindDirectChildrenOnly)
+                  if k.isVisible() and not k.isWindow()]
+        if isinstance(parent, QSplitter):
+            kids = [k for k in direct if not isinstance(k, QSplitterHandle)]
+        elif parent.layout() is not None:
+            kids = [k for k in direct if _in_nested_layout(parent.layout(), k)]
+        else:
+            continue
+        for k in kids:
+            if not parent.rect().adjusted(-1, -1, 1, 1).contains(k.geometry()):
+                out.append(f"{_name(k)} {k.geometry().getRect()} outside {_name(parent)} {parent.rect().getRect()}")
+        for i, a in enumerate(kids):
+            for b in kids[i + 1:]:
+                if a.geometry().intersects(b.geometry()):
+                    out.append(f"{_name(a)} {a.geometry().getRect()} over {_name(b)} {b.geometry().getRect()}")
+    return out
+
+
+def _in_nested_layout(layout, widget) -> bool:
+    for i in range(layout.count()):
+        item = layout.itemAt(i)
+        if item.widget() is widget:
+            return True
+        if item.layout() is not None and _in_nested_layout(item.layout(), widget):
+            return True
+    return False
+
+
+def _name(w) -> str:
+    text = w.text() if isinstance(w, (QLabel, QAbstractButton)) else ""
+    return f"{w.objectName() or type(w).__name__}{f'[{text[:24]!r}]' if text else ''}"
 
 
 def elided_steps(win) -> list[str]:
@@ -147,10 +189,11 @@ def test_every_page_fits_small_and_large_screens(window, step, shots):
                 for index in range(tab_widget.count()) if tab_widget is not None else [None]:
                     if tab_widget is not None:
                         tab_widget.setCurrentIndex(index)
-                        QApplication.processEvents()
+                        QTest.qWait(50)
                     tab = f" tab {tab_widget.tabText(index)!r}" if tab_widget is not None else ""
                     problems += [f"{where}{tab}: cut {c}" for c in cut_controls(win)]
                     problems += [f"{where}{tab}: scrolls sideways ({s})" for s in sideways(win)]
+                    problems += [f"{where}{tab}: overlap {o}" for o in overlapping(page)]
             problems += [f"{where}: step title elided {t!r}" for t in elided_steps(win)]
             if tabs:
                 for t in tabs:

@@ -29,6 +29,11 @@ TABLE_NOTE = (
 class ResultsPanel(QTabWidget):
     """Tabs: Errors per pair, Summary, Parameters ± σ, Rectified pair, Residuals."""
 
+    def hasHeightForWidth(self) -> bool:
+        """No height for width: a box layout would hold the tabs at their preferred height (their
+        wrapped notes') as a minimum and squeeze the pairs above them on a small screen."""
+        return False
+
     def __init__(self, parent=None):
         super().__init__(parent)
         self.setObjectName("resultTabs")
