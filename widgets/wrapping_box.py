@@ -1,7 +1,8 @@
-"""Keep a widget's wrapped rows visible where Qt asks only for a minimum size, not a height
-for a width — a page in a scroll area: `hold_height_for_width(box)` makes the
-box's minimum height its layout's height at its current width (again when its rows change), so on a narrow window its
-word-wrapped labels and FlowLayout rows take more lines instead of overlapping or being cut."""
+"""Keep a box's wrapped rows visible where Qt asks only for a minimum size, not a height for a
+width (a splitter's pane; a box inside a page that scrolls): `hold_height_for_width(box)` makes
+the box's minimum height its layout's height at its current width, again when its rows change, so
+on a narrow window its word-wrapped labels and FlowLayout rows take more lines instead of being
+cut or overlapping."""
 from __future__ import annotations
 
 from PySide6.QtCore import QEvent, QObject, QTimer
@@ -28,19 +29,6 @@ class _HeightFollowsWidth(QObject):
         parent = widget.parentWidget()
         if parent is not None and parent.layout() is not None:
             parent.layout().activate()      # place it and its siblings again now, at its new height
-
-
-class WrappingBox(QWidget):
-    """A box whose minimum height follows its width (as `hold_height_for_width`) and that asks
-    its parent's layout for that height only, not a height for a width: a box layout would place
-    it at a height for width it computed before its rows changed."""
-
-    def __init__(self, parent: QWidget | None = None):
-        super().__init__(parent)
-        hold_height_for_width(self)
-
-    def hasHeightForWidth(self) -> bool:
-        return False
 
 
 def hold_height_for_width(widget: QWidget) -> QWidget:
