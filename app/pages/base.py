@@ -23,10 +23,11 @@ from __future__ import annotations
 
 from typing import Any, Callable, Optional
 
-from PySide6.QtCore import QSize, Signal
+from PySide6.QtCore import Signal
 from PySide6.QtWidgets import QLabel, QWidget
 
 from app.messages import show_error
+from app.pages.forms import WrappedLabel
 from app.pages.steps import Step
 from app.state import WizardState
 from app.worker import TaskHandle, TaskRunner
@@ -41,26 +42,6 @@ def out_of_date(what: str, changed: list[str], again: str) -> str:
     """The words a page shows when its result was made from other input files than the project
     now has (names from core.provenance.changed_inputs)."""
     return f"Out of date: {what} was made from other inputs ({', '.join(changed)} changed since). {again}"
-
-
-class StatusLine(QLabel):
-    """A page's status line: word-wrapped, its minimum height the height its words need at its
-    width. It reports no height for width: a box layout would hold it at that height and squeeze
-    the page's other parts below their minimum on a small screen, where the page scrolls instead."""
-
-    def hasHeightForWidth(self) -> bool:
-        return False
-
-    def minimumSizeHint(self) -> QSize:
-        hint = super().minimumSizeHint()
-        if self.wordWrap() and self.text() and self.width() > 0:
-            hint.setHeight(max(hint.height(), self.heightForWidth(self.width())))
-        return hint
-
-    def resizeEvent(self, event) -> None:
-        super().resizeEvent(event)
-        if event.size().width() != event.oldSize().width():
-            self.updateGeometry()          # its words take another number of lines
 
 
 class TaskMixin:
@@ -261,7 +242,7 @@ class WizardPage(TaskMixin, QWidget):
         self.state = state
         self.tasks = tasks
         self._autopilot_done: DoneCallback | None = None   # set by a page's autopilot()
-        self.status = StatusLine()              # the page's status line; a page puts it in its layout
+        self.status = WrappedLabel()            # the page's status line; a page puts it in its layout
         self.status.setObjectName("pageStatus")
         self.status.setWordWrap(True)
         self.setObjectName(f"page_{self.step.slug}")

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from typing import Callable
 
-from PySide6.QtCore import Qt
+from PySide6.QtCore import QSize, Qt
 from PySide6.QtWidgets import (QDoubleSpinBox, QFrame, QHBoxLayout, QLabel, QPushButton, QScrollArea, QSpinBox,
                                QStyle, QWidget)
 
@@ -52,6 +52,30 @@ def _labelled(s, name: str, suffix: str, tooltip: str):
     if tooltip:
         s.setToolTip(tooltip)
     return s
+
+
+class WrappedLabel(QLabel):
+    """A word-wrapped label whose minimum height is the height its words need at its width. It
+    reports no height for width: a box layout would hold it at that height and squeeze the other
+    parts of a page below their minimum on a small screen, where the page scrolls instead."""
+
+    def __init__(self, text: str = "", parent: QWidget | None = None):
+        super().__init__(text, parent)
+        self.setWordWrap(True)
+
+    def hasHeightForWidth(self) -> bool:
+        return False
+
+    def minimumSizeHint(self) -> QSize:
+        hint = super().minimumSizeHint()
+        if self.wordWrap() and self.text() and self.width() > 0:
+            hint.setHeight(max(hint.height(), self.heightForWidth(self.width())))
+        return hint
+
+    def resizeEvent(self, event) -> None:
+        super().resizeEvent(event)
+        if event.size().width() != event.oldSize().width():
+            self.updateGeometry()          # its words take another number of lines
 
 
 def scrolling(label: QWidget, *, min_height: int = 0) -> QScrollArea:

@@ -8,7 +8,7 @@ from PySide6.QtWidgets import (QAbstractItemView, QHBoxLayout, QHeaderView, QLab
                                QTableWidget, QTableWidgetItem, QVBoxLayout, QWidget)
 
 from app.lab import VirtualLab
-from app.pages.forms import scrolling
+from app.pages.forms import WrappedLabel, scrolling
 from app.pages.poses.texts import AXIS_LABELS, PLACEHOLDER, SHORT, comparison_html, facts_html, loaded_html
 from core.poses.candidates import arm_polyline
 from core.poses.file import PoseList
@@ -44,7 +44,7 @@ class SelectionResults(QWidget):
         self.summary.setAlignment(Qt.AlignmentFlag.AlignTop | Qt.AlignmentFlag.AlignLeft)
         self.summary.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
         self.summary.setSizePolicy(QSizePolicy.Policy.Preferred, QSizePolicy.Policy.Preferred)
-        self.facts = QLabel()
+        self.facts = WrappedLabel()         # the page scrolls rather than squeeze the views
         self.facts.setObjectName("hint")
         self.facts.setWordWrap(True)
         self.facts.setTextFormat(Qt.TextFormat.RichText)
