@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from PySide6.QtCore import QEvent, QObject, QSize, Qt, Signal
+from PySide6.QtCore import QEvent, QObject, QSize, Qt, QTimer, Signal
 from PySide6.QtGui import QAction, QCloseEvent, QIcon, QKeyEvent, QKeySequence
 from PySide6.QtWidgets import (QApplication, QDockWidget, QFrame, QHBoxLayout, QLabel, QMainWindow, QMenu,
                                QProgressBar, QPushButton, QScrollArea, QSplitter, QStackedWidget, QStyle,
@@ -382,6 +382,15 @@ class MainWindow(QMainWindow):
         if (getattr(self, "_docks_sized", False) and event.size().width() != event.oldSize().width()
                 and self.explain_dock.isVisible() and not self.explain_dock.isFloating()):
             self.resizeDocks([self.explain_dock], [explain_width(self.width())], Qt.Orientation.Horizontal)
+        QTimer.singleShot(0, self, self._refit_page)
+
+    def _refit_page(self) -> None:
+        """The current page's scroll areas fitted again to their new width (after the explain panel
+        took its share, a scroll area could keep a scroll bar from the wider window)."""
+        scroll = self.stack.currentWidget()
+        if scroll is not None:
+            for area in [scroll] + scroll.findChildren(QScrollArea):
+                QApplication.postEvent(area, QEvent(QEvent.Type.LayoutRequest))
 
     # -- navigation ----------------------------------------------------------------------
     def page(self, step: Step | int) -> WizardPage:
