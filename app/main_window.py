@@ -382,7 +382,8 @@ class MainWindow(QMainWindow):
         if (getattr(self, "_docks_sized", False) and event.size().width() != event.oldSize().width()
                 and self.explain_dock.isVisible() and not self.explain_dock.isFloating()):
             self.resizeDocks([self.explain_dock], [explain_width(self.width())], Qt.Orientation.Horizontal)
-        QTimer.singleShot(0, self, self._refit_page)
+        for delay in (0, 100):          # once the explain panel took its share too
+            QTimer.singleShot(delay, self, self._refit_page)
 
     def _refit_page(self) -> None:
         """The current page's scroll areas fitted again to their new width (after the explain panel
