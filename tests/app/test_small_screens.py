@@ -68,6 +68,7 @@ def window(demo_window, qtbot):
     yield demo_window
     demo_window.action_explain.setChecked(True)
     qtbot.waitUntil(lambda: not demo_window.tasks.busy, timeout=60000)     # a page's refresh on entry
+    settle(demo_window, 1280, 720)         # each test starts from the small screen, as the first did
     demo_window.hide()
 
 
@@ -166,8 +167,8 @@ def sideways(win) -> list[str]:
     """Scroll areas of the current page showing a horizontal scroll bar."""
     scroll = win.stack.currentWidget()
     areas = [scroll] + scroll.findChildren(QScrollArea)
-    return [a.objectName() or type(a.parent()).__name__ for a in areas
-            if a.isVisibleTo(win) and a.horizontalScrollBar().isVisible()]
+    return [f"{a.objectName() or type(a.parent()).__name__}: {a.widget().minimumSizeHint().width()} px wide in "
+            f"{a.viewport().width()} px" for a in areas if a.isVisibleTo(win) and a.horizontalScrollBar().isVisible()]
 
 
 @pytest.mark.parametrize("step", list(Step), ids=[s.slug for s in Step])
