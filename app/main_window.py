@@ -5,10 +5,10 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from PySide6.QtCore import QEvent, QObject, QSize, Qt, Signal
+from PySide6.QtCore import QEvent, QObject, QSize, Qt, QTimer, Signal
 from PySide6.QtGui import QAction, QCloseEvent, QIcon, QKeyEvent, QKeySequence
-from PySide6.QtWidgets import (QApplication, QDockWidget, QHBoxLayout, QLabel, QMainWindow, QMenu,
-                               QProgressBar, QPushButton, QSplitter, QStackedWidget, QStyle,
+from PySide6.QtWidgets import (QApplication, QDockWidget, QFrame, QHBoxLayout, QLabel, QMainWindow, QMenu,
+                               QProgressBar, QPushButton, QScrollArea, QSplitter, QStackedWidget, QStyle,
                                QVBoxLayout, QWidget)
 
 from app import project_actions
@@ -41,6 +41,17 @@ QGroupBox { font-weight: 600; margin-top: 14px; }
 QGroupBox::title { subcontrol-origin: margin; left: 8px; padding: 0 4px; }
 QPushButton#nextButton { font-weight: 600; }
 """
+
+#: the step list's and the explain panel's narrowest widths (px): what a 1280 px screen affords
+#: beside a page
+STEP_LIST_MIN_WIDTH = 190
+EXPLAIN_MIN_WIDTH = 260
+
+
+def explain_width(window_width: int) -> int:
+    """The explain panel's width for a window this wide (px): 280 at 1280, 520 at 1920, so the
+    page keeps most of a small screen."""
+    return max(EXPLAIN_MIN_WIDTH, min(560, 280 + int(0.375 * (window_width - 1280))))
 
 
 class _StopKeyWhileModal(QObject):
@@ -76,6 +87,35 @@ class _StopKeyWhileModal(QObject):
                 if not propagating:
                     self.window.stop_robot()
         return False
+
+
+class _PageHolder(QWidget):
+    """Holds a page in its scroll area and fills the area with it. The area scrolls only when
+    the page is smaller than its minimum size (its plots and tables squeezed to their minimum),
+    not as soon as it is smaller than its preferred height, as a page with wrapping labels
+    (height for width) in a resizable scroll area would."""
+
+    def __init__(self, page: QWidget):
+        super().__init__()
+        self.page = page
+        page.setParent(self)
+
+    def minimumSizeHint(self) -> QSize:
+        return self.page.minimumSizeHint().expandedTo(self.page.minimumSize())
+
+    def sizeHint(self) -> QSize:
+        return self.page.sizeHint()
+
+    def resizeEvent(self, event) -> None:
+        self.page.setGeometry(self.rect())
+
+    def event(self, event) -> bool:
+        if event.type() == QEvent.Type.LayoutRequest:     # the page's size hints changed
+            self.updateGeometry()
+            scroll = self.parentWidget().parentWidget() if self.parentWidget() is not None else None
+            if isinstance(scroll, QScrollArea):
+                QApplication.postEvent(scroll, QEvent(QEvent.Type.LayoutRequest))
+        return super().event(event)
 
 
 def app_icon() -> QIcon:
@@ -164,7 +204,7 @@ class MainWindow(QMainWindow):
     def _build_central(self) -> None:
         self.step_list = StepList()
         self.step_list.set_steps([p.title for p in self.pages])
-        self.step_list.setMinimumWidth(230)
+        self.step_list.setMinimumWidth(STEP_LIST_MIN_WIDTH)
         self.step_list.setMaximumWidth(320)
         self.step_list.currentRowChanged.connect(self._row_picked)
 
@@ -175,7 +215,7 @@ class MainWindow(QMainWindow):
         self.page_summary.setWordWrap(True)
         self.stack = QStackedWidget()
         for page in self.pages:
-            self.stack.addWidget(page)
+            self.stack.addWidget(self._scrolled(page))
 
         self.back_button = QPushButton("◀  Back")
         self.back_button.setObjectName("backButton")
@@ -208,7 +248,7 @@ class MainWindow(QMainWindow):
 
         content = QWidget()
         cl = QVBoxLayout(content)
-        cl.setContentsMargins(18, 14, 18, 12)
+        cl.setContentsMargins(12, 10, 12, 10)
         cl.setSpacing(6)
         cl.addWidget(self.page_title)
         cl.addWidget(self.page_summary)
@@ -221,9 +261,20 @@ class MainWindow(QMainWindow):
         self.splitter.addWidget(content)
         self.splitter.setStretchFactor(0, 0)
         self.splitter.setStretchFactor(1, 1)
-        self.splitter.setSizes([240, 700])
+        self.splitter.setSizes([STEP_LIST_MIN_WIDTH + 10, 700])
         self.splitter.setChildrenCollapsible(False)
         self.setCentralWidget(self.splitter)
+
+    @staticmethod
+    def _scrolled(page: WizardPage) -> QScrollArea:
+        """The page in a scroll area: a page taller (or wider) than a small screen scrolls
+        instead of growing the window beyond the screen."""
+        scroll = QScrollArea()
+        scroll.setObjectName(f"scroll_{page.step.slug}")
+        scroll.setWidgetResizable(True)
+        scroll.setFrameShape(QFrame.Shape.NoFrame)
+        scroll.setWidget(_PageHolder(page))
+        return scroll
 
     def _build_explain_dock(self) -> None:
         self.explain = ExplainPanel()
@@ -233,7 +284,7 @@ class MainWindow(QMainWindow):
         self.explain_dock.setFeatures(QDockWidget.DockWidgetFeature.DockWidgetClosable
                                       | QDockWidget.DockWidgetFeature.DockWidgetMovable
                                       | QDockWidget.DockWidgetFeature.DockWidgetFloatable)
-        self.explain_dock.setMinimumWidth(320)
+        self.explain_dock.setMinimumWidth(EXPLAIN_MIN_WIDTH)
         self.addDockWidget(Qt.DockWidgetArea.RightDockWidgetArea, self.explain_dock)
         # our own action: the dock's toggleViewAction() would take the dock's changing title
         self.action_explain = QAction("&Explain", self)
@@ -251,6 +302,8 @@ class MainWindow(QMainWindow):
             self.action_explain.setChecked(False)
         elif visible:
             self.action_explain.setChecked(True)
+            if getattr(self, "_docks_sized", False) and not self.explain_dock.isFloating():
+                self.resizeDocks([self.explain_dock], [explain_width(self.width())], Qt.Orientation.Horizontal)
 
     def _build_menus_and_toolbar(self) -> None:
         menu = self.menuBar()
@@ -288,7 +341,6 @@ class MainWindow(QMainWindow):
         bar = self.statusBar()
         self.progress_bar = QProgressBar()
         self.progress_bar.setRange(0, 1000)
-        self.progress_bar.setMaximumWidth(360)
         self.progress_bar.setMinimumWidth(240)
         self.progress_bar.setTextVisible(True)
         self.cancel_button = QPushButton("Cancel")
@@ -306,9 +358,40 @@ class MainWindow(QMainWindow):
         super().showEvent(event)
         if not getattr(self, "_docks_sized", False):
             self._docks_sized = True
-            # the first layout gives the dock its minimum: widen it to about a third
-            width = max(380, min(520, int(self.width() * 0.33)))
-            self.resizeDocks([self.explain_dock], [width], Qt.Orientation.Horizontal)
+            self._fit_step_list()
+            # the first layout gives the dock its minimum: widen it to its share of the window
+            self.resizeDocks([self.explain_dock], [explain_width(self.width())], Qt.Orientation.Horizontal)
+
+    def _fit_step_list(self) -> None:
+        """The step list just wide enough for its longest title (in its style's font) beside the
+        badge, so no title is cut short."""
+        self.step_list.ensurePolished()
+        metrics = self.step_list.fontMetrics()
+        longest = max(metrics.horizontalAdvance(p_title) for p_title in
+                      (self.step_list.item(i).text().split("\n")[0] for i in range(self.step_list.count())))
+        badge = 28 + 10 + 8 + 6           # the delegate's badge, gap and margins
+        frame = 2 * 6 + 2 * 6 + 4         # the list's padding, the item's padding, the frame
+        width = max(STEP_LIST_MIN_WIDTH, min(320, longest + badge + frame))
+        self.step_list.setMinimumWidth(width)
+        self.splitter.setSizes([width, max(1, self.splitter.width() - width)])
+
+    def resizeEvent(self, event) -> None:
+        super().resizeEvent(event)
+        # the explain panel takes its share of a window that changed width: narrow beside the page
+        # on a small screen, wider on a large one (the user may drag it after)
+        if (getattr(self, "_docks_sized", False) and event.size().width() != event.oldSize().width()
+                and self.explain_dock.isVisible() and not self.explain_dock.isFloating()):
+            self.resizeDocks([self.explain_dock], [explain_width(self.width())], Qt.Orientation.Horizontal)
+        for delay in (0, 100):          # once the explain panel took its share too
+            QTimer.singleShot(delay, self, self._refit_page)
+
+    def _refit_page(self) -> None:
+        """The current page's scroll areas fitted again to their new width (after the explain panel
+        took its share, a scroll area could keep a scroll bar from the wider window)."""
+        scroll = self.stack.currentWidget()
+        if scroll is not None:
+            for area in [scroll] + scroll.findChildren(QScrollArea):
+                QApplication.postEvent(area, QEvent(QEvent.Type.LayoutRequest))
 
     # -- navigation ----------------------------------------------------------------------
     def page(self, step: Step | int) -> WizardPage:
@@ -448,6 +531,10 @@ class MainWindow(QMainWindow):
         self.progress_bar.setValue(int(round(1000 * min(max(fraction, 0.0), 1.0))))
         text = f"{label}: {message}" if message else label
         self.progress_bar.setFormat(f"{text.replace('%', '%%')}  %p%")
+        # wide enough for its words (on one line), up to half the window; the rest in the tooltip
+        needed = self.progress_bar.fontMetrics().horizontalAdvance(f"{text}  100%") + 24
+        self.progress_bar.setMinimumWidth(max(240, min(needed, self.width() // 2)))
+        self.progress_bar.setToolTip(text)
 
     def _on_busy(self, busy: bool) -> None:
         self.progress_bar.setVisible(busy)

@@ -74,7 +74,7 @@ class AccuracyMapPlot(QWidget):
         layout.addWidget(self.vectors, 3)
         layout.addWidget(self.histogram, 2)
         for plot in (self.vectors, self.histogram):
-            plot.setMinimumWidth(240)
+            plot.setMinimumWidth(180)
         self.magnification = 1.0
         self.set_map(None)
 

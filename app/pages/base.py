@@ -27,6 +27,7 @@ from PySide6.QtCore import Signal
 from PySide6.QtWidgets import QLabel, QWidget
 
 from app.messages import show_error
+from app.pages.forms import WrappedLabel
 from app.pages.steps import Step
 from app.state import WizardState
 from app.task_handle import CurrentTask
@@ -232,7 +233,7 @@ class WizardPage(TaskMixin, QWidget):
         self._task = CurrentTask(tasks)           # the page's one task at a time (TaskMixin)
         self._lab_wait = CurrentTask()            # its wait for the virtual lab
         self._autopilot_done: DoneCallback | None = None   # set by a page's autopilot()
-        self.status = QLabel()                  # the page's status line; a page puts it in its layout
+        self.status = WrappedLabel()            # the page's status line; a page puts it in its layout
         self.status.setObjectName("pageStatus")
         self.status.setWordWrap(True)
         self.setObjectName(f"page_{self.step.slug}")

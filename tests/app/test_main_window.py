@@ -59,7 +59,7 @@ def test_visit_every_page_from_the_side_list_with_screenshots(window, qtbot, tmp
     for step in reversed(list(Step)):        # any order works, not only forwards
         window.step_list.setCurrentRow(int(step))
         assert window.current_step is step
-        assert window.stack.currentWidget() is window.page(step)
+        assert window.stack.currentWidget().widget().page is window.page(step)
         assert window.page_title.text() == f"{step.number}. {STEP_INFO[step].title}"
         QApplication.processEvents()
         path = window.save_screenshot(tmp_path / f"{step.number:02d}-{step.slug}.png")

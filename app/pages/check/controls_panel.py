@@ -10,6 +10,7 @@ from app.pages import forms
 #: (label, change kind) of the "Simulate a change" choice
 CHANGES = [("none", ""), ("tool offset (mm)", "tool"), ("base shift (mm)", "base"),
            ("joint zero slip (°)", "joint"), ("link bent (mm)", "link")]
+SCHEDULE_TIP = "Run a check on its own every so many minutes while RoboCal is open; each is logged"
 #: the change offered when the robot has several tools: another tool mounted than the one checked
 MOUNT = ("another tool mounted", "mount")
 
@@ -59,6 +60,7 @@ class CheckControls(QWidget):
         self.schedule_check = QCheckBox("Check every")
         self.schedule_check.setObjectName("scheduleCheck")
         self.minutes_spin = forms.spin(10, 1, 24 * 60, name="scheduleMinutes", suffix=" min")
+        self.allow_schedule(None, False)
         self.cell_label = QLabel()
         self.cell_label.setObjectName("checkCell")
         self.cell_label.setWordWrap(True)
@@ -171,6 +173,15 @@ class CheckControls(QWidget):
         self.poses_list.clear()
         for k, q in enumerate(np.asarray(Q_deg, dtype=float)):
             self.poses_list.addItem(f"pose {k}: " + ", ".join(f"{v:.1f}" for v in q))
+
+    def allow_schedule(self, blocked: str | None, busy: bool) -> None:
+        """"Check every N min" only where checks can run (`blocked`: why they cannot, said in the
+        tooltip; a schedule that was on is switched off). Not changed while a check runs."""
+        for w in (self.schedule_check, self.minutes_spin):
+            w.setEnabled(blocked is None and not busy)
+            w.setToolTip(SCHEDULE_TIP if blocked is None else f"Checks cannot run on a schedule: {blocked}.")
+        if blocked is not None and self.schedule_check.isChecked():
+            self.schedule_check.setChecked(False)
 
     def set_enabled(self, busy: bool, ready: bool, virtual: bool) -> None:
         for w in (self.choose_button, self.run_button, self.count_spin, self.tool_combo):

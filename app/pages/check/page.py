@@ -16,8 +16,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from PySide6.QtCore import QTimer
-from PySide6.QtWidgets import QHBoxLayout, QVBoxLayout
+from PySide6.QtCore import Qt, QTimer
+from PySide6.QtWidgets import QFrame, QHBoxLayout, QScrollArea, QStyle, QVBoxLayout, QWidget
 
 from app.jobs import cell_check, cell_teach
 from app.jobs import check as job
@@ -39,6 +39,7 @@ from core.project import Output
 LOG_NAME = "checks.csv"
 MISSING = "No calibrated robot in the project (calibrated.json). Run the Identification step first."
 NO_PROJECT = "No project: choose one in the Setup step."
+LEFT_WIDTH = 320          # px, the column of controls
 
 
 def short_verdict(result) -> str:
@@ -68,14 +69,11 @@ class CheckPage(CellMixin, TeachMixin, WizardPage):
         self.taught: dict[int, cell_teach.TaughtCheckPose] = {}     # teach mode: check pose -> recorded
 
         self.controls = CheckControls()
-        self.controls.setFixedWidth(320)
         self.results = CheckResults()
         self.fixture = FixturePanel()
-        self.fixture.setFixedWidth(320)
         self.fixture.locate_button.clicked.connect(lambda *_: self.locate_fixture())
         self.fixture_run = None
         self.teach = TeachCheckPanel()
-        self.teach.setFixedWidth(320)
         self.teach.record_button.clicked.connect(lambda *_: self.record_pose())
         self.teach.check_button.clicked.connect(lambda *_: self.run_check())
         self.controls.run_button.clicked.connect(lambda *_: self.run_check())
@@ -88,11 +86,7 @@ class CheckPage(CellMixin, TeachMixin, WizardPage):
         self.schedule_timer.timeout.connect(self._scheduled)
 
         body = QHBoxLayout()
-        left = QVBoxLayout()
-        left.addWidget(self.controls, 1)
-        left.addWidget(self.teach)
-        left.addWidget(self.fixture)
-        body.addLayout(left)
+        body.addWidget(self._left_column(), 0)
         body.addWidget(self.results, 1)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
@@ -107,6 +101,25 @@ class CheckPage(CellMixin, TeachMixin, WizardPage):
         state.robotChanged.connect(lambda *_: self._calibration_changed())
         state.outputSaved.connect(lambda key: self.refresh() if key == "calibrated" else None)
         self.refresh()
+
+    def _left_column(self) -> QScrollArea:
+        """The controls, teach and fixture panels in a column of fixed width that scrolls on its
+        own when taller than the page (a small screen), beside the results."""
+        column = QWidget()
+        column.setFixedWidth(LEFT_WIDTH)
+        left = QVBoxLayout(column)
+        left.setContentsMargins(0, 0, 0, 0)
+        left.addWidget(self.controls, 1)
+        left.addWidget(self.teach)
+        left.addWidget(self.fixture)
+        scroll = QScrollArea()
+        scroll.setObjectName("checkControlsScroll")
+        scroll.setWidgetResizable(True)
+        scroll.setFrameShape(QFrame.Shape.NoFrame)
+        scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+        scroll.setWidget(column)
+        scroll.setFixedWidth(LEFT_WIDTH + scroll.style().pixelMetric(QStyle.PixelMetric.PM_ScrollBarExtent) + 2)
+        return scroll
 
     # -- sources -------------------------------------------------------------------------
     def calibrated_path(self) -> Path | None:
@@ -190,10 +203,24 @@ class CheckPage(CellMixin, TeachMixin, WizardPage):
         self.fixture.set_virtual(self.state.virtual)
         teach = self.teach_mode
         self.teach.setVisible(teach)
-        self.controls.schedule_check.setEnabled(not teach and not self.busy)
+        self.controls.allow_schedule(self._schedule_blocked(), self.busy)
         self.controls.identify_tool_button.setEnabled(self.controls.identify_tool_button.isEnabled() and not teach)
         if teach:
             self._show_next_pose()
+
+    def _schedule_blocked(self) -> str | None:
+        """Why checks cannot run on a schedule here (None: they can)."""
+        if self.state.project is None:
+            return "there is no project: choose one on the Setup page"
+        if not self._ready():
+            return "the project has no calibrated robot (calibrated.json): run the Identification step first"
+        if self.teach_mode:
+            return "in teach mode the robot is brought to every check pose by hand"
+        if not self.state.virtual:
+            problem = self.cell_problem()
+            if problem is not None:
+                return f"nothing can be measured: {problem}"
+        return None
 
     # -- actions -------------------------------------------------------------------------
     def _cell(self) -> job.CheckSetup | None:

@@ -10,7 +10,8 @@ from app.pages import forms
 from core.monitoring.log import CheckLog
 from widgets.control_chart import ControlChart
 
-COLUMNS = 3
+COLUMNS = 3              # check pose charts side by side, at most
+CHART_MIN_WIDTH = 210    # px, a check pose's chart with its title whole: fewer columns when narrower
 CHART_HEIGHT = 170       # px, one check pose's chart
 
 
@@ -34,6 +35,7 @@ class CheckResults(QWidget):
         self.overall_chart.setObjectName("overallChart")
         self.overall_chart.setMinimumHeight(190)
         self.pose_charts: dict[int, ControlChart] = {}
+        self._columns = COLUMNS
         self._grid_host = QWidget()
         self._grid = QGridLayout(self._grid_host)
         self._grid.setContentsMargins(0, 0, 0, 0)
@@ -73,13 +75,26 @@ class CheckResults(QWidget):
             self._grid.removeWidget(chart)
             chart.deleteLater()
         self.pose_charts = {}
-        for i, pose in enumerate(poses):
+        for pose in poses:
             chart = ControlChart(f"Pose {pose}: error (mm)", with_legend=False, y_label="")
             chart.setFixedHeight(CHART_HEIGHT)
-            self._grid.addWidget(chart, i // COLUMNS, i % COLUMNS)
             self.pose_charts[pose] = chart
-        rows = -(-len(poses) // COLUMNS)
+        self._place_charts()
+
+    def _place_charts(self) -> None:
+        for i, chart in enumerate(self.pose_charts.values()):
+            self._grid.addWidget(chart, i // self._columns, i % self._columns)
+        rows = -(-len(self.pose_charts) // self._columns)
         self._grid_host.setMinimumHeight(rows * (CHART_HEIGHT + self._grid.spacing()))   # the scroll area scrolls
+
+    def resizeEvent(self, event) -> None:
+        super().resizeEvent(event)
+        columns = max(1, min(COLUMNS, self.width() // CHART_MIN_WIDTH))
+        if columns != self._columns:
+            self._columns = columns
+            for chart in self.pose_charts.values():
+                self._grid.removeWidget(chart)
+            self._place_charts()
 
     def show_verdict(self, text: str, within: bool | None, details: str = "") -> None:
         colour = {True: "#188038", False: "#d93025", None: "#202124"}[within]

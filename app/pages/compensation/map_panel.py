@@ -2,7 +2,7 @@
 plot of error vectors and error lengths, and the figures in words."""
 from __future__ import annotations
 
-from PySide6.QtWidgets import QGroupBox, QLabel, QVBoxLayout
+from PySide6.QtWidgets import QGroupBox, QVBoxLayout
 
 from app.pages import forms
 from widgets.accuracy_map_plot import AccuracyMapPlot
@@ -18,7 +18,7 @@ class MapPanel(QGroupBox):
                                                    "model and measure where the marker lands with the cameras")
         self.plot = AccuracyMapPlot()
         self.plot.setMinimumHeight(260)
-        self.summary = QLabel("No accuracy map yet: it moves the robot to a grid of targets twice (nominal and "
+        self.summary = forms.WrappedLabel("No accuracy map yet: it moves the robot to a grid of targets twice (nominal and "
                               "calibrated model) and measures each landing with the cameras.")
         self.summary.setObjectName("mapSummary")
         self.summary.setWordWrap(True)

@@ -40,7 +40,7 @@ class CompensationPage(WizardPage):
         self.map_run: job.MapRun | None = None
         self.amap = None
         self.panel = PointsPanel()
-        self.panel.setFixedWidth(340)
+        self.panel.setMaximumWidth(340)      # narrower on a small screen: its rows wrap
         self.table = PointsTable()
         self.map_panel = MapPanel()
         self.panel.add_button.clicked.connect(lambda *_: self.add_point())

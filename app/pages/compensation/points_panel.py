@@ -6,6 +6,7 @@ from __future__ import annotations
 from PySide6.QtWidgets import QCheckBox, QComboBox, QGroupBox, QLabel, QVBoxLayout
 
 from app.pages import forms
+from widgets.flow_layout import FlowLayout
 
 FRAMES = [("robot base frame", "base"), ("camera frame (left camera)", "camera"),
           ("located fixture (fixture_pose.json)", "fixture")]
@@ -34,20 +35,25 @@ class PointsPanel(QGroupBox):
         self.go_button = forms.button("Go to point", "goToPointButton",
                                       tooltip="Move the robot to the selected point with the calibrated model "
                                               "and measure where the marker is with the cameras")
-        self.nominal_check = QCheckBox("Go with the nominal model (no compensation)")
+        self.nominal_check = QCheckBox("Go with the nominal model")
         self.nominal_check.setObjectName("goNominal")
-        self.nominal_check.setToolTip("Go to point with the joints the robot's own nominal model computes, to "
-                                      "compare with the corrected joints")
+        self.nominal_check.setToolTip("No compensation: go to point with the joints the robot's own nominal model "
+                                      "computes, to compare with the corrected joints")
         self.write_button = forms.button("Write corrected program…", "writeProgramButton",
                                          tooltip="The corrected joints as a joints file the Measurement page, "
                                                  "sim-robot and the robot drivers read")
         layout = QVBoxLayout(self)
         layout.addWidget(note)
-        layout.addLayout(forms.row("x", self.x_spin, "y", self.y_spin))
-        layout.addLayout(forms.row("z", self.z_spin, "in", self.frame_combo))
-        layout.addLayout(forms.row(self.add_button, self.clear_button))
-        layout.addLayout(forms.row(self.load_button))
-        layout.addLayout(forms.row(self.go_button, self.write_button))
+        # rows that wrap when the panel is narrow (a small screen)
+        point = FlowLayout()
+        for axis, box in (("x", self.x_spin), ("y", self.y_spin), ("z", self.z_spin)):
+            point.add_group(QLabel(axis), box)
+        point.add_group(QLabel("in"), self.frame_combo)
+        layout.addLayout(point)
+        buttons = FlowLayout()
+        for b in (self.add_button, self.clear_button, self.load_button, self.go_button, self.write_button):
+            buttons.addWidget(b)
+        layout.addLayout(buttons)
         layout.addWidget(self.nominal_check)
         layout.addStretch(1)
 

@@ -20,6 +20,7 @@ from app.report.title_fields import ReportTitleFields
 from core.errors import RoboCalError
 from core.files import ensure_writable_dir
 from core.locks import output_locks
+from widgets.wrapping_box import hold_height_for_width
 
 EXPORT_FOLDER = "export"
 
@@ -49,7 +50,7 @@ class ExportPage(WizardPage):
         fl.addWidget(self.folder_button)
         fl.addWidget(self.all_button)
 
-        self.rows_panel = ExportRows(self.items, lambda key: self.export(key))
+        self.rows_panel = hold_height_for_width(ExportRows(self.items, lambda key: self.export(key)))   # all lines shown
         self.rows = self.rows_panel.rows
         self.report_title = ReportTitleFields()       # student/operator, course, serial number
 

@@ -6,14 +6,15 @@ from __future__ import annotations
 
 from typing import Callable
 
-from PySide6.QtWidgets import (QCheckBox, QComboBox, QGridLayout, QGroupBox, QLabel, QLineEdit, QMenu,
-                               QSizePolicy, QToolButton)
+from PySide6.QtWidgets import (QCheckBox, QComboBox, QGroupBox, QHBoxLayout, QLabel, QLineEdit, QMenu,
+                               QToolButton, QVBoxLayout)
 
-from app.pages.forms import button, double_spin, row, spin
+from app.pages.forms import button, double_spin, spin
 from core.errors import RoboCalError
 from core.kinematics.jacobian import all_parameters, resolve_names
 from core.identification.prior import PriorOptions
 from core.robot.compliance import Compliance
+from widgets.flow_layout import FlowLayout
 from widgets.progress_row import ProgressRow
 
 VALIDATION_NONE, VALIDATION_HOLDOUT, VALIDATION_KFOLD = range(3)
@@ -82,22 +83,23 @@ class OptionsPanel(QGroupBox):
         self.progress = progress
         self._robot = robot
 
-        grid = QGridLayout(self)
-        grid.setHorizontalSpacing(8)
-        grid.addWidget(QLabel("Validation:"), 0, 0)
-        validation = row(self.validation_combo, self.holdout_spin, self.kfold_spin, self.huber_check,
-                         self.huber_spin, self.prior_check, self.orientation_check)
-        validation.insertSpacing(3, 12)
-        grid.addLayout(validation, 0, 1, 1, 3)
-        grid.addWidget(QLabel("Deflection:"), 1, 0)
-        grid.addLayout(row(self.deflection_combo, self.payload_check, self.payload_spin), 1, 1, 1, 3)
-        grid.addWidget(QLabel("Fix:"), 2, 0)
-        grid.addWidget(self.fix_edit, 2, 1)
-        grid.addWidget(self.fix_button, 2, 2)
-        grid.addWidget(self.run_button, 2, 3)
-        grid.addWidget(progress, 3, 0, 1, 4)
-        grid.setColumnStretch(1, 1)
-        self.setSizePolicy(QSizePolicy.Policy.Preferred, QSizePolicy.Policy.Maximum)
+        # the option rows wrap on a narrow window instead of widening it or cutting the words short
+        validation = FlowLayout()
+        validation.add_group(QLabel("Validation:"), self.validation_combo, self.holdout_spin, self.kfold_spin)
+        validation.add_group(self.huber_check, self.huber_spin)
+        validation.addWidget(self.prior_check)
+        validation.addWidget(self.orientation_check)
+        validation.add_group(QLabel("Deflection:"), self.deflection_combo)
+        validation.add_group(self.payload_check, self.payload_spin)
+        fix = QHBoxLayout()
+        fix.addWidget(QLabel("Fix:"))
+        fix.addWidget(self.fix_edit, 1)
+        fix.addWidget(self.fix_button)
+        fix.addWidget(self.run_button)
+        layout = QVBoxLayout(self)
+        layout.addLayout(validation)
+        layout.addLayout(fix)
+        layout.addWidget(progress)
         self.fix_edit.textEdited.connect(self._sync_fix_menu)
         self._validation_changed()
 

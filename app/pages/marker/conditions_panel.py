@@ -12,7 +12,8 @@ from PySide6.QtWidgets import (QAbstractItemView, QComboBox, QHBoxLayout, QHeade
 from app.html import esc, number
 from app.jobs.marker_conditions import ConditionsPair
 from app.lab import SIDES, ImagingConditions, RobustnessTable
-from app.pages.forms import button, row, spin
+from app.pages.forms import button, spin
+from widgets.flow_layout import FlowLayout
 from widgets.image_view import ImageView
 from widgets.robustness_plot import RobustnessPlot
 
@@ -84,10 +85,16 @@ class ConditionsPanel(QWidget):
 
         layout = QVBoxLayout(self)
         layout.setContentsMargins(4, 4, 4, 4)
-        layout.addLayout(row("Light:", self.light_slider, self.light_label, "Covered:", self.occlusion_spin,
-                             self.side_combo, "Tilt:", self.tilt_spin, self.show_button))
-        layout.addLayout(row("Sweep with", self.pairs_spin, "pairs per value:", self.sweep_button, "Plot against:",
-                             self.axis_combo))
+        choices = FlowLayout()          # wraps on a narrow window
+        choices.add_group(QLabel("Light:"), self.light_slider, self.light_label)
+        choices.add_group(QLabel("Covered:"), self.occlusion_spin, self.side_combo)
+        choices.add_group(QLabel("Tilt:"), self.tilt_spin)
+        choices.addWidget(self.show_button)
+        layout.addLayout(choices)
+        sweep = FlowLayout()
+        sweep.add_group(QLabel("Sweep with"), self.pairs_spin, QLabel("pairs per value:"), self.sweep_button)
+        sweep.add_group(QLabel("Plot against:"), self.axis_combo)
+        layout.addLayout(sweep)
         split = QSplitter(Qt.Orientation.Horizontal)
         left = QWidget()
         lv = QVBoxLayout(left)

@@ -9,9 +9,10 @@ from PySide6.QtWidgets import QCheckBox, QHBoxLayout, QLabel, QWidget
 
 from app.html import esc
 from app.jobs.marker import TrainingImage, auto_outline, crop_around
-from app.pages.forms import button, double_spin, row
+from app.pages.forms import button, double_spin
 from app.pages.measurement_inputs import TRAINING_FILE
 from core.marker.training import DEFAULT_OUTER_SIZE, TrainedMarker
+from widgets.flow_layout import FlowLayout
 from widgets.marker_views import TrainingImageView
 
 UNTRAINED_HELP = ("<b>Training</b><br>The outer black square (dashed orange) is found automatically. If the image "
@@ -58,10 +59,11 @@ class TrainingPanel(QWidget):
                                      suffix=" mm",
                                      tooltip="Side of the marker's outer black square, measured on the real marker")
         self.train_button = button("Train", "trainButton")
-        self.controls = row(self.load_button, self.capture_button, self.crop_check)
-        self.controls.setSpacing(8)
-        for w in (QLabel("Outer square:"), self.size_spin, self.train_button):
+        self.controls = FlowLayout()          # wraps on a narrow window
+        for w in (self.load_button, self.capture_button, self.crop_check):
             self.controls.addWidget(w)
+        self.controls.add_group(QLabel("Outer square:"), self.size_spin)
+        self.controls.addWidget(self.train_button)
 
         self.training_view = TrainingImageView()
         self.training_view.setObjectName("trainingView")

@@ -11,7 +11,7 @@ from PySide6.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
 
 from app.html import esc, number
 from app.jobs.marker import VerificationResult
-from app.pages.forms import button, row, spin
+from app.pages.forms import button, row, scrolling, spin
 from widgets.precision_plot import PrecisionPlot
 from widgets.progress_row import ProgressRow
 
@@ -96,7 +96,7 @@ class VerificationPanel(QWidget):
         controls.addWidget(progress, 1)
         layout.addLayout(controls)
         body = QHBoxLayout()
-        body.addWidget(self.verify_summary)
+        body.addWidget(scrolling(self.verify_summary))
         body.addWidget(self.precision_plot, 1)
         layout.addLayout(body, 1)
 

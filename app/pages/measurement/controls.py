@@ -8,6 +8,7 @@ from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QCheckBox, QGridLayout, QLabel, QWidget
 
 from app.pages.forms import button
+from widgets.flow_layout import FlowLayout
 from widgets.progress_row import ProgressRow
 
 
@@ -48,11 +49,10 @@ class RunControls(QWidget):
         grid.setVerticalSpacing(4)
         grid.addWidget(self.source_label, 0, 0, 1, 4)
         grid.addWidget(self.load_button, 0, 4, 1, 2)
-        grid.addWidget(self.start_button, 1, 0)
-        grid.addWidget(self.pause_button, 1, 1)
-        grid.addWidget(progress, 1, 2, 1, 2)
-        grid.addWidget(self.over_button, 1, 4)
-        grid.addWidget(self.teach_check, 1, 5)
+        run = FlowLayout()                # wraps on a narrow window
+        for w in (self.start_button, self.pause_button, progress, self.over_button, self.teach_check):
+            run.addWidget(w)
+        grid.addLayout(run, 1, 0, 1, 6)
         grid.setColumnStretch(3, 1)
 
     def set_buttons(self, *, busy: bool, can_start: bool, resume: bool, can_start_over: bool,

@@ -2,10 +2,11 @@
 from __future__ import annotations
 
 from PySide6.QtCore import Signal
-from PySide6.QtWidgets import QComboBox, QGridLayout, QLabel, QWidget
+from PySide6.QtWidgets import QComboBox, QLabel, QWidget
 
 from app.pages import forms
 from app.pages.poses.texts import INDEX_CHOICES
+from widgets.flow_layout import FlowLayout
 
 DEMO_COUNT = 30
 DEMO_CANDIDATES = 1000
@@ -39,22 +40,14 @@ class SelectionControls(QWidget):
         self.select_button = forms.button("Select poses", "selectButton", on_click=self.selectRequested.emit)
         self.index_combo.currentIndexChanged.connect(lambda *_: self.indexChanged.emit())
 
-        grid = QGridLayout(self)
-        grid.setContentsMargins(0, 0, 0, 0)
-        grid.setHorizontalSpacing(8)
-        grid.setVerticalSpacing(4)
-        grid.addWidget(QLabel("Poses N:"), 0, 0)
-        grid.addWidget(self.count_spin, 0, 1)
-        grid.addWidget(QLabel("Index:"), 0, 2)
-        grid.addWidget(self.index_combo, 0, 3, 1, 3)
-        grid.addWidget(self.select_button, 0, 6)
-        grid.addWidget(QLabel("Candidates:"), 1, 0)
-        grid.addWidget(self.candidates_spin, 1, 1)
-        grid.addWidget(QLabel("Joint margin:"), 1, 2)
-        grid.addWidget(self.margin_spin, 1, 3)
-        grid.addWidget(QLabel("Seed:"), 1, 4)
-        grid.addWidget(self.seed_spin, 1, 5)
-        grid.setColumnStretch(3, 1)
+        flow = FlowLayout(self)           # wraps on a narrow window
+        flow.setContentsMargins(0, 0, 0, 0)
+        flow.add_group(QLabel("Poses N:"), self.count_spin)
+        flow.add_group(QLabel("Index:"), self.index_combo)
+        flow.addWidget(self.select_button)
+        flow.add_group(QLabel("Candidates:"), self.candidates_spin)
+        flow.add_group(QLabel("Joint margin:"), self.margin_spin)
+        flow.add_group(QLabel("Seed:"), self.seed_spin)
 
     def index(self) -> str:
         return self.index_combo.currentData()

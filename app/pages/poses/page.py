@@ -23,6 +23,7 @@ from core.locks import output_lock
 from core.poses.file import PoseList, read_poses
 from core.poses.selection import PoseSelectionResult, write_selection
 from core.project import Output
+from widgets.wrapping_box import hold_height_for_width
 
 
 class PosesPage(WizardPage):
@@ -33,7 +34,7 @@ class PosesPage(WizardPage):
         self.result: PoseSelectionResult | None = None
         self.loaded: PoseList | None = None      # a poses.csv found in the project (no selection run)
 
-        self.controls = SelectionControls()
+        self.controls = hold_height_for_width(SelectionControls())     # its rows wrap on a small screen
         self.results = SelectionResults()
         # the widgets tests and the autopilot reach by name
         self.count_spin, self.candidates_spin = self.controls.count_spin, self.controls.candidates_spin

@@ -8,6 +8,7 @@ from PySide6.QtWidgets import (QAbstractItemView, QHBoxLayout, QHeaderView, QLab
                                QTableWidget, QTableWidgetItem, QVBoxLayout, QWidget)
 
 from app.lab import VirtualLab
+from app.pages.forms import WrappedLabel, scrolling
 from app.pages.poses.texts import AXIS_LABELS, PLACEHOLDER, SHORT, comparison_html, facts_html, loaded_html
 from core.poses.candidates import arm_polyline
 from core.poses.file import PoseList
@@ -43,7 +44,7 @@ class SelectionResults(QWidget):
         self.summary.setAlignment(Qt.AlignmentFlag.AlignTop | Qt.AlignmentFlag.AlignLeft)
         self.summary.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
         self.summary.setSizePolicy(QSizePolicy.Policy.Preferred, QSizePolicy.Policy.Preferred)
-        self.facts = QLabel()
+        self.facts = WrappedLabel()         # the page scrolls rather than squeeze the views
         self.facts.setObjectName("hint")
         self.facts.setWordWrap(True)
         self.facts.setTextFormat(Qt.TextFormat.RichText)
@@ -64,7 +65,7 @@ class SelectionResults(QWidget):
         ul.setContentsMargins(0, 0, 0, 0)
         ul.setSpacing(8)
         ul.addWidget(self.curve_plot, 3)
-        ul.addWidget(self.summary, 2)
+        ul.addWidget(scrolling(self.summary), 2)
         self.splitter = QSplitter(Qt.Orientation.Vertical)
         self.splitter.addWidget(upper)
         self.splitter.addWidget(self.views)

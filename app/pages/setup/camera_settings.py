@@ -58,7 +58,7 @@ class CameraSettingsForm(QWidget):
                  ("Focus:", forms.row(self.focus_spin, self.autofocus_check, stretch=False)),
                  ("White balance:", self.wb_spin))
         for i, (label, item) in enumerate(cells):
-            r, c = divmod(i, 3)
+            r, c = divmod(i, 2)          # two columns: the form fits a small screen beside the explain panel
             grid.addWidget(QLabel(label), r, 2 * c)
             if isinstance(item, QWidget):
                 grid.addWidget(item, r, 2 * c + 1)

@@ -10,6 +10,7 @@ from PySide6.QtWidgets import QComboBox, QLabel, QWidget
 from app.lab import build_lab
 from app.pages import forms
 from core.robot.controller_sim import ControllerSim
+from widgets.flow_layout import FlowLayout
 
 PROFILES = {"robocal": "robocal_v1", "grbl": "grbl_joint_arm"}    # simulator protocol -> profile
 
@@ -39,8 +40,11 @@ class SimulatorRow(QWidget):
         self.device_label = QLabel()
         self.device_label.setObjectName("simDevice")
         self.device_label.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
-        layout = forms.row("No robot? Simulator:", self.protocol_combo, "seed", self.seed_spin, self.start_button,
-                           self.stop_button, self.device_label)
+        layout = FlowLayout()            # wraps on a narrow window
+        layout.add_group(QLabel("No robot? Simulator:"), self.protocol_combo)
+        layout.add_group(QLabel("seed"), self.seed_spin)
+        for w in (self.start_button, self.stop_button, self.device_label):
+            layout.addWidget(w)
         layout.setContentsMargins(18, 0, 0, 0)
         self.setLayout(layout)
         self.state.simulatorChanged.connect(self.refresh)

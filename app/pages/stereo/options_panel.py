@@ -4,13 +4,14 @@ from __future__ import annotations
 
 from PySide6.QtWidgets import QCheckBox, QComboBox, QLabel, QVBoxLayout, QWidget
 
-from app.pages.forms import button, row
+from app.pages.forms import button
 from core.stereo.fit import CalibrationOptions
+from widgets.flow_layout import FlowLayout
 
 
 class OptionsPanel(QWidget):
     """The model the user chooses (`options()`) and the Calibrate button; the progress row
-    (bar and Cancel) of the page goes below them."""
+    (bar and Cancel) of the page goes below them. The row wraps on a narrow window."""
 
     def __init__(self, progress_row: QWidget, parent=None):
         super().__init__(parent)
@@ -31,10 +32,11 @@ class OptionsPanel(QWidget):
         self.calibrate_button.setDefault(True)
         heading = QLabel("Camera model")
         heading.setObjectName("sectionHeading")
-        line = row(heading, "radial:", self.radial_combo, self.tangential_check, self.aspect_check,
-                   self.principal_check)
-        line.insertSpacing(1, 6)
-        line.addWidget(self.calibrate_button)
+        line = FlowLayout()
+        line.addWidget(heading)
+        line.add_group(QLabel("radial:"), self.radial_combo)
+        for w in (self.tangential_check, self.aspect_check, self.principal_check, self.calibrate_button):
+            line.addWidget(w)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addLayout(line)

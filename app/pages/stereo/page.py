@@ -23,13 +23,13 @@ from pathlib import Path
 from typing import Callable
 
 from PySide6.QtCore import Qt, QTimer
-from PySide6.QtWidgets import QSplitter, QVBoxLayout, QWidget
+from PySide6.QtWidgets import QVBoxLayout, QWidget
 
 from app.jobs.stereo import AddedPair
 from app.html import number
 from app.lab import DEFAULT_BOARD
 from app.pages.base import WizardPage
-from app.pages.forms import button, row
+from app.pages.forms import button, row, scrolling
 from app.pages.steps import Step
 from app.pages.stereo.live_preview import LivePreviewPanel
 from app.pages.stereo.options_panel import OptionsPanel
@@ -48,6 +48,9 @@ from core.stereo.screening import screen_pairs
 from core.stereo.coverage import MIN_PAIRS_TO_CALIBRATE
 from core.stereo.file import read_stereo_yaml
 from core.stereo.importers import FORMATS
+
+RESULTS_MIN_HEIGHT = 230     # px: the results' plots stay readable; a small screen scrolls the page instead
+TOP_MIN_HEIGHT = 260         # px: the pairs and camera model box, scrolling when its rows need more
 
 
 class StereoPage(JobQueueMixin, PairsActions, ResultsActions, StereoFileActions, WizardPage):
@@ -104,16 +107,14 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, StereoFileActions,
         tl.addWidget(self.live)
         tl.addWidget(self.pairs)
         tl.addWidget(self.model)
-        self.splitter = QSplitter(Qt.Orientation.Vertical)
-        self.splitter.addWidget(top)
-        self.splitter.addWidget(self.results)
-        self.splitter.setStretchFactor(0, 0)
-        self.splitter.setStretchFactor(1, 1)
-        self.splitter.setChildrenCollapsible(False)
+        self.results.setMinimumHeight(RESULTS_MIN_HEIGHT)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.setSpacing(6)
-        layout.addWidget(self.splitter, 1)
+        # the pairs and the camera model above the results; on a small screen their box scrolls
+        # (its rows wrap: a splitter or a box layout would keep its older, shorter height)
+        layout.addWidget(scrolling(top, min_height=TOP_MIN_HEIGHT))
+        layout.addWidget(self.results, 1)
         layout.addWidget(self.status)
         exports = row(self.swap_button, self.import_button, self.save_button, "Export:", self.ros_button, self.json_button,
                       stretch=False)

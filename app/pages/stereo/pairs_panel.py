@@ -23,6 +23,7 @@ from core.stereo.coverage import MIN_BAR, MIN_GOOD_PAIRS, MIN_PAIRS_TO_CALIBRATE
 from core.stereo.image_files import pair_images
 from core.stereo.image_pairs import split_mixed_folder, swap_camera_folders
 from widgets.coverage_bars import CoverageBars
+from widgets.flow_layout import FlowLayout
 from widgets.thumbnail_strip import BAD, MUTED, WARN, ThumbnailStrip
 
 VIRTUAL_PAIRS = 20
@@ -61,8 +62,15 @@ class PairsPanel(QGroupBox):
 
         layout = QVBoxLayout(self)
         layout.setSpacing(4)
-        layout.addLayout(row(self.folders_button, self.virtual_button, self.virtual_count, self.capture_button))
-        board_row = row("Board:", self.cols_spin, "×", self.rows_spin, "inner corners, square", self.square_spin)
+        # rows that wrap on a narrow window
+        sources = FlowLayout()
+        sources.addWidget(self.folders_button)
+        sources.add_group(self.virtual_button, self.virtual_count)
+        sources.addWidget(self.capture_button)
+        layout.addLayout(sources)
+        board_row = FlowLayout()
+        board_row.add_group(QLabel("Board:"), self.cols_spin, QLabel("×"), self.rows_spin)
+        board_row.add_group(QLabel("inner corners, square"), self.square_spin)
         board_row.addWidget(self.remove_button)
         board_row.addWidget(self.clear_button)
         layout.addLayout(board_row)

@@ -8,7 +8,7 @@ import numpy as np
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QComboBox, QHBoxLayout, QLabel, QTabWidget, QTextBrowser, QVBoxLayout, QWidget
 
-from app.pages.forms import button, row
+from app.pages.forms import button, row, scrolling
 from app.pages.stereo.texts import GROUP_NAMES, PARAM_NAMES, UNIT_NAMES, residual_stats_html, summary_html
 from widgets.error_bar_chart import ErrorBarChart
 from widgets.image_view import ImageView
@@ -28,6 +28,11 @@ TABLE_NOTE = (
 
 class ResultsPanel(QTabWidget):
     """Tabs: Errors per pair, Summary, Parameters ± σ, Rectified pair, Residuals."""
+
+    def hasHeightForWidth(self) -> bool:
+        """No height for width: a box layout would hold the tabs at their preferred height (their
+        wrapped notes') as a minimum and squeeze the pairs above them on a small screen."""
+        return False
 
     def __init__(self, parent=None):
         super().__init__(parent)
@@ -70,7 +75,7 @@ class ResultsPanel(QTabWidget):
         layout = QHBoxLayout(tab)
         layout.setContentsMargins(4, 4, 4, 4)
         layout.addWidget(self.table, 3)
-        layout.addWidget(note, 2)
+        layout.addWidget(scrolling(note), 2)
         return tab
 
     def _preview_tab(self) -> QWidget:
@@ -104,7 +109,7 @@ class ResultsPanel(QTabWidget):
         layout.setContentsMargins(4, 4, 4, 4)
         line = row(stretch=False)
         line.addWidget(self.scatter, 3)
-        line.addWidget(self.scatter_stats, 2)
+        line.addWidget(scrolling(self.scatter_stats), 2)
         layout.addLayout(line, 1)
         layout.addWidget(self.scatter_caption)
         return tab
