@@ -49,7 +49,7 @@ from core.stereo.coverage import MIN_PAIRS_TO_CALIBRATE
 from core.stereo.file import read_stereo_yaml
 from core.stereo.importers import FORMATS
 
-RESULTS_MIN_HEIGHT = 230     # px: the results' plots stay readable; a small screen scrolls the page instead
+RESULTS_MIN_HEIGHT = 330     # px: a results plot keeps ~170 px beside its notes; a small screen scrolls the page instead
 TOP_MIN_HEIGHT = 260         # px: the pairs and camera model box, scrolling when its rows need more
 
 
