@@ -5,6 +5,8 @@
   pytest's own temporary folder, so tests write nowhere else.
 - Hypothesis is derandomized (its examples follow from each test's source, no example
   database is read or written), so every run, locally and on CI, tries the same examples.
+- Virtual labs and trained markers are built once per session (per xdist worker) and handed out
+  as copies: the session fixtures `built_lab` and `built_lab_marker` (tests/session_cache.py).
 - napari style: a GUI test (one that uses qtbot or qapp) fails when it leaves a QThread
   running, a busy TaskRunner, or a visible top-level window behind. Leftovers are cleaned up
   before failing, so one leak does not cascade into the following tests.
@@ -20,6 +22,8 @@ import tempfile
 
 import pytest
 from hypothesis import settings
+
+from tests.session_cache import lab_copy, trained_marker_copy
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 
@@ -75,6 +79,18 @@ class QThreadTracker:
             except RuntimeError:   # the C++ object is gone: not running
                 pass
         return alive
+
+
+@pytest.fixture(scope="session")
+def built_lab():
+    """built_lab(robot=None, seed=0, noise=0.5, **options): a copy of that VirtualLab, built once."""
+    return lab_copy
+
+
+@pytest.fixture(scope="session")
+def built_lab_marker():
+    """built_lab_marker(lab): a copy of the lab's trained marker (as tests/app/virtual_inputs.lab_marker)."""
+    return trained_marker_copy
 
 
 @pytest.fixture(autouse=True)

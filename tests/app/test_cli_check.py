@@ -7,16 +7,16 @@ import json
 import pytest
 
 from app.cli import main
-from app.lab import build_lab, ideal_lab_measurements
+from app.lab import ideal_lab_measurements
 from core.identification.solver import identify, write_calibrated_model
 from core.monitoring.log import read_check_log
 from core.robot.file import read_robot
 
 
 @pytest.fixture(scope="module")
-def calibrated(tmp_path_factory):
+def calibrated(tmp_path_factory, built_lab):
     folder = tmp_path_factory.mktemp("check")
-    lab = build_lab(None, 0, 0.5)
+    lab = built_lab(None, 0, 0.5)
     write_calibrated_model(identify(lab.nominal_robot, ideal_lab_measurements(lab, 50, sigma_mm=0.05, seed=4)),
                            folder / "calibrated.json")
     return folder / "calibrated.json"

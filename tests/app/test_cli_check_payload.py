@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from app.cli import main
-from app.lab import build_lab, ideal_lab_measurements
+from app.lab import ideal_lab_measurements
 from core.identification.solver import identify, write_calibrated_model
 from core.measurement.file import write_measurements
 from core.robot.file import read_robot
@@ -18,10 +18,10 @@ PROBE = np.array([20.0, -15.0, 40.0])       # mm on the true tool
 
 
 @pytest.fixture(scope="module")
-def lab_files(tmp_path_factory):
+def lab_files(tmp_path_factory, built_lab):
     """(folder, calibrated with a 2.5 kg payload, calibrated with none recorded, once.csv)."""
     folder = tmp_path_factory.mktemp("checkpayload")
-    lab = build_lab(None, 0, 0.5)
+    lab = built_lab(None, 0, 0.5)
     meas = ideal_lab_measurements(lab, 50, sigma_mm=0.05, seed=4)
     write_calibrated_model(identify(lab.nominal_robot, meas, payload_kg=2.5), folder / "payload.json")
     write_calibrated_model(identify(lab.nominal_robot, meas), folder / "unknown.json")
@@ -64,14 +64,14 @@ def test_the_same_payload_says_nothing_and_an_unrecorded_one_says_so(lab_files, 
     assert code == 0 and data["payload"] is None
 
 
-def test_a_target_placed_relative_to_the_marker_before_the_check(lab_files, tmp_path, capsys):
+def test_a_target_placed_relative_to_the_marker_before_the_check(lab_files, tmp_path, capsys, built_lab):
     code, data, err = run_json(capsys, check(lab_files, "payload.json", tmp_path / "c.csv", "--place",
                                              str(lab_files / "once.csv"), "--relative-to", "marker"))
     assert code == 0 and err == "" and data["check"]["within"]
     placed = data["placed"][0]
     assert placed["target"] == "probe" and placed["references"] == ["marker"]
     # the calibrated tool frame is not the true one, but the probe's distance from the marker is kept
-    calibrated, true = read_robot(lab_files / "payload.json"), build_lab(None, 0, 0.5).true_robot
+    calibrated, true = read_robot(lab_files / "payload.json"), built_lab(None, 0, 0.5).true_robot
     placed_distance = np.linalg.norm(np.array(placed["offset_mm"]) - calibrated.targets["marker"])
     assert placed_distance == pytest.approx(np.linalg.norm(PROBE - true.targets["marker"]), abs=0.05)
 
@@ -85,11 +85,10 @@ def test_relative_to_without_place_and_an_unknown_reference_are_refused(lab_file
     assert len(err) == 1 and "the reference target 'tip' is not in the robot" in err[0]
 
 
-def test_a_calibration_with_deflection_terms_says_they_hold_for_its_payload(tmp_path, capsys):
+def test_a_calibration_with_deflection_terms_says_they_hold_for_its_payload(tmp_path, capsys, built_lab):
     from core.virtual_lab.ideal_measurements import ideal_lab_measurements as lab_points
-    from core.virtual_lab.lab import VirtualLab
 
-    lab = VirtualLab.create(seed=0, noise=0.5, deflection=True)
+    lab = built_lab(seed=0, noise=0.5, deflection=True)
     write_calibrated_model(identify(lab.nominal_robot, lab_points(lab, 40, sigma_mm=0.02, seed=4), compliance="on",
                                     payload_kg=1.0), tmp_path / "bent.json")
     write_measurements(lab_points(lab, 8, sigma_mm=0.02, seed=9), tmp_path / "check.csv")

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from app.cli import main
-from app.lab import build_lab, ideal_lab_measurements
+from app.lab import ideal_lab_measurements
 from core.identification.solver import identify, write_calibrated_model
 from core.monitoring.log import read_check_log
 from core.poses.file import read_poses
@@ -26,10 +26,10 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")
-def cell(tmp_path_factory):
+def cell(tmp_path_factory, built_lab):
     """(folder, lab, calibrated.json, stereo.yaml, training.png, check poses file)."""
     root = tmp_path_factory.mktemp("checkport")
-    lab = build_lab(None, 0, 0.5)
+    lab = built_lab(None, 0, 0.5)
     write_calibrated_model(identify(lab.nominal_robot, ideal_lab_measurements(lab, 50, sigma_mm=0.05, seed=4)),
                            root / "calibrated.json")
     true_stereo_yaml(lab, root / "stereo.yaml")

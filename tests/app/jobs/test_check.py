@@ -7,7 +7,7 @@ import re
 import pytest
 
 from app.jobs import check as job
-from app.lab import build_lab, ideal_lab_measurements, lab_options
+from app.lab import ideal_lab_measurements, lab_options
 from core.identification.solver import identify, write_calibrated_model
 from core.robot.file import read_robot
 from core.robot.model import robot_path
@@ -16,8 +16,8 @@ POSES = 6
 
 
 @pytest.fixture(scope="module")
-def calibrated(tmp_path_factory):
-    lab = build_lab(read_robot(robot_path("educational_6r")), 0, 0.5)
+def calibrated(tmp_path_factory, built_lab):
+    lab = built_lab(read_robot(robot_path("educational_6r")), 0, 0.5)
     path = tmp_path_factory.mktemp("check") / "calibrated.json"
     write_calibrated_model(identify(lab.nominal_robot, ideal_lab_measurements(lab, 50, sigma_mm=0.05, seed=4)), path)
     return lab, path
