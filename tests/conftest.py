@@ -6,10 +6,13 @@
 - Hypothesis is derandomized (its examples follow from each test's source, no example
   database is read or written), so every run, locally and on CI, tries the same examples.
 - Virtual labs and trained markers are built once per session (per xdist worker) and handed out
-  as copies: the session fixtures `built_lab` and `built_lab_marker` (tests/session_cache.py).
+  as copies: the session fixture `built_lab`, tests/app/virtual_inputs.lab_marker (tests/session_cache.py).
 - napari style: a GUI test (one that uses qtbot or qapp) fails when it leaves a QThread
   running, a busy TaskRunner, or a visible top-level window behind. Leftovers are cleaned up
   before failing, so one leak does not cascade into the following tests.
+- With pytest-xdist (`make test` runs `-n auto`), a worker process that ends abnormally after its
+  tests (a crash while Qt tears down at interpreter exit) fails the run, as it would without
+  workers: pytest's exit status stays the one CI must see.
 
 Qt is imported only for GUI tests: tests/core never loads it.
 """
@@ -23,7 +26,7 @@ import tempfile
 import pytest
 from hypothesis import settings
 
-from tests.session_cache import lab_copy, trained_marker_copy
+from tests.session_cache import lab_copy
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 
@@ -81,16 +84,43 @@ class QThreadTracker:
         return alive
 
 
+class WorkerExitStatus:
+    """Controller-side (pytest-xdist): fails the session when a worker process did not exit with 0."""
+
+    def __init__(self):
+        self.gateways: list = []
+
+    def pytest_xdist_newgateway(self, gateway):
+        self.gateways.append(gateway)
+
+    @pytest.hookimpl(wrapper=True)
+    def pytest_sessionfinish(self, session):
+        result = yield                       # xdist's own sessionfinish has ended the workers
+        crashed = []
+        for gw in self.gateways:
+            popen = getattr(getattr(gw, "_io", None), "popen", None)
+            if popen is not None and popen.poll() not in (0, None):
+                crashed.append(f"{gw.id} (exit status {popen.returncode})")
+        if crashed:
+            reporter = session.config.pluginmanager.get_plugin("terminalreporter")
+            if reporter is not None:
+                reporter.write_line("")
+                reporter.write_line("worker process(es) ended abnormally after their tests: " + ", ".join(crashed),
+                                    red=True)
+            if session.exitstatus == 0:
+                session.exitstatus = pytest.ExitCode.TESTS_FAILED
+        return result
+
+
+def pytest_configure(config):
+    if config.pluginmanager.hasplugin("xdist") and not hasattr(config, "workerinput"):
+        config.pluginmanager.register(WorkerExitStatus(), "robocal-worker-exit-status")
+
+
 @pytest.fixture(scope="session")
 def built_lab():
     """built_lab(robot=None, seed=0, noise=0.5, **options): a copy of that VirtualLab, built once."""
     return lab_copy
-
-
-@pytest.fixture(scope="session")
-def built_lab_marker():
-    """built_lab_marker(lab): a copy of the lab's trained marker (as tests/app/virtual_inputs.lab_marker)."""
-    return trained_marker_copy
 
 
 @pytest.fixture(autouse=True)

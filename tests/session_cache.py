@@ -3,8 +3,8 @@ once per test session (with pytest-xdist: once per worker process) and handed ou
 
 A test gets the same object a fresh build would give it, and cannot change what another test
 gets: labs are changed in place by tests (`apply_change` moves the true robot, `lab.target`, a
-rig replaced), so the built original is never handed out. tests/conftest.py exposes these as the
-session fixtures `built_lab` and `built_lab_marker`.
+rig replaced), so the built original is never handed out. tests/conftest.py exposes labs as the
+session fixture `built_lab`; tests/app/virtual_inputs.lab_marker hands out trained markers.
 """
 from __future__ import annotations
 
