@@ -14,6 +14,7 @@ import os
 import pickle
 
 _built: dict = {}
+_original_create: list = []          # VirtualLab.create before `create_labs_once` replaced it
 
 
 def shared_copy(key, build):
@@ -41,8 +42,27 @@ def lab_copy(robot=None, seed: int = 0, noise: float = 0.5, **options):
     educational 6R arm, a robot file or a RobotModel)."""
     from core.virtual_lab.lab import VirtualLab
 
+    create = _original_create[0] if _original_create else VirtualLab.create
     key = ("lab", _robot_key(robot), int(seed), float(noise), tuple(sorted(options.items())))
-    return shared_copy(key, lambda: VirtualLab.create(robot, seed=seed, noise=noise, **options))
+    return shared_copy(key, lambda: create(robot, seed=seed, noise=noise, **options))
+
+
+def create_labs_once(monkeypatch) -> None:
+    """For the duration of a test, VirtualLab.create (the wizard's lab on its worker thread, the
+    commands' --lab options, `robocal simulate`) hands out copies of labs built once per session.
+    A lab given a rig, board or marker object is built as before."""
+    from core.virtual_lab.lab import VirtualLab
+
+    if not _original_create:
+        _original_create.append(VirtualLab.create)
+    original = _original_create[0]
+
+    def create(cls, robot=None, seed=0, noise=0.5, *more, **options):
+        if more or any(not isinstance(v, (bool, int, float, str, type(None))) for v in options.values()):
+            return original(robot, seed, noise, *more, **options)
+        return lab_copy(robot, seed, noise, **options)
+
+    monkeypatch.setattr(VirtualLab, "create", classmethod(create))
 
 
 def trained_marker_copy(lab):
