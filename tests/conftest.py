@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import gc
 import os
+import signal
 import sys
 import tempfile
 
@@ -98,7 +99,10 @@ def pytest_collection_finish(session):
 
 
 class WorkerExitStatus:
-    """Controller-side (pytest-xdist): fails the session when a worker process did not exit with 0."""
+    """Controller-side (pytest-xdist): fails the session when a worker process crashed at exit (a
+    signal or a non-zero status). One that xdist itself killed (SIGKILL: it had not ended 10 s
+    after its tests, e.g. a test left a thread running, which that test's own check reports) is
+    said, not failed: on a busy machine a healthy worker can be that slow to end."""
 
     def __init__(self):
         self.gateways: list = []
@@ -109,19 +113,23 @@ class WorkerExitStatus:
     @pytest.hookimpl(wrapper=True)
     def pytest_sessionfinish(self, session):
         result = yield                       # xdist's own sessionfinish has ended the workers
-        crashed = []
+        crashed, killed = [], []
         for gw in self.gateways:
             popen = getattr(getattr(gw, "_io", None), "popen", None)
-            if popen is not None and popen.poll() not in (0, None):
-                crashed.append(f"{gw.id} (exit status {popen.returncode})")
-        if crashed:
-            reporter = session.config.pluginmanager.get_plugin("terminalreporter")
-            if reporter is not None:
-                reporter.write_line("")
-                reporter.write_line("worker process(es) ended abnormally after their tests: " + ", ".join(crashed),
-                                    red=True)
-            if session.exitstatus == 0:
-                session.exitstatus = pytest.ExitCode.TESTS_FAILED
+            status = None if popen is None else popen.poll()
+            if status == -signal.SIGKILL:
+                killed.append(gw.id)
+            elif status not in (0, None):
+                crashed.append(f"{gw.id} (exit status {status})")
+        reporter = session.config.pluginmanager.get_plugin("terminalreporter")
+        if reporter is not None and (crashed or killed):
+            reporter.write_line("")
+            if killed:
+                reporter.write_line(f"worker(s) {', '.join(killed)} did not end within 10 s and were killed", yellow=True)
+            if crashed:
+                reporter.write_line("worker process(es) crashed after their tests: " + ", ".join(crashed), red=True)
+        if crashed and session.exitstatus == 0:
+            session.exitstatus = pytest.ExitCode.TESTS_FAILED
         return result
 
 
