@@ -33,9 +33,8 @@ from hypothesis import settings
 from tests.session_cache import lab_copy
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
-# Linear algebra on one thread per test process (numpy is loaded after this file): the suite runs
-# one process per core (pytest-xdist), and on a busy machine OpenBLAS threads waiting for each
-# other made the same tests take 3x longer.
+# Linear algebra on one thread per test process (numpy is loaded after this file): `make test` runs
+# one process per core (pytest-xdist), so BLAS threads on top would only oversubscribe the cores.
 for _threads in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_threads, "1")
 
