@@ -22,6 +22,10 @@ check-libs: $(STAMP)
 demo: $(STAMP) check-libs
 	$(BIN)/robocal gui --demo
 
+# The suite runs on every core (pytest-xdist), each test module on one worker so its module-scoped
+# fixtures are built once; `make test PYTEST_ARGS="tests/core -x"` runs a part in one process.
+PYTEST_ARGS ?= -n auto --dist loadscope
+
 test: $(STAMP)
 	@QT_QPA_PLATFORM=offscreen $(BIN)/python packaging/check_qt_libs.py --platform offscreen
 	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest $(PYTEST_ARGS)

@@ -78,11 +78,10 @@ def test_11_is_the_camera_model_p_equals_MP():
 
 # -- 3. the identification's weighted step and covariance ------------------------------------
 @pytest.fixture(scope="module")
-def lab_fit():
+def lab_fit(built_lab):
     from core.identification.solver import identify
-    from core.virtual_lab.lab import VirtualLab
     from core.virtual_lab.synthetic import simulate_measurements
-    lab = VirtualLab.create(seed=0)
+    lab = built_lab(seed=0)
     meas = simulate_measurements(lab.true_robot, 30, sigma_mm=0.05, targets=[lab.target], with_sigma=True,
                                  rng=np.random.default_rng(4))
     # each point its own σ: the noise is 0.05 mm, the file claims 0.025 on half the points

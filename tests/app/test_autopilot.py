@@ -20,9 +20,18 @@ def run_gui(*args, timeout=300, **env_extra):
                           capture_output=True, text=True, timeout=timeout)
 
 
-def test_autopilot_runs_every_page_and_writes_screenshots(tmp_path):
-    shots = tmp_path / "shots"
-    proc = run_gui("--demo", "--autopilot", "--screenshots", str(shots))
+@pytest.fixture(scope="module")
+def demo_run(tmp_path_factory):
+    """One `gui --demo --autopilot --screenshots DIR` run (the whole classroom walk, the longest
+    test input of the suite) that the next two tests read: (process, screenshots, its TMPDIR)."""
+    root = tmp_path_factory.mktemp("demo")
+    shots, temp = root / "shots", root / "tmp"
+    temp.mkdir()
+    return run_gui("--demo", "--autopilot", "--screenshots", str(shots), TMPDIR=str(temp)), shots, temp
+
+
+def test_autopilot_runs_every_page_and_writes_screenshots(demo_run):
+    proc, shots, _ = demo_run
     assert proc.returncode == 0, proc.stdout + proc.stderr
     expected = [f"{s.number:02d}-{s.slug}.png" for s in Step]
     assert sorted(p.name for p in shots.iterdir()) == expected
@@ -37,10 +46,10 @@ def test_autopilot_runs_every_page_and_writes_screenshots(tmp_path):
     assert "Traceback" not in proc.stderr
 
 
-def test_demo_temp_project_is_removed_at_exit(tmp_path):
-    proc = run_gui("--demo", "--autopilot", TMPDIR=str(tmp_path))
+def test_demo_temp_project_is_removed_at_exit(demo_run):
+    proc, _, temp = demo_run
     assert proc.returncode == 0, proc.stderr
-    assert not list(tmp_path.glob("robocal-demo-*"))
+    assert not list(temp.glob("robocal-demo-*"))
 
 
 def test_autopilot_on_a_project_folder(tmp_path):

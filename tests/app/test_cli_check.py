@@ -15,9 +15,9 @@ from core.robot.file import read_robot
 
 
 @pytest.fixture(scope="module")
-def calibrated(tmp_path_factory):
+def calibrated(tmp_path_factory, built_lab):
     folder = tmp_path_factory.mktemp("check")
-    lab = build_lab(None, 0, 0.5)
+    lab = built_lab(None, 0, 0.5)
     write_calibrated_model(identify(lab.nominal_robot, ideal_lab_measurements(lab, 50, sigma_mm=0.05, seed=4)),
                            folder / "calibrated.json")
     return folder / "calibrated.json"

@@ -113,11 +113,10 @@ def test_relative_to_without_place_and_an_unknown_reference_are_refused(lab_file
     assert len(err) == 1 and "the reference target 'tip' is not in the robot" in err[0]
 
 
-def test_a_calibration_with_deflection_terms_says_they_hold_for_its_payload(tmp_path, capsys):
+def test_a_calibration_with_deflection_terms_says_they_hold_for_its_payload(tmp_path, capsys, built_lab):
     from core.virtual_lab.ideal_measurements import ideal_lab_measurements as lab_points
-    from core.virtual_lab.lab import VirtualLab
 
-    lab = VirtualLab.create(seed=0, noise=0.5, deflection=True)
+    lab = built_lab(seed=0, noise=0.5, deflection=True)
     write_calibrated_model(identify(lab.nominal_robot, lab_points(lab, 40, sigma_mm=0.02, seed=4), compliance="on",
                                     payload_kg=1.0), tmp_path / "bent.json")
     write_measurements(lab_points(lab, 8, sigma_mm=0.02, seed=9), tmp_path / "check.csv")

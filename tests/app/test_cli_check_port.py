@@ -31,10 +31,10 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")
-def cell(tmp_path_factory):
+def cell(tmp_path_factory, built_lab):
     """(folder, lab, calibrated.json, stereo.yaml, training.png, check poses file)."""
     root = tmp_path_factory.mktemp("checkport")
-    lab = build_lab(None, 0, 0.5)
+    lab = built_lab(None, 0, 0.5)
     write_calibrated_model(identify(lab.nominal_robot, ideal_lab_measurements(lab, 50, sigma_mm=0.05, seed=4)),
                            root / "calibrated.json")
     true_stereo_yaml(lab, root / "stereo.yaml")

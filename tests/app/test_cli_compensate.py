@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from app.cli import main
-from app.lab import build_lab, ideal_lab_measurements
+from app.lab import ideal_lab_measurements
 from core import transforms as tf
 from core.compensation.ik import solve_ik, tcp_poses
 from core.fixtures.file import write_fixture_pose
@@ -26,9 +26,9 @@ import yaml
 
 
 @pytest.fixture(scope="module")
-def cell(tmp_path_factory):
+def cell(tmp_path_factory, built_lab):
     folder = tmp_path_factory.mktemp("compensate")
-    lab = build_lab(None, 0, 0.5)
+    lab = built_lab(None, 0, 0.5)
     write_calibrated_model(identify(lab.nominal_robot, ideal_lab_measurements(lab, 50, sigma_mm=0.05, seed=4)),
                            folder / "calibrated.json")
     write_robot(lab.nominal_robot, folder / "nominal.json")

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from app.cli import main
-from app.lab import build_lab, ideal_lab_measurements, ideal_measure
+from app.lab import ideal_lab_measurements, ideal_measure
 from core.measurement.file import Measurements, write_measurements
 from core.identification.file import write_calibrated_model
 from core.identification.solver import identify
@@ -20,10 +20,10 @@ from tests.core.tools.two_tools import two_tool_robot
 
 
 @pytest.fixture(scope="module")
-def cell(tmp_path_factory):
+def cell(tmp_path_factory, built_lab):
     folder = tmp_path_factory.mktemp("tools")
     robot = write_robot(two_tool_robot(), folder / "robot.json")
-    lab = build_lab(read_robot(robot), 0, 0.5)
+    lab = built_lab(read_robot(robot), 0, 0.5)
     write_calibrated_model(identify(lab.nominal_robot, ideal_lab_measurements(lab, 50, sigma_mm=0.05, seed=4)),
                            folder / "calibrated.json")
     return folder / "calibrated.json", robot
@@ -56,13 +56,13 @@ def test_identify_the_second_tool_then_check_with_it(cell, tmp_path, capsys):
     assert [c.tool for c in read_check_log(log).checks] == ["long_gripper", "gripper"]
 
 
-def test_poses_for_a_real_robot_then_identify_from_their_measurements(cell, tmp_path, capsys):
+def test_poses_for_a_real_robot_then_identify_from_their_measurements(cell, tmp_path, capsys, built_lab):
     calibrated, robot = cell
     poses = tmp_path / "tool_poses.csv"
     code = main(["identify-tool", "--robot", str(calibrated), "--tool", "long_gripper", "--poses-out", str(poses),
                  "--lab-robot", str(robot)])
     assert code == 0 and len(read_poses(poses).q_file) == 5
-    lab = build_lab(read_robot(robot), 0, 0.5)
+    lab = built_lab(read_robot(robot), 0, 0.5)
     lab.target = "long_marker"                                  # the robot measured with the long gripper
     model = read_robot(calibrated)
     Q = model.q_from_file(read_poses(poses).q_file)
@@ -96,14 +96,14 @@ def test_poses_out_with_out_is_refused(cell, tmp_path, capsys):
     assert not (tmp_path / "p.csv").exists() and not (tmp_path / "u.json").exists()
 
 
-def test_a_tool_identified_from_pairs_captured_at_its_poses(cell, tmp_path, capsys):
+def test_a_tool_identified_from_pairs_captured_at_its_poses(cell, tmp_path, capsys, built_lab):
     """The poses proposed with the stereo calibration, the lab's pairs with the long gripper
     mounted written as PNG files, read back through --joints --images."""
     import cv2
     from tests.app.virtual_inputs import true_stereo_yaml
 
     calibrated, robot = cell
-    lab = build_lab(read_robot(robot), 0, 0.5)
+    lab = built_lab(read_robot(robot), 0, 0.5)
     stereo = true_stereo_yaml(lab, tmp_path / "stereo.yaml")
     cv2.imwrite(str(tmp_path / "training.png"), lab.render_training_image())
     poses = tmp_path / "tool_poses.csv"

@@ -12,7 +12,7 @@ from core.robot.model import robot_path
 from core.poses.file import read_poses
 from core.robot.file import read_robot, write_robot
 from core.stereo.file import StereoFile, write_stereo_yaml
-from core.virtual_lab.lab import DEFAULT_BOARD, VirtualLab
+from core.virtual_lab.lab import DEFAULT_BOARD
 
 ROBOT = str(robot_path("educational_6r"))
 FAST = ["--candidates", "300", "--random-trials", "20"]
@@ -50,13 +50,13 @@ def test_text_output_and_index_choice(tmp_path, capsys):
     assert "random median" in text and f"Wrote {out}." in text
 
 
-def test_virtual_lab(tmp_path, capsys):
+def test_virtual_lab(tmp_path, capsys, built_lab):
     out = tmp_path / "poses.csv"
     code, data, _, err = run(capsys, ["select-poses", "--virtual-lab", "--count", "12", "--out", str(out)] + FAST)
     assert code == 0 and err == ""
     assert len(data["depth_mm"]) == 12 and all(400 <= d <= 900 for d in data["depth_mm"])
     assert data["rejected"]["marker outside an image"] > 0 and data["rejected"]["below the floor"] > 0
-    lab = VirtualLab.create(seed=0)
+    lab = built_lab(seed=0)
     poses = read_poses(out, lab.nominal_robot)
     assert lab.visibility(poses.Q).visible.mean() > 0.7
 
@@ -71,8 +71,8 @@ def _stereo_yaml(lab, path):
     return write_stereo_yaml(path, data)
 
 
-def test_stereo_file_with_a_robot_placed_in_the_camera_frame(tmp_path, capsys):
-    lab = VirtualLab.create(seed=0)
+def test_stereo_file_with_a_robot_placed_in_the_camera_frame(tmp_path, capsys, built_lab):
+    lab = built_lab(seed=0)
     stereo = _stereo_yaml(lab, tmp_path / "stereo.yaml")
     placed = write_robot(lab.nominal_robot, tmp_path / "robot.json")
     out = tmp_path / "poses.csv"

@@ -1,22 +1,22 @@
 """Inputs the Marker and Measurement page tests share: the virtual lab (built once per test
-module: ~1 s), a stereo.yaml of its true rig (the calibration itself is tested elsewhere),
+session, ~2 s, each caller gets its own copy: tests/session_cache.py), a stereo.yaml of its true rig (the calibration itself is tested elsewhere),
 and a state with a temporary project that has adopted the lab."""
 from __future__ import annotations
 
 import cv2
 
 from core.stereo.file import StereoFile, write_stereo_yaml
+from tests.session_cache import lab_copy, trained_marker_copy
 
 
 def make_lab():
-    from core.virtual_lab.lab import VirtualLab
-    return VirtualLab.create(seed=0, noise=0.5)          # the educational 6R arm
+    """A copy of VirtualLab.create(seed=0, noise=0.5): the educational 6R arm."""
+    return lab_copy(None, seed=0, noise=0.5)
 
 
 def lab_marker(lab):
     """The lab's marker trained on its rendered training image, at its true outer size."""
-    from core.marker.training import train_marker
-    return train_marker(lab.render_training_image(), outer_size=lab.marker.outer_size)
+    return trained_marker_copy(lab)
 
 
 def true_stereo_yaml(lab, path):

@@ -8,11 +8,12 @@ import numpy as np
 from core import transforms as tf
 from core.marker.training import TrainedMarker, train_marker
 from core.virtual_lab.lab import VirtualLab
+from tests.session_cache import lab_copy
 
 
 @lru_cache(maxsize=1)
 def lab() -> VirtualLab:
-    return VirtualLab.create(seed=0)
+    return lab_copy(seed=0)
 
 
 @lru_cache(maxsize=1)

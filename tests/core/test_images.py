@@ -6,7 +6,6 @@ import pytest
 from core.errors import RoboCalError
 from core.images import decode_gray, require_gray8, to_gray8
 from core.marker.training import train_marker
-from core.virtual_lab.lab import VirtualLab
 
 
 def test_formats_become_8_bit_gray():
@@ -28,8 +27,8 @@ def test_missing_or_shapeless_images_are_refused_clearly():
         require_gray8(np.zeros(5), "left image")
 
 
-def test_a_16_bit_training_image_trains_like_the_8_bit_one():
-    image = VirtualLab.create(seed=0).render_training_image()
+def test_a_16_bit_training_image_trains_like_the_8_bit_one(built_lab):
+    image = built_lab(seed=0).render_training_image()
     eight = train_marker(image)
     sixteen = train_marker(image.astype(np.uint16) << 8)       # an industrial camera's 16-bit PNG
     np.testing.assert_allclose(sixteen.outline, eight.outline, atol=1e-9)

@@ -12,7 +12,7 @@ import pytest
 from app.hardware import CameraChoice, LiveCameras, RobotChoice, open_serial_robot
 from app.jobs.cell_check import check_cell, identify_tool_cell, setup_cell
 from app.jobs.cell_measure import CellMeasure, cell_options, locator
-from app.lab import apply_change, build_lab, ideal_lab_measurements, write_ideal_measurements
+from app.lab import apply_change, ideal_lab_measurements, write_ideal_measurements
 from app.sim_cameras import SimulatedCellCameras
 from core.identification.file import write_calibrated_model
 from core.identification.solver import identify
@@ -23,10 +23,10 @@ from tests.core.tools.two_tools import two_tool_robot
 
 
 @pytest.fixture(scope="module")
-def cell(tmp_path_factory):
+def cell(tmp_path_factory, built_lab):
     """A lab of the two-tool robot, its calibration (gripper only), stereo.yaml and trained marker."""
     folder = tmp_path_factory.mktemp("cell")
-    lab = build_lab(two_tool_robot(), 0, 0.5)
+    lab = built_lab(two_tool_robot(), 0, 0.5)
     meas = ideal_lab_measurements(lab, 50, sigma_mm=0.05, seed=4)
     write_ideal_measurements(meas, folder / "measurements.csv", sigma_mm=0.05)
     write_calibrated_model(identify(lab.nominal_robot, meas), folder / "calibrated.json")

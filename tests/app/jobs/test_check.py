@@ -18,8 +18,8 @@ POSES = 6
 
 
 @pytest.fixture(scope="module")
-def calibrated(tmp_path_factory):
-    lab = build_lab(read_robot(robot_path("educational_6r")), 0, 0.5)
+def calibrated(tmp_path_factory, built_lab):
+    lab = built_lab(read_robot(robot_path("educational_6r")), 0, 0.5)
     path = tmp_path_factory.mktemp("check") / "calibrated.json"
     write_calibrated_model(identify(lab.nominal_robot, ideal_lab_measurements(lab, 50, sigma_mm=0.05, seed=4)), path)
     return lab, path

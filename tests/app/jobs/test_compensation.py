@@ -14,12 +14,11 @@ from core.identification.solver import identify
 from core.poses.file import write_poses
 from core.robot.file import read_robot, write_robot
 from core.virtual_lab.ideal_measurements import ideal_lab_measurements, write_ideal_measurements
-from core.virtual_lab.lab import VirtualLab
 
 
 @pytest.fixture(scope="module")
-def lab():
-    return VirtualLab.create(seed=0, noise=0.5)
+def lab(built_lab):
+    return built_lab(seed=0, noise=0.5)
 
 
 @pytest.fixture(scope="module")

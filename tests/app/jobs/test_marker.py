@@ -15,7 +15,6 @@ from app.jobs.marker import (VerificationResult, capture_training_image, crop_ar
                              load_training_image, recorded_verification, run_comparison, run_verification,
                              save_trained, short_reason, stereo_parameter_covariance, train_job,
                              write_verification)
-from app.lab import build_lab
 from app.pages.measurement_inputs import (MARKER_FILE, TRAINING_FILE, VERIFICATION_FILE, preview_source,
                                           verification_file)
 from core.errors import Cancelled, RoboCalError
@@ -27,8 +26,8 @@ from core.robot.simulated import SimulatedRobot
 
 
 @pytest.fixture(scope="module")
-def lab():
-    return build_lab(None, 0, 0.5)                     # the educational 6R arm
+def lab(built_lab):
+    return built_lab(None, 0, 0.5)                     # the educational 6R arm
 
 
 @pytest.fixture(scope="module")

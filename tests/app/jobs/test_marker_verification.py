@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 from app.jobs.marker import capture_training_image, run_verification, train_job
-from app.lab import build_lab
 from app.pages.measurement_inputs import preview_source
 from core.errors import Cancelled
 from core.marker.location import LocatorOptions, MarkerLocator
@@ -15,8 +14,8 @@ POSES = 5
 
 
 @pytest.fixture(scope="module")
-def lab():
-    return build_lab(None, 0, 0.5)                     # the educational 6R arm
+def lab(built_lab):
+    return built_lab(None, 0, 0.5)                     # the educational 6R arm
 
 
 @pytest.fixture(scope="module")

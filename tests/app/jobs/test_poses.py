@@ -5,7 +5,6 @@ import numpy as np
 import pytest
 
 from app.jobs.poses import run_pose_selection
-from app.lab import build_lab
 from core.errors import Cancelled
 from core.robot.file import read_robot
 from core.robot.model import robot_path
@@ -17,8 +16,8 @@ def robot():
 
 
 @pytest.fixture(scope="module")
-def lab(robot):
-    return build_lab(robot, 0, 0.5)
+def lab(robot, built_lab):
+    return built_lab(robot, 0, 0.5)
 
 
 def test_without_a_lab_any_feasible_pose_of_the_robot(robot):

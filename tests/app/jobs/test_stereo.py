@@ -9,12 +9,11 @@ import pytest
 
 from app.jobs.stereo import THUMB_WIDTH, board_poses, detect_files, next_free_number, render_pairs
 from core.errors import Cancelled
-from core.virtual_lab.lab import VirtualLab
 
 
 @pytest.fixture(scope="module")
-def lab():
-    return VirtualLab.create(seed=0)
+def lab(built_lab):
+    return built_lab(seed=0)
 
 
 def _paths(folder, n, first=0):

@@ -34,9 +34,9 @@ def write_pair(root, name: str, left: np.ndarray, right: np.ndarray) -> None:
 
 
 @pytest.fixture(scope="module")
-def rendered():
+def rendered(built_lab):
     """N_PAIRS rendered checkerboard pairs (left, right) at well-spread board poses."""
-    lab = VirtualLab.create(seed=0)
+    lab = built_lab(seed=0)
     poses = lab.random_board_poses(N_PAIRS, np.random.default_rng(8))
     return [lab.render_checkerboard_pair(pose, np.random.default_rng([8, i])) for i, pose in enumerate(poses)]
 

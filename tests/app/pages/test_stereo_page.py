@@ -27,9 +27,9 @@ WAIT_MS = 90000
 
 
 @pytest.fixture(scope="module")
-def lab():
-    """One virtual lab for the whole file (building one takes ~2 s)."""
-    return VirtualLab.create(seed=0)
+def lab(built_lab):
+    """One virtual lab for the whole file (a copy of the session's: building one takes ~2 s)."""
+    return built_lab(seed=0)
 
 
 @pytest.fixture

@@ -19,13 +19,12 @@ from core.robot.controller_sim import ControllerSim
 from core.robot.serial_robot import SerialRobot
 from core.stereo.rectification import load_rectification
 from core.virtual_lab.ideal_measurements import ideal_lab_measurements, ideal_measure
-from core.virtual_lab.lab import VirtualLab
 from tests.app.virtual_inputs import lab_marker, true_stereo_yaml
 
 
 @pytest.fixture(scope="module")
-def lab():
-    return VirtualLab.create(seed=0, noise=0.5)
+def lab(built_lab):
+    return built_lab(seed=0, noise=0.5)
 
 
 @pytest.fixture(scope="module")

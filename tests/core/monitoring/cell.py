@@ -16,6 +16,7 @@ from core.robot.file import robot_from_dict, robot_to_dict
 from core.robot.model import RobotModel
 from core.virtual_lab.ideal_measurements import ideal_lab_measurements
 from core.virtual_lab.lab import VirtualLab, lab_options
+from tests.session_cache import lab_copy
 
 SIGMA = 0.05
 
@@ -40,7 +41,7 @@ def calibrate(lab: VirtualLab, seed: int) -> RobotModel:
 
 @functools.lru_cache(maxsize=1)
 def cell() -> Cell:
-    lab = VirtualLab.create(seed=0)
+    lab = lab_copy(seed=0)
     model = calibrate(lab, 4)       # σ̂ 0.049 mm: a typical calibration (seed 1 gives an unlucky 0.043)
     options = lab_options(lab)
     options.pop("robot")

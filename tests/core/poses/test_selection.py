@@ -17,7 +17,7 @@ from core.poses.ordering import distance_matrix, order_poses, path_length
 from core.poses.selection import (INDEX_KEYS, INDEXES, _score, _Selector, indices_from_eigenvalues,
                                  minimum_poses, scaled_blocks, select_poses, write_selection)
 from core.robot.file import read_robot, robot_from_dict, robot_to_dict, write_robot
-from core.virtual_lab.lab import VirtualLab, lab_options
+from core.virtual_lab.lab import lab_options
 
 
 @pytest.fixture(scope="module")
@@ -38,8 +38,8 @@ def selection(arm):
 
 
 @pytest.fixture(scope="module")
-def lab():
-    return VirtualLab.create(seed=0)
+def lab(built_lab):
+    return built_lab(seed=0)
 
 
 # -- indices ---------------------------------------------------------------------------------

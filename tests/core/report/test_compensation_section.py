@@ -17,12 +17,11 @@ from core.identification.solver import identify
 from core.project import create_project
 from core.report.build import build_report
 from core.virtual_lab.ideal_measurements import ideal_lab_measurements, ideal_measure
-from core.virtual_lab.lab import VirtualLab
 
 
 @pytest.fixture(scope="module")
-def measured(tmp_path_factory):
-    lab = VirtualLab.create(seed=0, noise=0.5)
+def measured(tmp_path_factory, built_lab):
+    lab = built_lab(seed=0, noise=0.5)
     meas = ideal_lab_measurements(lab, 50, sigma_mm=0.05, seed=4)
     model = identify(lab.nominal_robot, meas).model
     grid = workspace_grid(model, meas.Q, count=10, keep=lambda Q: lab.visibility(Q).visible)

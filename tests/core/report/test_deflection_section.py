@@ -14,12 +14,11 @@ from core.report.build import build_report
 from core.report.compliance import FIGURE
 from core.robot.file import read_robot
 from core.virtual_lab.ideal_measurements import ideal_lab_measurements
-from core.virtual_lab.lab import VirtualLab
 
 
 @pytest.fixture(scope="module")
-def lab_data():
-    lab = VirtualLab.create(seed=0, noise=0.5, deflection=True)
+def lab_data(built_lab):
+    lab = built_lab(seed=0, noise=0.5, deflection=True)
     return lab, ideal_lab_measurements(lab, 40, sigma_mm=0.02, seed=4)
 
 

@@ -22,9 +22,8 @@ ERRORS = [0.012, None, 0.020, 0.031, 0.008]           # mm per pose; pose 2 not 
 
 
 @pytest.fixture(scope="module")
-def trained():
-    from core.virtual_lab.lab import VirtualLab
-    image = VirtualLab.create(seed=0, noise=0.5).render_training_image()
+def trained(built_lab):
+    image = built_lab(seed=0, noise=0.5).render_training_image()
     return train_marker(image, outer_size=60.0, tilted_views=False)
 
 

@@ -14,6 +14,7 @@ from core.robot.file import read_robot, robot_from_dict, robot_to_dict
 from core.robot.model import RobotModel, robot_path
 from core.virtual_lab.ideal_measurements import ideal_lab_measurements
 from core.virtual_lab.lab import VirtualLab
+from tests.session_cache import lab_copy
 
 SIGMA = 0.05
 LONG = np.array([0.0, 15.0, 110.0])
@@ -29,7 +30,7 @@ def two_tool_robot() -> RobotModel:
 @functools.lru_cache(maxsize=1)
 def calibrated_cell() -> tuple[VirtualLab, RobotModel]:
     """(lab with the gripper mounted, calibrated robot); tests must not change them."""
-    lab = VirtualLab.create(two_tool_robot(), seed=0)
+    lab = lab_copy(two_tool_robot(), seed=0)
     result = identify(lab.nominal_robot, ideal_lab_measurements(lab, 50, sigma_mm=SIGMA, seed=4))
     return lab, robot_from_dict(json.loads(json.dumps(robot_to_dict(result.model))))
 

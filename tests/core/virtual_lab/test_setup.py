@@ -102,8 +102,8 @@ def test_marker_description_rejects_bad_files(tmp_path):
 # -- the lab -------------------------------------------------------------------------------
 
 @pytest.fixture(scope="module")
-def lab():
-    return VirtualLab.create(seed=0)
+def lab(built_lab):
+    return built_lab(seed=0)
 
 
 def test_lab_robots(lab):

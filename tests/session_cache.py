@@ -1,0 +1,74 @@
+"""Expensive, deterministic test inputs (a virtual lab: ~2 s, a trained marker: ~0.6 s) built
+once per test session (with pytest-xdist: once per worker process) and handed out as deep copies.
+
+A test gets the same object a fresh build would give it, and cannot change what another test
+gets: labs are changed in place by tests (`apply_change` moves the true robot, `lab.target`, a
+rig replaced), so the built original is never handed out. tests/conftest.py exposes labs as the
+session fixture `built_lab`; tests/app/virtual_inputs.lab_marker hands out trained markers.
+"""
+from __future__ import annotations
+
+import copy
+import hashlib
+import os
+import pickle
+
+_built: dict = {}
+_original_create: list = []          # VirtualLab.create before `create_labs_once` replaced it
+
+
+def shared_copy(key, build):
+    """A deep copy of `build()`, which runs once per session for each `key`."""
+    if key not in _built:
+        _built[key] = build()
+    return copy.deepcopy(_built[key])
+
+
+def _robot_key(robot) -> str:
+    """The robot's digest: the same model read from a file or given as a RobotModel, the same key."""
+    from core.robot.file import read_robot
+    from core.robot.model import robot_path
+    from core.virtual_lab.lab import DEFAULT_ROBOT
+
+    if robot is None:
+        robot = robot_path(DEFAULT_ROBOT)
+    if isinstance(robot, (str, os.PathLike)):
+        robot = read_robot(robot)
+    return hashlib.sha1(pickle.dumps(robot)).hexdigest()
+
+
+def lab_copy(robot=None, seed: int = 0, noise: float = 0.5, **options):
+    """A copy of `VirtualLab.create(robot, seed=seed, noise=noise, **options)` (robot: None for the
+    educational 6R arm, a robot file or a RobotModel)."""
+    from core.virtual_lab.lab import VirtualLab
+
+    create = _original_create[0] if _original_create else VirtualLab.create
+    key = ("lab", _robot_key(robot), int(seed), float(noise), tuple(sorted(options.items())))
+    return shared_copy(key, lambda: create(robot, seed=seed, noise=noise, **options))
+
+
+def create_labs_once(monkeypatch) -> None:
+    """For the duration of a test, VirtualLab.create (the wizard's lab on its worker thread, the
+    commands' --lab options, `robocal simulate`) hands out copies of labs built once per session.
+    A lab given a rig, board or marker object is built as before."""
+    from core.virtual_lab.lab import VirtualLab
+
+    if not _original_create:
+        _original_create.append(VirtualLab.create)
+    original = _original_create[0]
+
+    def create(cls, robot=None, seed=0, noise=0.5, *more, **options):
+        if more or any(not isinstance(v, (bool, int, float, str, type(None))) for v in options.values()):
+            return original(robot, seed, noise, *more, **options)
+        return lab_copy(robot, seed, noise, **options)
+
+    monkeypatch.setattr(VirtualLab, "create", classmethod(create))
+
+
+def trained_marker_copy(lab):
+    """A copy of the lab's marker trained on its rendered training image at its true outer size
+    (the image follows from the lab's seed, noise and marker description only)."""
+    from core.marker.training import train_marker
+
+    key = ("marker", int(lab.seed), float(lab.noise), hashlib.sha1(pickle.dumps(lab.marker)).hexdigest())
+    return shared_copy(key, lambda: train_marker(lab.render_training_image(), outer_size=lab.marker.outer_size))
