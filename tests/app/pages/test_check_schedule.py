@@ -11,7 +11,8 @@ from app.pages.check.page import CheckPage
 from app.state import WizardState
 from app.worker import TaskRunner
 from core import project as projects
-from core.identification.solver import identify, write_calibrated_model
+from core.identification.file import write_calibrated_model
+from core.identification.solver import identify
 from tests.app.virtual_inputs import make_lab
 
 
