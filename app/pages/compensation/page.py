@@ -24,6 +24,7 @@ from app.safety import motion_refused
 from core.compensation.accuracy_map_file import NAME as MAP_NAME, read_accuracy_map
 from core.errors import RoboCalError
 from core.project import Output
+from widgets.wrapping_box import hold_height_for_width
 
 AUTOPILOT_TARGETS = 8
 MISSING = "No calibrated robot in the project (calibrated.json). Run the Identification step first."
@@ -39,10 +40,10 @@ class CompensationPage(WizardPage):
         self.points: list[job.CompensatedPoint] = []
         self.map_run: job.MapRun | None = None
         self.amap = None
-        self.panel = PointsPanel()
+        self.panel = hold_height_for_width(PointsPanel())     # its rows wrap on a small screen
         self.panel.setMaximumWidth(340)      # narrower on a small screen: its rows wrap
         self.table = PointsTable()
-        self.map_panel = MapPanel()
+        self.map_panel = hold_height_for_width(MapPanel())     # the plots and the wrapped summary
         self.panel.add_button.clicked.connect(lambda *_: self.add_point())
         self.panel.load_button.clicked.connect(lambda *_: self._choose_program())
         self.panel.clear_button.clicked.connect(lambda *_: self.clear_points())
@@ -50,15 +51,15 @@ class CompensationPage(WizardPage):
         self.panel.go_button.clicked.connect(lambda *_: self.go_to_point())
         self.map_panel.measure_button.clicked.connect(lambda *_: self.measure_map())
 
-        right = QVBoxLayout()
-        right.addWidget(self.table, 1)
-        right.addWidget(self.map_panel, 3)
-        body = QHBoxLayout()
-        body.addWidget(self.panel)
-        body.addLayout(right, 1)
+        # the points and their table side by side, the accuracy map below them at the page's whole
+        # width (its two plots keep their titles on a small screen, where the page scrolls instead)
+        points = QHBoxLayout()
+        points.addWidget(self.panel)
+        points.addWidget(self.table, 1)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
-        layout.addLayout(body, 1)
+        layout.addLayout(points)
+        layout.addWidget(self.map_panel, 1)
         layout.addWidget(self.progress_row())
         layout.addWidget(self.status)
         state.projectChanged.connect(lambda *_: self._calibration_changed())
