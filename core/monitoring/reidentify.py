@@ -249,7 +249,8 @@ def reidentify(model: RobotModel, unc: CalibrationUncertainty, changed: Sequence
     b, A = stacked(current, total)
     after = float(np.sqrt(np.mean(np.sum((meas.xyz - predict_points(current, meas.Q, meas.target)) ** 2, axis=1))))
     _require_determined(current, meas, [p for p in params if p.name in set(changed_names)], changed_names)
-    probability = only_changed_probability(current, meas, params, changed_names, b[:m])
+    probability = only_changed_probability(current, meas, params, changed_names, b[:m],
+                                           point_scales=sigma[:, 0] / unc.sigma_mm)
     if probability < alpha:
         raise RoboCalError(
             f"re-identifying {', '.join(changed_names)} leaves errors of {after:.3f} mm RMS on the "
@@ -316,22 +317,24 @@ def _require_determined(model: RobotModel, meas: Measurements, changed: Sequence
 
 
 def only_changed_probability(model: RobotModel, meas: Measurements, params: Sequence[Parameter],
-                             changed: Sequence[str], residual) -> float:
+                             changed: Sequence[str], residual, *, point_scales=None) -> float:
     """The nested F-test's p-value that the re-identified set K explains the points as well as K
     together with every watched parameter (target offsets, base, joint zeros): with the residual
     r after the fit of K and the best linear fit of all of them F (RSS_K, RSS_F, ranks p_K, p_F),
     F = ((RSS_K − RSS_F)/(p_F − p_K)) / (RSS_F/(3N − p_F)) against F(p_F − p_K, 3N − p_F). The
     ratio does not depend on the points' noise, which for points measured through images after
     the calibration is larger than the calibration's own σ (its stereo part is not in it). 1.0
-    when the points leave no degrees of freedom for the test."""
+    when the points leave no degrees of freedom for the test. `residual` is weighted by each point's
+    σ multiplier `point_scales` (N,; None: all equal), and so are the Jacobian's rows here."""
     r = np.asarray(residual, dtype=float)
+    rows = np.repeat(_point_scales(point_scales, meas.n_points), 3)[:, None]
     keep = set(changed)
     watched = {p.name for p in watched_parameters(model, list(dict.fromkeys(meas.target)))}
     full = [p for p in params if p.name in keep or p.name in watched]
     K = [p for p in params if p.name in keep]
 
     def fit(ps):
-        J = calibration_jacobian(model, meas.Q, meas.target, ps)
+        J = calibration_jacobian(model, meas.Q, meas.target, ps) / rows
         scale = np.linalg.norm(J, axis=0)
         Js = J / np.where(scale > 0, scale, 1.0)
         x, _, rank, _ = np.linalg.lstsq(Js, r, rcond=1e-8)
