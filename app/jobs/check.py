@@ -165,10 +165,14 @@ def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: D
     updated = replace(cell, model=re.model, unc=unc, source=str(out),
                       limits=check_limits(re.model, unc, cell.Q, [cell.target] * len(cell.Q), cell.limits.alpha))
     after, _ = check(updated, measure, log=log, progress=monitor.sub(0.7, 1.0), cancelled=cancelled)
-    if after.cancelled or not after.points:
+    if after.cancelled:
         raise RoboCalError(f"the check of the updated robot stopped after {len(after.points)} of {len(cell.Q)} "
                            f"poses, so the re-identification of {', '.join(re.changed)} is not confirmed; {out.name} "
                            "was not changed", hint="Run Re-identify again once the robot can complete the check.")
+    if not after.points:
+        raise RoboCalError(f"the marker was found at none of the {len(cell.Q)} check poses of the updated robot, so "
+                           f"the re-identification of {', '.join(re.changed)} is not confirmed; {out.name} was not "
+                           "changed", hint="Check that the cameras see the marker, then run Re-identify again.")
     if after.rms_mm > after.rms_limit_mm:     # as a whole, not one point
         raise RoboCalError(f"after re-identifying {', '.join(re.changed)} the check is still out of limits "
                            f"({after.rms_mm:.3f} mm RMS, limit {after.rms_limit_mm:.3f} mm); {out.name} was not "

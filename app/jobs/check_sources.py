@@ -44,9 +44,15 @@ class MeasuredPoses:
 
     def close(self) -> None:
         """Run the closers in their order (a move made ahead is waited for before the robot is
-        disconnected)."""
+        disconnected); each runs even when one before it failed (the first failure is raised)."""
+        failure = None
         for close in self.closers:
-            close()
+            try:
+                close()
+            except Exception as e:      # noqa: BLE001 — the cameras are closed even if the robot's link failed
+                failure = failure or e
+        if failure is not None:
+            raise failure
 
     def __enter__(self) -> "MeasuredPoses":
         return self

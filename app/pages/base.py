@@ -24,14 +24,14 @@ from __future__ import annotations
 from typing import Any, Callable, Optional
 
 from PySide6.QtCore import Signal
-from PySide6.QtWidgets import QLabel, QWidget
+from PySide6.QtWidgets import QWidget
 
 from app.messages import show_error
 from app.pages.forms import WrappedLabel
 from app.pages.steps import Step
 from app.state import WizardState
 from app.task_handle import CurrentTask
-from app.worker import TaskHandle, TaskRunner
+from app.worker import TaskRunner
 from core.errors import RoboCalError
 from widgets.progress_row import ProgressRow
 
@@ -267,17 +267,6 @@ class WizardPage(TaskMixin, QWidget):
     def notify_complete(self) -> None:
         """Call after anything that can change `is_complete()`."""
         self.completeChanged.emit()
-
-    def run_task(self, fn: Callable, *args, on_result: Callable[[Any], None] | None = None,
-                 on_error: Callable[[str], None] | None = None,
-                 on_cancelled: Callable[[], None] | None = None,
-                 on_progress: Callable[[float, str], None] | None = None,
-                 label: str = "", **kwargs) -> TaskHandle:
-        """Run a core function on a worker thread: progress and Cancel in the status bar,
-        callbacks on the GUI thread. Without `on_error`, errors are shown in a message box."""
-        return self.tasks.start(fn, *args, on_result=on_result, on_error=on_error,
-                                on_cancelled=on_cancelled, on_progress=on_progress,
-                                label=label or self.title, **kwargs)
 
     def _finish_autopilot(self, ok: bool, message: str = "") -> None:
         """Report the end of an autopilot run once (a page stores `done` in `_autopilot_done`)."""
