@@ -303,6 +303,7 @@ def _port(args, job, monitor, robot, target):
                      seed=args.seed, tool=args.tool, model=robot, target=target, progress=monitor.sub(0.0, 0.2))
     locator = _locator(args)
     reid = ", then to the poses that re-identify a change if one explains the check" if args.out else ""
+    check_sources.require_within_limits(cell.model, cell.Q)        # before the question, not after a yes
     connected_cell.confirm_motion(args, f"{len(cell.Q)} check poses{reid}")
     with check_sources.connected_cell(cell.model, cell.Q, args.port, args.profile, args.cameras, locator,
                                       target=cell.target) as poses:

@@ -136,6 +136,7 @@ def _measured(args, job, monitor):
     else:
         proposal = job.propose(args.robot, args.tool, lab_options=_options(args, False), count=args.count,
                                seed=args.seed, progress=monitor.sub(0.0, 0.3))
+        check_sources.require_within_limits(model, proposal.Q)       # before the question, not after a yes
         connected_cell.confirm_motion(args, f"{len(proposal.Q)} poses proposed for the tool '{args.tool}'")
         poses = check_sources.connected_cell(model, proposal.Q, args.port, args.profile, args.cameras, locator,
                                              target=target)

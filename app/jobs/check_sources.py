@@ -161,6 +161,17 @@ def measurement_file(model: RobotModel, path, target: str) -> MeasuredPoses:
                          lambda q: next(points), f"measurement file {path}", target)
 
 
+def require_within_limits(model: RobotModel, Q) -> np.ndarray:
+    """The poses Q (rad / mm, one per row), each checked against the robot's joint limits before
+    anything moves or is asked (RoboCalError naming the first pose outside them)."""
+    from core.robot.driver import check_joint_values
+
+    Q = np.atleast_2d(np.asarray(Q, dtype=float))
+    for k, q in enumerate(Q):
+        check_joint_values(model, q, f"pose {k}")
+    return Q
+
+
 def connected_cell(model: RobotModel, Q, port: str, profile: str, cameras: tuple, locator, *,
                    ids=None, target: str = "marker", reply_timeout: float = 5.0) -> MeasuredPoses:
     """The robot on serial `port` (protocol `profile`) and the `cameras` (left, right: device
@@ -171,11 +182,7 @@ def connected_cell(model: RobotModel, Q, port: str, profile: str, cameras: tuple
     it moves on to the next pose. A robot or connection fault ends the run with the points
     measured (`MeasuredPoses.raise_fault`). Close it to stop using the robot and cameras."""
     from app.hardware import SERIAL, SOURCES, CameraChoice, LiveCameras, RobotChoice, open_serial_robot
-    from core.robot.driver import check_joint_values
-
-    Q = np.atleast_2d(np.asarray(Q, dtype=float))
-    for k, q in enumerate(Q):
-        check_joint_values(model, q, f"pose {k}")
+    Q = require_within_limits(model, Q)
     driver = open_serial_robot(model, RobotChoice(SERIAL, port, profile), reply_timeout=reply_timeout)
     try:
         live = LiveCameras.open(CameraChoice(SOURCES, str(cameras[0]), str(cameras[1])))
