@@ -67,7 +67,11 @@ class CellMixin:
     def _cell_measure(self, Q=()) -> CellMeasure | None:
         """The `measure(q)` of a run on the cell, once the safety checks let the robot move (to the
         poses Q, when known; internal units: then the robot moves on to the next while the marker
-        is located); None, with the reason on the page, when they do not."""
+        is located); None, with the reason on the page, when they do not (or while a run is busy:
+        its measure stays the one whose fault the page reads)."""
+        if self.busy:
+            self._set_status("Busy: wait for the running task or cancel it.", False)
+            return None
         refused = motion_refused(self, self.state, Q)
         if refused:
             self._set_status(f"Nothing measured: {refused}", False)
