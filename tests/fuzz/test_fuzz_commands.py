@@ -23,6 +23,7 @@ from hypothesis import strategies as st
 
 from app.cli import main
 from core.robot.model import robot_path
+from tests.fuzz.cells import with_cell
 
 ROBOT = robot_path("educational_6r")
 FUZZ = settings(derandomize=True, max_examples=150, deadline=None, database=None,
@@ -104,13 +105,8 @@ MEAS_LINES = None
                        st.sampled_from(["nan", "inf", "1e308", "-1e300", "", "1e20", "9" * 400, "  ", "\"a,b\""])))
 def test_malformed_measurement_files(files, tmp_path_factory, line, column, value):
     work = tmp_path_factory.mktemp("meas")
-    lines = (files / "m.csv").read_text().splitlines()
-    line = min(line, len(lines) - 1)
-    cells = lines[line].split(",")
-    cells[min(column, len(cells) - 1)] = value
-    lines[line] = ",".join(cells)
     m = work / "m.csv"
-    m.write_text("\n".join(lines) + "\n")
+    m.write_text(with_cell((files / "m.csv").read_text(), line, column, value))
     for argv in (["identify", "--robot", str(ROBOT), "--measurements", str(m), "--out", str(work / "cal.json")],
                  ["evaluate", "--robot", str(ROBOT), "--measurements", str(m), "--register-base"]):
         code, err = run(argv, work)

@@ -15,6 +15,7 @@ from core import transforms as tf
 from core.fixtures.file import fixture_pose_dict
 from core.fixtures.frame import FixtureFrame
 from core.robot.model import robot_path
+from tests.fuzz.cells import with_cell
 from tests.fuzz.test_fuzz_commands import JUNK, assert_one_clear_line, mutate, robot_paths, run
 
 FUZZ = settings(derandomize=True, max_examples=80, deadline=None, database=None,
@@ -33,12 +34,8 @@ TARGETS = ("name,x,y,z,roll,pitch,yaw,q1,q2,q3,q4,q5,q6\n"
                                         "roll", "q7", "name"])))
 def test_malformed_targets_for_compensate(tmp_path_factory, line, column, value):
     work = tmp_path_factory.mktemp("targets")
-    lines = TARGETS.splitlines()
-    cells = lines[line].split(",")
-    cells[min(column, len(cells) - 1)] = value
-    lines[line] = ",".join(cells)
     targets = work / "targets.csv"
-    targets.write_text("\n".join(lines) + "\n")
+    targets.write_text(with_cell(TARGETS, line, column, value))
     code, err = run(["compensate", "--robot", str(robot_path("educational_6r")), "--targets", str(targets),
                      "--position-only", "--out", str(work / "j.csv")], work)
     if code != 0:
@@ -74,12 +71,8 @@ FAST = settings(FUZZ, max_examples=40)
                        st.sampled_from(["nan", "inf", "1e308", "", "9" * 400, "-1", "pose", "q7", "720"])))
 def test_malformed_joint_programs_for_compensate(tmp_path_factory, line, column, value):
     work = tmp_path_factory.mktemp("program")
-    lines = PROGRAM.splitlines()
-    cells = lines[line].split(",")
-    cells[min(column, len(cells) - 1)] = value
-    lines[line] = ",".join(cells)
     program = work / "program.csv"
-    program.write_text("\n".join(lines) + "\n")
+    program.write_text(with_cell(PROGRAM, line, column, value))
     code, err = run(["compensate", "--robot", str(ROBOT), "--program", str(program), "--nominal", str(ROBOT),
                      "--position-only", "--out", str(work / "j.csv")], work)
     if code != 0:

@@ -12,6 +12,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from core.robot.model import robot_path
+from tests.fuzz.cells import with_cell
 from tests.fuzz.test_fuzz_commands import JUNK, ROBOT, ROBOT_FIELDS, assert_one_clear_line, mutate, robot_paths, run
 
 FUZZ = settings(derandomize=True, max_examples=80, deadline=None, database=None,
@@ -41,12 +42,8 @@ def test_malformed_pose_files_for_measure(tmp_path_factory, line, column, value)
     """`measure --joints`: the pose file is read (with the robot) before any image; an images
     folder with no pairs makes every valid file end in the pairs-versus-poses refusal."""
     work = tmp_path_factory.mktemp("joints")
-    lines = POSES.splitlines()
-    cells = lines[line].split(",")
-    cells[min(column, len(cells) - 1)] = value
-    lines[line] = ",".join(cells)
     joints = work / "joints.csv"
-    joints.write_text("\n".join(lines) + "\n")
+    joints.write_text(with_cell(POSES, line, column, value))
     images = work / "images"
     (images / "left").mkdir(parents=True)
     (images / "right").mkdir()

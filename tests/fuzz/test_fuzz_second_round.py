@@ -23,6 +23,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from tests.fuzz.cells import with_cell
 from tests.fuzz.test_fuzz_commands import JUNK, ROBOT, assert_one_clear_line, mutate, robot_paths, run
 from tests.fuzz.test_fuzz_reidentify import cell  # noqa: F401  (the fixture: a check log to re-identify from)
 
@@ -125,12 +126,8 @@ def _valid_measurements(folder: Path) -> Path:
        units=st.sampled_from([[], ["--length-unit", "m"], ["--angle-unit", "rad"], ["--robot", str(ROBOT)]]))
 def test_malformed_tracker_files(tracker_csv, tmp_path_factory, line, column, value, units):
     work = tmp_path_factory.mktemp("import")
-    lines = tracker_csv.splitlines()
-    cells = lines[min(line, len(lines) - 1)].split(";")
-    cells[min(column, len(cells) - 1)] = value
-    lines[min(line, len(lines) - 1)] = ";".join(cells)
     csv = work / "tracker.csv"
-    csv.write_text("\n".join(lines) + "\n")
+    csv.write_text(with_cell(tracker_csv, line, column, value, sep=";"))
     code, err = run(["import-measurements", str(csv), "--out", str(work / "m.csv"), *units], work)
     if code != 0:
         assert_one_clear_line(code, err, [str(csv), "--"])
