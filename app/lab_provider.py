@@ -4,7 +4,8 @@ waits for it.
     labs = LabProvider(recipe)                  # recipe() -> (nominal RobotModel, seed, noise)
     wait = labs.when_ready(use_lab, on_error)   # at once if built; else when the one build ends
     wait.cancel()                               # use_lab / on_error will not be called
-    labs.current                                # the lab, or None while not built
+    labs.current                                # the lab, or None while not built (labs.built)
+    labs.ready_now()                            # scripts and tests: build if need be and wait
     labs.reset("why")                           # the robot changed: forget the lab and its build
 
 Every caller that waits meanwhile waits for the same build (`changed(lab)` is emitted when the
@@ -55,6 +56,11 @@ class LabProvider(QObject):
         return self._lab
 
     @property
+    def built(self) -> bool:
+        """The lab exists (no wait)."""
+        return self._lab is not None
+
+    @property
     def building(self) -> bool:
         return self._build.busy
 
@@ -95,6 +101,19 @@ class LabProvider(QObject):
         waiting, self._waiting = self._waiting, []
         for wait in waiting:
             wait.callback(lab)
+
+    def adopt_matching(self, lab: VirtualLab | None) -> None:
+        """Take a lab built elsewhere (one lab shared by several windows, as the tests do) when
+        none is built here and it matches the recipe's robot, seed and noise; else nothing."""
+        robot, seed, noise = self._recipe()
+        if self._lab is not None or lab is None or robot is None:
+            return
+        if (getattr(lab, "seed", None), getattr(lab, "noise", None)) != (seed, float(noise)):
+            return
+        nominal = getattr(lab, "nominal_robot", None)
+        if nominal is None or nominal.name != robot.name or nominal.dof != robot.dof:
+            return
+        self.adopt(lab)
 
     def reset(self, reason: str) -> None:
         """Forget the lab and any build under way (the robot changed); callers waiting get

@@ -146,8 +146,8 @@ class MainWindow(QMainWindow):
             page.completeChanged.connect(self._update_states)
         self.state.projectChanged.connect(self._update_title)
         self.state.robotChanged.connect(self._update_mode_label)
-        self.state.connectionChanged.connect(self._update_mode_label)
-        self.state.stoppedChanged.connect(self._update_mode_label)
+        self.state.hardware.connectionChanged.connect(self._update_mode_label)
+        self.state.hardware.stoppedChanged.connect(self._update_mode_label)
         self.tasks.progress.connect(self._on_progress)
         self.tasks.busyChanged.connect(self._on_busy)
         self.tasks.unhandledError.connect(lambda msg, label: show_error(self, msg, f"RoboCal: {label}"))
@@ -479,24 +479,24 @@ class MainWindow(QMainWindow):
         self.action_save_demo.setVisible(self.state.is_temporary())
 
     def _update_mode_label(self, *_):
-        conn = self.state.robot_connection
+        conn = self.state.hardware.robot_connection
         mode = "Virtual lab" if self.state.virtual else "Hardware"
         robot = "no robot" if conn is None else ("robot stopped" if conn.stopped else "robot ready")
-        if self.state.real_robot:
+        if self.state.hardware.real_robot:
             robot = f"{conn.name} · {robot}"
         self.mode_label.setText(f"  {mode} · {robot}  ")
-        self.stop_button.setVisible(self.state.real_robot)
+        self.stop_button.setVisible(self.state.hardware.real_robot)
         self.resume_button.setVisible(conn is not None and conn.stopped)
 
     # -- robot safety --------------------------------------------------------------------
     def motion_running(self) -> bool:
         """A robot is connected and ready, and a task runs that may be moving it."""
-        conn = self.state.robot_connection
+        conn = self.state.hardware.robot_connection
         return conn is not None and not conn.stopped and self.tasks.busy
 
     def stop_robot(self) -> None:
         """Stop the robot (if any) and cancel the running tasks: one key, always."""
-        stopped = self.state.stop_robot()
+        stopped = self.state.hardware.stop_robot()
         busy = self.tasks.busy
         self.tasks.cancel_all()
         if stopped:
@@ -510,7 +510,7 @@ class MainWindow(QMainWindow):
     def resume_robot(self) -> None:
         """Accept motion again after a stop (the technician checked that the way is clear)."""
         try:
-            if self.state.resume_robot():
+            if self.state.hardware.resume_robot():
                 self.statusBar().showMessage("Robot ready.", 3000)
         except RoboCalError as exc:
             show_error(self, f"The robot cannot resume: {exc.message}", "RoboCal: robot")
@@ -580,7 +580,7 @@ class MainWindow(QMainWindow):
             event.ignore()
             return
         QApplication.instance().removeEventFilter(self._modal_stop)
-        self.state.stop_robot()
+        self.state.hardware.stop_robot()
         self.tasks.shutdown()
         self.state.close()
         super().closeEvent(event)

@@ -21,7 +21,7 @@ def motion_refused(parent: QWidget | None, state, targets: Iterable = ()) -> str
     """None when the robot may move to every configuration of `targets` (internal units),
     else why not, in one line for the page's status. Asks for the confirmation of the first
     motion of a real robot."""
-    driver = state.robot_connection
+    driver = state.hardware.robot_connection
     if driver is None or not driver.connected:
         return "No robot is connected: connect one on the Setup page."
     if driver.stopped:
@@ -31,11 +31,11 @@ def motion_refused(parent: QWidget | None, state, targets: Iterable = ()) -> str
             driver.check_joints(q)
         except RoboCalError as exc:
             return exc.message
-    if state.real_robot and not state.motion_confirmed:
+    if state.hardware.real_robot and not state.hardware.motion_confirmed:
         question = (f"The robot “{driver.info.name}” is about to move at {driver.speed:g} % of its speed.\n\n"
                     "Is the space around the arm clear, and is the emergency stop within reach?\n"
                     "Esc or the Stop button stops it at any time.")
         if not confirm(parent, question, "RoboCal: first motion of the robot", yes="Move the robot"):
             return "Motion not confirmed: the robot was not moved."
-        state.motion_confirmed = True
+        state.hardware.motion_confirmed = True
     return None

@@ -18,26 +18,20 @@ the inputs' hashes recorded beside an output) and its step is not done until it 
 
 Its parts, each an object of its own:
 - `state.labs` (app.lab_provider.LabProvider): the virtual lab, built once on a worker thread,
-  asked with `request_lab(callback)`;
-- `state.hardware` (app.cell_hardware.CellHardware): the robot connection every page moves, the
-  cameras and the classroom controller simulator, opened and closed there. The state passes
-  through its attributes and methods (`robot_connection`, `cameras`, `use_serial_robot`,
-  `set_cameras`, `stop_robot`...) and its signals (`connectionChanged`, `camerasChanged`,
-  `simulatorChanged`, `stoppedChanged`);
+  asked with `state.labs.when_ready(callback)`;
+- `state.hardware` (app.cell_hardware.CellHardware): the robot connection every page moves
+  (`state.hardware.robot_connection`), the cameras and the classroom controller simulator, opened
+  and closed there, with their signals (`connectionChanged`, `camerasChanged`...);
 - `state.files` (app.project_files.ProjectFiles): the project folder, saved and (for a demo)
   deleted at close.
 """
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Callable
-
 from PySide6.QtCore import QObject, Signal
 
 from app.cell_hardware import CellHardware
-from app.hardware import CameraChoice, LiveCameras, RobotChoice
-from app.lab import VirtualLab
-from app.lab_provider import LabProvider, LabWait
+from app.lab_provider import LabProvider
 from app.project_files import ProjectFiles
 from core import project as projects
 from core.errors import RoboCalError
@@ -46,8 +40,6 @@ from core.identification.result import IdentificationResult
 from core.marker.training import TrainedMarker
 from core.poses.selection import PoseSelectionResult
 from core.project import Output
-from core.robot.controller_sim import ControllerSim
-from core.robot.driver import RobotDriver
 from core.robot.file import read_robot
 from core.robot.model import RobotModel, robot_path
 from core.stereo.calibration import StereoCalibrationResult
@@ -57,9 +49,8 @@ class WizardState(QObject):
     """Shared state of one wizard window.
 
     Signals: `projectChanged(Project | None)`, `robotChanged(RobotModel | None)`,
-    `connectionChanged(RobotDriver | None)`, `camerasChanged(LiveCameras | None)`,
-    `stoppedChanged(bool)` (Stop / Resume), `cellChanged(Project)` (the project's cell changed:
-    virtual lab or real cell, `set_cell`), `labChanged(VirtualLab | None)`, and one per
+    `cellChanged(Project)` (the project's cell changed: virtual lab or real cell, `set_cell`),
+    and one per
     step result (`stereoChanged`, `markerChanged`, `posesChanged`, `measurementsChanged`,
     `identificationChanged`) with the new value; `outputSaved(str)`: a step wrote a project
     file (its core.project.OUTPUT_FILES key, or "marker"), so results made from it may be out of date.
@@ -68,10 +59,6 @@ class WizardState(QObject):
     projectChanged = Signal(object)
     cellChanged = Signal(object)
     robotChanged = Signal(object)
-    connectionChanged = Signal(object)
-    camerasChanged = Signal(object)
-    simulatorChanged = Signal(object)
-    stoppedChanged = Signal(bool)
     labChanged = Signal(object)
     stereoChanged = Signal(object)
     markerChanged = Signal(object)
@@ -97,8 +84,6 @@ class WizardState(QObject):
         self.labs.changed.connect(self._lab_changed)
         self.hardware = CellHardware(lambda: (self.project, self.robot, getattr(self.labs.current, "true_robot", None)),
                                      self)
-        for signal in ("connectionChanged", "camerasChanged", "simulatorChanged", "stoppedChanged"):
-            getattr(self.hardware, signal).connect(getattr(self, signal))
 
     # -- project -------------------------------------------------------------------------
     @property
@@ -118,7 +103,7 @@ class WizardState(QObject):
         robot is already chosen, that robot is written into the project."""
         robot = projects.load_robot(project) if (project is not None and load_robot) else None
         if project is not self.project:
-            self.set_simulator(None)
+            self.hardware.set_simulator(None)
         self.files.project = project
         self._clear_results()
         self.projectChanged.emit(project)
@@ -197,93 +182,6 @@ class WizardState(QObject):
         model = read_robot(path)
         self.set_robot(model, str(path))
         return model
-
-    # -- hardware (state.hardware: app.cell_hardware.CellHardware) -------------------------------
-    @property
-    def robot_connection(self) -> RobotDriver | None:
-        return self.hardware.robot_connection
-
-    @property
-    def robot_choice(self) -> RobotChoice:
-        return self.hardware.robot_choice
-
-    @property
-    def real_robot(self) -> bool:
-        """A physical robot is connected (not the virtual lab's simulated robot)."""
-        return self.hardware.real_robot
-
-    @property
-    def motion_confirmed(self) -> bool:
-        return self.hardware.motion_confirmed
-
-    @motion_confirmed.setter
-    def motion_confirmed(self, confirmed: bool) -> None:
-        self.hardware.motion_confirmed = confirmed
-
-    @property
-    def cameras(self) -> LiveCameras | None:
-        return self.hardware.cameras
-
-    @property
-    def camera_choice(self) -> CameraChoice:
-        return self.hardware.camera_choice
-
-    @property
-    def camera_changes(self) -> list[str]:
-        return self.hardware.camera_changes
-
-    @property
-    def simulator(self) -> ControllerSim | None:
-        return self.hardware.simulator
-
-    def use_serial_robot(self, driver: RobotDriver, choice: RobotChoice) -> None:
-        self.hardware.use_serial_robot(driver, choice)
-
-    def use_virtual_robot(self) -> None:
-        self.hardware.use_virtual_robot()
-
-    def set_cameras(self, cameras: LiveCameras | None, choice: CameraChoice | None = None) -> None:
-        self.hardware.set_cameras(cameras, choice)
-
-    def set_simulator(self, sim: ControllerSim | None) -> None:
-        self.hardware.set_simulator(sim)
-
-    def stop_robot(self) -> bool:
-        return self.hardware.stop_robot()
-
-    def resume_robot(self) -> bool:
-        return self.hardware.resume_robot()
-
-    # -- virtual lab ---------------------------------------------------------------------
-    @property
-    def lab(self) -> VirtualLab:
-        """The virtual lab for the current robot, waited for here (scripts and tests: ~2 s on the
-        worker the first time). Pages use `request_lab`, which never blocks."""
-        return self.labs.ready_now()
-
-    @property
-    def has_lab(self) -> bool:
-        return self.labs.current is not None
-
-    def request_lab(self, callback: Callable[[VirtualLab], None],
-                    on_error: Callable[[str], None] | None = None) -> LabWait:
-        """Call `callback(lab)` with the virtual lab of the current robot, seed and noise: at
-        once when it exists, otherwise when the one build on the worker thread ends (every
-        page that asks meanwhile waits for the same build). A failed build calls `on_error`.
-        `cancel()` the returned wait to stop waiting (the build goes on for the others)."""
-        return self.labs.when_ready(callback, on_error)
-
-    def adopt_lab(self, lab: VirtualLab | None) -> None:
-        """Take a lab built elsewhere (one lab shared by several states, as the tests do) if it
-        matches this state's robot, seed and noise. Pages ask `request_lab` instead."""
-        if self.has_lab or lab is None or self.robot is None:
-            return
-        if (getattr(lab, "seed", None), getattr(lab, "noise", None)) != (self.seed, float(self.noise)):
-            return
-        nominal = getattr(lab, "nominal_robot", None)
-        if nominal is None or nominal.name != self.robot.name or nominal.dof != self.robot.dof:
-            return
-        self.labs.adopt(lab)
 
     def _lab_recipe(self) -> tuple:
         return self.robot, self.seed, self.noise

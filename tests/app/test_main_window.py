@@ -133,7 +133,7 @@ def test_next_waits_for_each_page_and_back_walks_all_pages(ready_window, qtbot):
 
 def test_stop_key_stops_the_robot(ready_window, qtbot):
     win = ready_window
-    robot = win.state.robot_connection
+    robot = win.state.hardware.robot_connection
     assert robot is not None and robot.connected and not robot.stopped
     keys = [s.toString() for s in win.action_stop.shortcuts()]
     assert keys == ["Esc", "Ctrl+."]
@@ -169,7 +169,7 @@ def test_stop_cancels_running_tasks(ready_window, qtbot):
     assert ready_window.progress_bar.isVisible() and ready_window.cancel_button.isVisible()
     ready_window.action_stop.trigger()
     qtbot.waitUntil(lambda: not ready_window.tasks.busy, timeout=10000)
-    assert outcome == ["cancelled"] and ready_window.state.robot_connection.stopped
+    assert outcome == ["cancelled"] and ready_window.state.hardware.robot_connection.stopped
     assert not ready_window.progress_bar.isVisible()
 
 
@@ -217,7 +217,7 @@ def test_closing_the_window_cancels_tasks_and_disconnects(ready_window, qtbot):
 
     ready_window.run_task(endless)
     assert started.wait(10)
-    robot = ready_window.state.robot_connection
+    robot = ready_window.state.hardware.robot_connection
     ready_window.close()
     assert not ready_window.tasks.busy
     assert robot.stopped and not robot.connected
@@ -279,7 +279,7 @@ def modal_dialog(window, qtbot):
 
 
 def test_stop_key_works_while_a_modal_dialog_is_open(ready_window, qtbot):
-    robot = ready_window.state.robot_connection
+    robot = ready_window.state.hardware.robot_connection
     dialog, field = modal_dialog(ready_window, qtbot)
     qtbot.keyClick(field, Qt.Key.Key_Period, Qt.KeyboardModifier.ControlModifier)
     assert robot.stop_count == 1                      # once, although the key travels up to the dialog
@@ -294,7 +294,7 @@ def test_stop_key_works_while_a_modal_dialog_is_open(ready_window, qtbot):
 
 def test_esc_in_a_dialog_stops_a_moving_robot(ready_window, qtbot):
     import threading
-    robot = ready_window.state.robot_connection
+    robot = ready_window.state.hardware.robot_connection
     release = threading.Event()
     handle = ready_window.run_task(lambda progress=None, cancelled=None: release.wait(30), label="Moving")
     assert ready_window.motion_running()
@@ -308,7 +308,7 @@ def test_esc_in_a_dialog_stops_a_moving_robot(ready_window, qtbot):
 
 
 def test_stop_key_works_while_a_menu_is_open(ready_window, qtbot):
-    robot = ready_window.state.robot_connection
+    robot = ready_window.state.hardware.robot_connection
     menu = ready_window.menuBar().actions()[0].menu()
     menu.popup(ready_window.mapToGlobal(ready_window.rect().center()))
     qtbot.waitUntil(lambda: QApplication.activePopupWidget() is menu, timeout=5000)

@@ -33,8 +33,8 @@ def test_stop_button_and_esc_stop_a_serial_robot_until_resume(window, qtbot):
     assert not win.stop_button.isVisible()                       # the simulated robot: Esc only
     with ControllerSim(win.state.robot, time_scale=0.05) as sim:
         choice = RobotChoice("serial", sim.port)
-        win.state.use_serial_robot(open_serial_robot(win.state.robot, choice), choice)
-        driver = win.state.robot_connection
+        win.state.hardware.use_serial_robot(open_serial_robot(win.state.robot, choice), choice)
+        driver = win.state.hardware.robot_connection
         for step in (Step.SETUP, Step.MARKER, Step.MEASUREMENT):
             win.go_to(step)
             assert win.stop_button.isVisible() and not win.resume_button.isVisible()
@@ -53,5 +53,5 @@ def test_stop_button_and_esc_stop_a_serial_robot_until_resume(window, qtbot):
         assert sum(line.startswith("MOVE") for line in sim.received) == 1
         qtbot.mouseClick(win.stop_button, Qt.MouseButton.LeftButton)
         assert driver.stopped and sim.received.count("STOP") == 2
-        win.state.use_virtual_robot()
+        win.state.hardware.use_virtual_robot()
         assert not win.stop_button.isVisible() and not driver.connected

@@ -130,17 +130,17 @@ def test_a_new_user_reaches_a_calibrated_stereo_rig_on_a_small_screen(window, qt
     monkeypatch.setattr("app.pages.stereo.pairs_panel.QFileDialog.getExistingDirectory",
                         lambda *a, **kw: answers.pop(0))          # one folder: a second question would fail
     qtbot.mouseClick(stereo.pairs.folders_button, Qt.MouseButton.LeftButton)
-    qtbot.waitUntil(lambda: not stereo.busy, timeout=WAIT_MS)
+    qtbot.waitUntil(lambda: not stereo.task.busy, timeout=WAIT_MS)
     assert len(stereo.items) == 25 and len(stereo.usable_pairs()) == 25
     qtbot.mouseClick(stereo.model.calibrate_button, Qt.MouseButton.LeftButton)
-    qtbot.waitUntil(lambda: stereo.result is not None and not stereo.busy, timeout=WAIT_MS)
+    qtbot.waitUntil(lambda: stereo.result is not None and not stereo.task.busy, timeout=WAIT_MS)
     assert stereo.result.cameras_look_swapped and stereo.swap_button.isVisible()
     assert "Swap left and right" in stereo.status.text()
     stage("3-swapped-cameras")
 
     # 4. fixed on the spot: swapped and calibrated again, then saved
     qtbot.mouseClick(stereo.swap_button, Qt.MouseButton.LeftButton)
-    qtbot.waitUntil(lambda: stereo.result is not None and not stereo.busy
+    qtbot.waitUntil(lambda: stereo.result is not None and not stereo.task.busy
                     and not stereo.result.cameras_look_swapped, timeout=WAIT_MS)
     result = stereo.result
     assert result.pairs_used == 25 and result.file.rms_stereo < 0.5

@@ -39,8 +39,8 @@ def lab_state(lab, *, stereo: bool = True):
     state = WizardState(seed=0, noise=0.5)
     state.temporary_project()
     state.choose_preset("educational_6r")
-    state.adopt_lab(lab)
-    assert state.has_lab and state.lab is lab
+    state.labs.adopt_matching(lab)
+    assert state.labs.built and state.labs.ready_now() is lab
     if stereo:
         true_stereo_yaml(lab, state.project.path("stereo"))
     return state

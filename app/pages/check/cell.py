@@ -27,18 +27,18 @@ class CellMixin:
         """Why this real cell cannot be measured now (None: it can)."""
         state = self.state
         if self.teach_mode:
-            if state.cameras is None:
+            if state.hardware.cameras is None:
                 return "the cell's cameras are not open: open them on the Setup page"
             if self.images() is None:
                 return "the trained marker or the stereo calibration is missing: run the Stereo and Marker steps"
             return None
-        driver = state.robot_connection
+        driver = state.hardware.robot_connection
         if not is_real(driver) or not driver.connected:
             return "no robot is connected: connect the cell's robot on the Setup page"
         lost = getattr(driver, "lost", None)
         if lost:
             return f"the connection to the robot is lost ({lost}): connect it again on the Setup page"
-        if state.cameras is None:
+        if state.hardware.cameras is None:
             return "the cell's cameras are not open: open them on the Setup page"
         if self.images() is None:
             return "the trained marker or the stereo calibration is missing: run the Stereo and Marker steps"
@@ -51,7 +51,7 @@ class CellMixin:
 
     def cell_words(self) -> str:
         """Where a real-cell check measures: the robot's port and the cameras."""
-        driver, cameras = self.state.robot_connection, self.state.cameras
+        driver, cameras = self.state.hardware.robot_connection, self.state.hardware.cameras
         robot = ("the robot brought to each pose by hand (teach mode)" if self.teach_mode else
                  f"the serial robot on {getattr(driver, 'port', None) or driver.info.name}")
         choice = cameras.choice
@@ -69,7 +69,7 @@ class CellMixin:
         poses Q, when known; internal units: then the robot moves on to the next while the marker
         is located); None, with the reason on the page, when they do not (or while a run is busy:
         its measure stays the one whose fault the page reads)."""
-        if self.busy:
+        if self.task.busy:
             self._set_status("Busy: wait for the running task or cancel it.", False)
             return None
         refused = motion_refused(self, self.state, Q)
@@ -78,7 +78,7 @@ class CellMixin:
             return None
         self._where = self.cell_words()
         trained, rect = self.images()
-        self._measure = CellMeasure(self.state.robot_connection, self.state.cameras, locator(trained, rect),
+        self._measure = CellMeasure(self.state.hardware.robot_connection, self.state.hardware.cameras, locator(trained, rect),
                                     plan=Q if len(Q) else None)
         return self._measure
 
@@ -93,7 +93,7 @@ class CellMixin:
                 return self.choose_poses()
             return self._check_taught()
         if cell is None:
-            return self.start(cell_check.setup_cell, self.calibrated_path(), self._cell_options(), count=key[2],
+            return self.task.start(cell_check.setup_cell, self.calibrated_path(), self._cell_options(), count=key[2],
                               tool=key[3], on_done=lambda c: (self._take_cell(c, key), self._drive_check(key)),
                               status="Choosing check poses for the cell's cameras…")
         return self._drive_check(key)
@@ -103,7 +103,7 @@ class CellMixin:
         if measure is None:
             self._finish_autopilot(False, self.status.text())
             return False
-        return self.start(cell_check.check_cell, self.cell, measure, log=self.log_path(),
+        return self.task.start(cell_check.check_cell, self.cell, measure, log=self.log_path(),
                           on_done=lambda value: self._checked((self.cell, *value), key),
                           status=f"Checking: {self._where}… Esc stops the robot.")
 

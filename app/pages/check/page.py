@@ -91,13 +91,13 @@ class CheckPage(CellMixin, TeachMixin, WizardPage):
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addLayout(body, 1)
-        layout.addWidget(self.progress_row())
+        layout.addWidget(self.task.progress_row())
         layout.addWidget(self.status)
 
         state.projectChanged.connect(lambda *_: self._calibration_changed())
         state.cellChanged.connect(lambda *_: self._calibration_changed())
-        state.connectionChanged.connect(lambda *_: self.refresh())
-        state.camerasChanged.connect(lambda *_: self.refresh())
+        state.hardware.connectionChanged.connect(lambda *_: self.refresh())
+        state.hardware.camerasChanged.connect(lambda *_: self.refresh())
         state.robotChanged.connect(lambda *_: self._calibration_changed())
         state.outputSaved.connect(lambda key: self.refresh() if key == "calibrated" else None)
         self.refresh()
@@ -153,7 +153,7 @@ class CheckPage(CellMixin, TeachMixin, WizardPage):
         return (str(path), path.stat().st_mtime_ns, self.controls.count_spin.value(), self.controls.tool())
 
     def _calibration_changed(self) -> None:
-        self.forget_task()
+        self.task.forget()
         self.cell = self._cell_key = self.result = self.diagnosis = self.update = None
         self.taught, self._measure = {}, None
         self.controls.poses_list.clear()
@@ -182,28 +182,28 @@ class CheckPage(CellMixin, TeachMixin, WizardPage):
             except RoboCalError as exc:
                 self._set_status(f"✗ {exc.message}", False)
         self.results.show_log(self.log)
-        if not self._ready() and not self.busy:
+        if not self._ready() and not self.task.busy:
             self._set_status(MISSING if self.state.project is not None else NO_PROJECT, False)
-        elif not self.state.virtual and not self.busy and self.result is None:
+        elif not self.state.virtual and not self.task.busy and self.result is None:
             problem = self.cell_problem()
             self._set_status(f"This project measures on {self.state.cell}. "
                              + (f"Nothing can be measured: {problem}." if problem else "Ready to check."),
                              None if problem is None else False)
-        elif not self.busy and self.status.text() in ("", MISSING, NO_PROJECT):     # words of before
+        elif not self.task.busy and self.status.text() in ("", MISSING, NO_PROJECT):     # words of before
             self._set_status(f"Ready to check the calibrated robot ({self.calibrated_path().name}) on the "
                              "virtual lab.", None)
         self.on_busy_changed()
         self.notify_complete()
 
     def on_busy_changed(self) -> None:
-        self.controls.set_enabled(self.busy, self._ready(), self.state.virtual)
+        self.controls.set_enabled(self.task.busy, self._ready(), self.state.virtual)
         can = self.diagnosis is not None and self.diagnosis.explained and bool(self.diagnosis.parameters)
-        self.results.reidentify_button.setEnabled(can and not self.busy)
-        self.fixture.set_enabled(self.busy, self._ready())
+        self.results.reidentify_button.setEnabled(can and not self.task.busy)
+        self.fixture.set_enabled(self.task.busy, self._ready())
         self.fixture.set_virtual(self.state.virtual)
         teach = self.teach_mode
         self.teach.setVisible(teach)
-        self.controls.allow_schedule(self._schedule_blocked(), self.busy)
+        self.controls.allow_schedule(self._schedule_blocked(), self.task.busy)
         self.controls.identify_tool_button.setEnabled(self.controls.identify_tool_button.isEnabled() and not teach)
         if teach:
             self._show_next_pose()
@@ -233,10 +233,10 @@ class CheckPage(CellMixin, TeachMixin, WizardPage):
             return False
         key, path = self._key(), self.calibrated_path()
         if not self.state.virtual:
-            return self.start(cell_check.setup_cell, path, self._cell_options(), count=key[2], tool=key[3],
+            return self.task.start(cell_check.setup_cell, path, self._cell_options(), count=key[2], tool=key[3],
                               on_done=lambda cell: self._take_cell(cell, key),
                               status="Choosing check poses for the cell's cameras…")
-        return self.start_with_lab(self._setup_job, path, self.controls.count_spin.value(), self.controls.tool(),
+        return self.task.start_with_lab(self._setup_job, path, self.controls.count_spin.value(), self.controls.tool(),
                                    on_done=lambda cell: self._take_cell(cell, key),
                                    status="Choosing check poses…")
 
@@ -278,7 +278,7 @@ class CheckPage(CellMixin, TeachMixin, WizardPage):
         key, images = self._key(), self.images()
         self._images = images
         self._where = self._measured_by(images)
-        return self.start_with_lab(job.check_project, self.calibrated_path(), on_done=lambda r: self._checked(r, key),
+        return self.task.start_with_lab(job.check_project, self.calibrated_path(), on_done=lambda r: self._checked(r, key),
                                    cell=self._cell(), count=key[2], change=self.controls.change_spec(),
                                    images=images, log=self.log_path(), seed=self._seed(), tool=key[3],
                                    status=f"Checking: {self._measured_by(images)}…")
@@ -322,7 +322,7 @@ class CheckPage(CellMixin, TeachMixin, WizardPage):
             measure = self._cell_measure()
             if measure is None:
                 return False
-            return self.start(cell_check.reidentify_cell, self.cell, self.result, self.diagnosis, measure,
+            return self.task.start(cell_check.reidentify_cell, self.cell, self.result, self.diagnosis, measure,
                               self.calibrated_path(), self._cell_options(), log=self.log_path(),
                               on_done=self._reidentified,
                               status=f"Re-identifying from the proposed poses, {self._where}… Esc stops the robot.")
@@ -330,11 +330,11 @@ class CheckPage(CellMixin, TeachMixin, WizardPage):
         self._where = self._measured_by(self.images())
 
         def go(lab):
-            return self.start(job.reidentify_on_lab, self.cell, self.result, self.diagnosis, lab,
+            return self.task.start(job.reidentify_on_lab, self.cell, self.result, self.diagnosis, lab,
                               self.controls.change_spec(), self.calibrated_path(), images=self.images(),
                               lab_options=lab_options(lab), log=self.log_path(), seed=self._seed(),
                               on_done=self._reidentified, status="Re-identifying from the proposed poses…")
-        return self.with_lab(go, status="Re-identifying…")
+        return self.task.with_lab(go, status="Re-identifying…")
 
     def _reidentified(self, update: job.Update) -> None:
         self.update = update
@@ -369,13 +369,13 @@ class CheckPage(CellMixin, TeachMixin, WizardPage):
             if not self.state.virtual:
                 self._set_status("The lab's fixture needs a virtual-lab project; choose image pairs.", False)
                 return False
-            return self.start_with_lab(fixture_job.locate_on_lab, calibrated, *images, folder,
+            return self.task.start_with_lab(fixture_job.locate_on_lab, calibrated, *images, folder,
                                        seed=self._seed(), on_done=self._fixture_located,
                                        status="Locating the lab's fixture…")
         if not self.fixture.description_path or not self.fixture.pairs_folder:
             self._set_status("Choose the fixture description and the folder of image pairs first.", False)
             return False
-        return self.start(fixture_job.locate_from_folder, calibrated, *images, self.fixture.description_path,
+        return self.task.start(fixture_job.locate_from_folder, calibrated, *images, self.fixture.description_path,
                           self.fixture.pairs_folder, folder, on_done=self._fixture_located,
                           status="Locating the fixture…")
 
@@ -396,12 +396,12 @@ class CheckPage(CellMixin, TeachMixin, WizardPage):
             measure = self._cell_measure()
             if measure is None:
                 return False
-            return self.start(cell_check.identify_tool_cell, self.calibrated_path(), tool, measure,
+            return self.task.start(cell_check.identify_tool_cell, self.calibrated_path(), tool, measure,
                               self._cell_options(), on_done=self._tool_identified,
                               status=f"Identifying the tool '{tool}' from its proposed poses, {self._where}… Esc "
                                      "stops the robot.")
         self._where = self._measured_by(self.images())
-        return self.start_with_lab(tool_job.identify_on_lab, self.calibrated_path(), tool,
+        return self.task.start_with_lab(tool_job.identify_on_lab, self.calibrated_path(), tool,
                                    change=self.controls.change_spec(), images=self.images(), seed=self._seed(),
                                    on_done=self._tool_identified,
                                    status=f"Identifying the tool '{tool}' from its proposed poses…")
@@ -422,7 +422,7 @@ class CheckPage(CellMixin, TeachMixin, WizardPage):
             self.schedule_timer.stop()
 
     def _scheduled(self) -> None:
-        if not self.busy:
+        if not self.task.busy:
             self.run_check()
 
     def autopilot(self, done) -> None:

@@ -30,8 +30,8 @@ class TeachMixin:
         else:
             self.teach.show_next(k, self.cell.model.q_to_file(self.cell.Q[k]) if k is not None else None,
                                  len(self.taught), len(self.cell.Q))
-        self.teach.record_button.setEnabled(k is not None and not self.busy)
-        self.teach.check_button.setEnabled(self.cell is not None and k is None and not self.busy)
+        self.teach.record_button.setEnabled(k is not None and not self.task.busy)
+        self.teach.check_button.setEnabled(self.cell is not None and k is None and not self.task.busy)
 
     def record_pose(self) -> bool:
         """Teach mode: record the next check pose where the technician put the robot."""
@@ -52,13 +52,13 @@ class TeachMixin:
             driver = None
         trained, rect = self.images()
         self._where = self.cell_words()
-        return self.start(cell_teach.record_check_pose, self.cell, k, self.state.cameras, locator(trained, rect),
+        return self.task.start(cell_teach.record_check_pose, self.cell, k, self.state.hardware.cameras, locator(trained, rect),
                           q_typed_file=q_file, driver=driver, on_done=self._pose_recorded,
                           status=f"Recording check pose {k}…")
 
     def _joint_reader(self):
         """A connected controller whose joints can be read (they are read when none are typed)."""
-        driver = self.state.robot_connection
+        driver = self.state.hardware.robot_connection
         if driver is None or not driver.connected or getattr(driver, "lost", None):
             return None
         return driver
@@ -79,7 +79,7 @@ class TeachMixin:
         key = self._key()
         self._where = self.cell_words()
         self._measure = None
-        return self.start(cell_teach.check_taught, self.cell, list(self.taught.values()), log=self.log_path(),
+        return self.task.start(cell_teach.check_taught, self.cell, list(self.taught.values()), log=self.log_path(),
                           on_done=lambda value: self._checked_taught(value, key),
                           status=f"Checking the recorded poses, {self._where}…")
 

@@ -60,11 +60,11 @@ class CompensationPage(WizardPage):
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addLayout(points)
         layout.addWidget(self.map_panel, 1)
-        layout.addWidget(self.progress_row())
+        layout.addWidget(self.task.progress_row())
         layout.addWidget(self.status)
         state.projectChanged.connect(lambda *_: self._calibration_changed())
         state.robotChanged.connect(lambda *_: self._calibration_changed())
-        state.connectionChanged.connect(lambda *_: self.on_busy_changed())
+        state.hardware.connectionChanged.connect(lambda *_: self.on_busy_changed())
         self.refresh()
 
     # -- sources -------------------------------------------------------------------------
@@ -90,7 +90,7 @@ class CompensationPage(WizardPage):
     def on_hardware(self) -> bool:
         """Motion goes to a connected robot (a serial controller) or the chosen cameras measure."""
         state = self.state
-        return state.real_robot or state.cameras is not None or not state.virtual
+        return state.hardware.real_robot or state.hardware.cameras is not None or not state.virtual
 
     def _ready(self) -> bool:
         path = self.calibrated_path()
@@ -112,7 +112,7 @@ class CompensationPage(WizardPage):
         return self.cell
 
     def _calibration_changed(self) -> None:
-        self.forget_task()
+        self.task.forget()
         self.cell = self._cell_key = self.amap = self.map_run = None
         self.points = []
         self.table.show_points([], np.asarray)
@@ -127,7 +127,7 @@ class CompensationPage(WizardPage):
 
     def refresh(self) -> None:
         if not self._ready():
-            if not self.busy:
+            if not self.task.busy:
                 self._set_status(MISSING if self.state.project is not None else
                                  "No project: choose one in the Setup step.", False)
         else:
@@ -148,9 +148,9 @@ class CompensationPage(WizardPage):
 
     def on_busy_changed(self) -> None:
         ready = self._ready()
-        self.panel.set_enabled(self.busy, ready, bool(self.points), self.state.robot_connection is not None
+        self.panel.set_enabled(self.task.busy, ready, bool(self.points), self.state.hardware.robot_connection is not None
                                or self.state.virtual)
-        self.map_panel.measure_button.setEnabled(ready and not self.busy)
+        self.map_panel.measure_button.setEnabled(ready and not self.task.busy)
 
     def _q_file(self, q):
         return self.cell.calibrated.q_to_file(q) if self.cell is not None else np.rad2deg(q)
@@ -183,7 +183,7 @@ class CompensationPage(WizardPage):
             self._set_status(f"✗ {exc.message}. {exc.hint or ''}".strip(), False)
             return False
         name = f"P{len(self.points) + 1}"
-        return self.start(job.compensate_points, cell, [name], [xyz], where, on_done=self._points_added,
+        return self.task.start(job.compensate_points, cell, [name], [xyz], where, on_done=self._points_added,
                           status=f"Computing the joints of {name}…")
 
     def _points_added(self, points) -> None:
@@ -213,7 +213,7 @@ class CompensationPage(WizardPage):
             self._set_status(f"✗ {exc.message}. {exc.hint or ''}".strip(), False)
             return False
         self.points = []
-        return self.start(job.compensate_program, cell, path, where, on_done=self._points_added,
+        return self.task.start(job.compensate_program, cell, path, where, on_done=self._points_added,
                           status=f"Correcting the program {Path(path).name}…")
 
     def _choose_program(self) -> None:
@@ -261,29 +261,29 @@ class CompensationPage(WizardPage):
             def on_lab(lab):
                 measure, where = job.lab_measure(lab, images, seed=int(state.seed))
                 return go(measure, where, lab)
-            return self.with_lab(on_lab)
+            return self.task.with_lab(on_lab)
         if images is None:
             self._set_status("Measuring on this robot needs the trained marker and the stereo calibration: run "
                              "the Stereo and Marker steps first.", False)
             return False
-        if state.cameras is None and not state.virtual:
+        if state.hardware.cameras is None and not state.virtual:
             self._set_status("No cameras: open the two cameras on the Setup page.", False)
             return False
         refused = motion_refused(self, state, Q)
         if refused:
             self._set_status(refused, False)
             return False
-        driver = state.robot_connection
+        driver = state.hardware.robot_connection
 
         def on_robot(lab):
             try:
-                source = capture_source(state.cameras, lab=lab, driver=driver, seed=int(state.seed))
+                source = capture_source(state.hardware.cameras, lab=lab, driver=driver, seed=int(state.seed))
             except RoboCalError as exc:
                 self._set_status(f"✗ {exc.message}", False)
                 return False
-            measure, where = job.robot_measure(driver, source, images, rendered=state.cameras is None)
+            measure, where = job.robot_measure(driver, source, images, rendered=state.hardware.cameras is None)
             return go(measure, where, lab)
-        return self.with_lab(on_robot) if state.cameras is None else on_robot(None)
+        return self.task.with_lab(on_robot) if state.hardware.cameras is None else on_robot(None)
 
     def go_to_point(self, row: int | None = None, *, nominal: bool | None = None) -> bool:
         """Move to the selected point with the calibrated model (or, `nominal` / the check box,
@@ -301,7 +301,7 @@ class CompensationPage(WizardPage):
             return False
 
         def go(measure, where, lab):
-            return self.start(job.go_to_point, point, measure, where, nominal=nominal,
+            return self.task.start(job.go_to_point, point, measure, where, nominal=nominal,
                               on_done=lambda p: self._landed(row, p, nominal),
                               status=f"Moving to {point.name} with the {model} model… Esc stops the robot.")
         return self._with_measure(q[None, :], go)
@@ -328,7 +328,7 @@ class CompensationPage(WizardPage):
 
         def go(measure, where, lab):
             keep = (lambda Q: lab.visibility(Q).visible) if lab is not None else None
-            return self.start(job.measure_accuracy_map, cell, measurements, measure, where, folder, count=count,
+            return self.task.start(job.measure_accuracy_map, cell, measurements, measure, where, folder, count=count,
                               keep=keep, on_done=self._map_measured,
                               status=f"Measuring the accuracy map ({count} targets, each reached twice)… "
                                      "Esc stops the robot.")

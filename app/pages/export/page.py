@@ -62,7 +62,7 @@ class ExportPage(WizardPage):
         layout.addWidget(folder_box)
         layout.addWidget(self.rows_panel)
         layout.addWidget(self.report_title)
-        layout.addWidget(self.progress_row())
+        layout.addWidget(self.task.progress_row())
         layout.addWidget(self.status)
         layout.addStretch(1)
 
@@ -93,7 +93,7 @@ class ExportPage(WizardPage):
         return Path(chosen)
 
     def _project_changed(self, *_):
-        self.forget_task()
+        self.task.forget()
         self._folder = None
         self.exported.clear()
         self.refresh()
@@ -139,12 +139,12 @@ class ExportPage(WizardPage):
 
     def _start_report(self, folder: Path, finished: Callable[[list[Path]], None] | None) -> None:
         def failed(message: str) -> None:
-            self.progress_row().reset()
+            self.task.progress_row().reset()
             self._export_failed("report", message)
             self._finished(finished, [])
 
         def cancelled() -> None:
-            self.progress_row().reset()
+            self.task.progress_row().reset()
             self._row_status("report", "Cancelled: the previous report (if any) is kept.", ok=False)
             self._set_status("Report cancelled.", ok=False)
             self._finished(finished, [])
@@ -153,12 +153,12 @@ class ExportPage(WizardPage):
             self._exported("report", written, folder)
             self._finished(finished, written)
 
-        if self.start(write_report, self.state.project, [folder / "report.html", folder / "report.pdf"],
+        if self.task.start(write_report, self.state.project, [folder / "report.html", folder / "report.pdf"],
                       robot=self.state.robot, identification=self.state.identification, accuracy=self.state.accuracy,
                       **self.report_title.values(), draw=self._drawer.draw, on_done=done, on_failed=failed,
                       on_cancelled=cancelled,
                       label="report", status="Writing the report…"):
-            self.progress_row().set_progress(0.0, "reading the project")
+            self.task.progress_row().set_progress(0.0, "reading the project")
             self._row_status("report", "Writing…", ok=None)
         else:
             self._finished(finished, [])
@@ -217,7 +217,7 @@ class ExportPage(WizardPage):
         next_one()
 
     def on_busy_changed(self) -> None:
-        busy = self.busy
+        busy = self.task.busy
         self.all_button.setEnabled(not busy and any(i.missing() is None for i in self.items))
         self.folder_button.setEnabled(not busy and self.state.project is not None)
         for item in self.items:
@@ -261,7 +261,7 @@ class ExportPage(WizardPage):
                 source = (" · from this session's identification" if self.calibrated_source() == "result"
                           else " · from the project's calibrated.json")
             row["target"].setText(where + source)
-            if self.busy and item.key == "report":
+            if self.task.busy and item.key == "report":
                 continue                                  # its row says "Writing…"
             if missing:
                 self._row_status(item.key, f"Not available: {missing}.", ok=False)

@@ -45,7 +45,7 @@ class IdentificationPage(WizardPage):
         self._made_from: dict[str, str | None] | None = None    # digests of the inputs of `run_result`
         self._ready = False                 # measurements.csv exists and reads for the robot
         self.source = SourcePanel(on_ideal=self.use_ideal_measurements)
-        self.options = OptionsPanel(self.progress_row(), robot=lambda: self.state.robot,
+        self.options = OptionsPanel(self.task.progress_row(), robot=lambda: self.state.robot,
                                     on_identify=self.start_identification)
         self.results = ResultsPanel()
         self.save_button = button("Save calibrated.json", on_click=self.save_calibrated,
@@ -102,7 +102,7 @@ class IdentificationPage(WizardPage):
         """New measurements: say whether the result is still the one made from them."""
         self._refresh_source()
         changed = self.changed_inputs()
-        if changed and not self.busy:
+        if changed and not self.task.busy:
             self._set_status(out_of_date("the identification", changed, "Identify again."), ok=False)
         self.notify_complete()
 
@@ -111,7 +111,7 @@ class IdentificationPage(WizardPage):
 
     def _context_changed(self, *_):
         """Another project or robot: the result no longer applies, and a late one is dropped."""
-        self.forget_task()
+        self.task.forget()
         self.run_result = None
         self.saved_path = None
         self._made_from = None
@@ -129,7 +129,7 @@ class IdentificationPage(WizardPage):
         return self.run_result is not None and not self.changed_inputs()
 
     def on_busy_changed(self) -> None:
-        busy = self.busy
+        busy = self.task.busy
         self.options.set_busy(busy)
         self.options.run_button.setEnabled(self._ready and not busy)
         self.source.ideal_button.setEnabled(not busy)
@@ -169,13 +169,13 @@ class IdentificationPage(WizardPage):
                 self.source.show_source(measurements_html(path, meas, synthetic_description(path)),
                                         offer_ideal=False)
                 self._ready = True
-        self.options.run_button.setEnabled(self._ready and not self.busy)
+        self.options.run_button.setEnabled(self._ready and not self.task.busy)
 
     def use_ideal_measurements(self, then_identify: bool = False) -> bool:
         """Write ideal virtual-lab measurements into the project (worker thread). Returns
         False (with the reason on the page) when it cannot start."""
         state = self.state
-        if self.busy:
+        if self.task.busy:
             return False
         if state.project is None or state.robot is None or not state.virtual:
             self._set_status("Ideal measurements need a virtual-lab project with a robot model.", ok=False)
@@ -192,7 +192,7 @@ class IdentificationPage(WizardPage):
             if then_identify and not self.start_identification():
                 self._finish_autopilot(False, self.status.text())
 
-        return self.with_lab(lambda lab: self.start(
+        return self.task.with_lab(lambda lab: self.task.start(
             generate_ideal_measurements, path, lab, seed=state.seed, on_done=written, label="Ideal measurements",
             status="Generating ideal measurements…"), status="Generating ideal measurements…")
 
@@ -200,7 +200,7 @@ class IdentificationPage(WizardPage):
     def start_identification(self) -> bool:
         """Start the identification on a worker thread; False (reason on the page) if it cannot."""
         state = self.state
-        if self.busy:
+        if self.task.busy:
             return False
         if state.project is None or state.robot is None:
             self._set_status("Choose a project and a robot model in the Setup step first.", ok=False)
@@ -223,10 +223,10 @@ class IdentificationPage(WizardPage):
                 self._made_from = made_from
                 self._identified(run)
 
-            return self.start(run_identification, state.robot, path, seed=state.seed, lab=lab, **opts,
+            return self.task.start(run_identification, state.robot, path, seed=state.seed, lab=lab, **opts,
                               on_done=identified, label="Identifying", status="Identifying…")
 
-        return self.with_lab(identify, status="Identifying…") if state.virtual else identify()
+        return self.task.with_lab(identify, status="Identifying…") if state.virtual else identify()
 
     def _identified(self, run: IdentificationRun) -> None:
         self.run_result = run
@@ -259,7 +259,7 @@ class IdentificationPage(WizardPage):
         self._update_export_buttons()
 
     def _update_export_buttons(self) -> None:
-        has = self.run_result is not None and not self.busy
+        has = self.run_result is not None and not self.task.busy
         for b in (self.save_button, self.csv_button, self.urdf_button):
             b.setEnabled(has)
 

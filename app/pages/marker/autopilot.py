@@ -18,7 +18,7 @@ class MarkerAutopilot:
         if not self.state.virtual:
             done(False, "the marker autopilot needs the virtual lab (load and train a marker image by hand)")
             return
-        if self.busy:
+        if self.task.busy:
             done(False, "the page is busy")
             return
         self._autopilot_done = done

@@ -1,6 +1,6 @@
 """The Marker step's page (step 3): the training controls and the stereo line above six tabs
 (Training, Live pair, SSD correlation, Verification, Compare markers, Conditions); the chain is
-described in the package's docstring. Long work goes through `TaskMixin.start` with the virtual lab from
+described in the package's docstring. Long work goes through the page's `task.start` with the virtual lab from
 `state.request_lab`; the page keeps the step's state and draws what the work returns."""
 from __future__ import annotations
 
@@ -60,7 +60,7 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         self._conditions_count = 0
         self._build()
         state.projectChanged.connect(self._context_changed)
-        state.camerasChanged.connect(lambda *_: self._update_buttons())
+        state.hardware.camerasChanged.connect(lambda *_: self._update_buttons())
         state.robotChanged.connect(self._context_changed)
         state.stereoChanged.connect(lambda *_: self._refresh_stereo())
         self._context_changed()
@@ -75,7 +75,7 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         self.live_panel = LivePanel()
         self.live_panel.next_button.clicked.connect(lambda: self.next_pose())
         self.ssd_panel = SsdPanel()
-        self.verification_panel = VerificationPanel(self.progress_row())
+        self.verification_panel = VerificationPanel(self.task.progress_row())
         self.verification_panel.verify_button.clicked.connect(lambda: self.verify())
         self.verification_panel.pointsArrived.connect(self._verification_so_far)
         self.compare_panel = ComparePanel()
@@ -116,7 +116,7 @@ class MarkerPage(MarkerAutopilot, WizardPage):
 
     def _context_changed(self, *_) -> None:
         """Another project or robot: start again, from the project's saved marker if any."""
-        self.forget_task()
+        self.task.forget()
         self._preview = False
         self._set_trained(None, np.zeros(2), None)
         self.training_panel.clear()
@@ -176,7 +176,7 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         self.stereo_bar.draw(src, self.state.virtual)
         self._update_buttons()
         changed = self.changed_inputs() if self.state.project is not None else []
-        if changed and not self.busy:
+        if changed and not self.task.busy:
             self._set_status(out_of_date("the marker's verification", changed, AGAIN), False)
             self.notify_complete()
 
@@ -198,10 +198,10 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         self._update_buttons()
 
     def _update_buttons(self) -> None:
-        busy = self.busy
+        busy = self.task.busy
         has_project = self.state.project is not None
         virtual = self.state.virtual and self.state.robot is not None
-        live = self.state.cameras is not None
+        live = self.state.hardware.cameras is not None
         tp = self.training_panel
         tp.load_button.setEnabled(not busy and has_project)
         tp.capture_button.setEnabled(not busy and has_project and (virtual or live))
@@ -223,7 +223,7 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         if not self.state.virtual or self.state.robot is None:
             self._set_status("The preview needs a virtual-lab project with a robot.", False)
             return False
-        announce = not self.state.has_lab
+        announce = not self.state.labs.built
 
         def preview(lab: VirtualLab) -> bool:
             self._preview = True
@@ -234,7 +234,7 @@ class MarkerPage(MarkerAutopilot, WizardPage):
                 then()
             return True
 
-        return self.with_lab(preview)
+        return self.task.with_lab(preview)
 
     # -- training -----------------------------------------------------------------------------
     def load_dialog(self) -> bool:
@@ -254,15 +254,15 @@ class MarkerPage(MarkerAutopilot, WizardPage):
 
     def capture_training(self, then=None) -> bool:
         """From the left camera of the cameras opened on the Setup page; else the virtual lab's."""
-        if self.state.cameras is not None:
-            return self.start(camera_training_image, self.state.cameras, on_done=self._set_training_image,
+        if self.state.hardware.cameras is not None:
+            return self.task.start(camera_training_image, self.state.hardware.cameras, on_done=self._set_training_image,
                               label="Training image", then=then,
                               status="Taking the training image with the left camera…")
         if not self.state.virtual or self.state.robot is None:
             self._set_status("Open the two cameras on the Setup page to capture, or load an image of the marker.",
                              False)
             return False
-        return self.with_lab(lambda lab: self.start(
+        return self.task.with_lab(lambda lab: self.task.start(
             capture_training_image, lab, on_done=self._set_training_image, label="Training image", then=then,
             status="Taking the training image…"))
 
@@ -278,7 +278,7 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         if self.state.project is None:
             self._set_status("Create or open a project first (Setup step).", False)
             return False
-        return self.start(train_job, img.image, self.training_panel.crop_box(),
+        return self.task.start(train_job, img.image, self.training_panel.crop_box(),
                           float(self.training_panel.size_spin.value()), img.source, on_done=self._trained,
                           label="Training the marker", then=then,
                           status="Training: outline, edges, SIFT features of the marker and of simulated "
@@ -322,26 +322,26 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         locator = self._ready_locator()
         if locator is None:
             return False
-        if self.state.cameras is not None:
+        if self.state.hardware.cameras is not None:
             self._live_count += 1
-            return self.start(camera_live_pair, self.state.cameras, locator, self._live_count,
-                              self.state.robot_connection, on_done=self._live_done, label="Live pair", then=then,
+            return self.task.start(camera_live_pair, self.state.hardware.cameras, locator, self._live_count,
+                              self.state.hardware.robot_connection, on_done=self._live_done, label="Live pair", then=then,
                               status="Capturing a pair from the cameras and locating…")
 
         def go(lab: VirtualLab) -> bool:
             self._live_count += 1
-            return self.start(live_pair, lab, locator, self._live_count, int(self.state.seed),
-                              self.state.robot_connection, on_done=self._live_done, label="Live pair", then=then,
+            return self.task.start(live_pair, lab, locator, self._live_count, int(self.state.seed),
+                              self.state.hardware.robot_connection, on_done=self._live_done, label="Live pair", then=then,
                               status="Moving to a random visible pose, capturing and locating…")
 
         if not self._robot_may_move():
             return False
-        return self.with_lab(go)
+        return self.task.with_lab(go)
 
     def _robot_may_move(self) -> bool:
         """A real robot moves only when app.safety allows it (connected, not stopped, its first
         motion confirmed); the simulated robot always may."""
-        refused = motion_refused(self, self.state) if self.state.real_robot else None
+        refused = motion_refused(self, self.state) if self.state.hardware.real_robot else None
         if refused:
             self._set_status(refused, False)
         return refused is None
@@ -386,16 +386,16 @@ class MarkerPage(MarkerAutopilot, WizardPage):
             details = project.path(Output.STEREO_DETAILS) if project is not None and self.stereo.kind == "file" else None
             covariance = stereo_parameter_covariance(rect.calibration if rect is not None else None, details,
                                                      self.state.stereo)
-            return self.start(run_verification, lab, locator, n, int(self.state.seed), self._verify_count,
-                              self.stereo.label, self.state.robot_connection, covariance, on_done=self._verified,
+            return self.task.start(run_verification, lab, locator, n, int(self.state.seed), self._verify_count,
+                              self.stereo.label, self.state.hardware.robot_connection, covariance, on_done=self._verified,
                               shown=self.verification_panel.pointsArrived.emit,
                               label="Verification", then=then, status=f"Verification over {n} random poses…")
 
-        return self.with_lab(go)
+        return self.task.with_lab(go)
 
     def _verification_so_far(self, v: VerificationResult) -> None:
         """The poses measured so far, drawn while the verification runs (a late one is dropped)."""
-        if self.busy and self._verifying == self._verify_count:
+        if self.task.busy and self._verifying == self._verify_count:
             self.verification_panel.draw(v, running=True)
 
     def _verified(self, v: VerificationResult) -> None:
@@ -438,7 +438,7 @@ class MarkerPage(MarkerAutopilot, WizardPage):
             self._set_status("The marker comparison renders its views in the virtual lab.", False)
             return False
         self.tabs.setCurrentIndex(TAB_COMPARE)
-        return self.with_lab(lambda lab: self.start(
+        return self.task.with_lab(lambda lab: self.task.start(
             run_comparison, lab, self.compare_panel.compare_spin.value(), int(self.state.seed),
             on_done=self._compared, label="Comparing markers", status="Comparing the candidate markers…"))
 
@@ -468,11 +468,11 @@ class MarkerPage(MarkerAutopilot, WizardPage):
 
         def go(lab: VirtualLab) -> bool:
             self._conditions_count += 1
-            return self.start(conditions_pair, lab, locator, conditions, self._conditions_count, int(self.state.seed),
+            return self.task.start(conditions_pair, lab, locator, conditions, self._conditions_count, int(self.state.seed),
                               on_done=self._conditions_shown, label="Conditions", then=then,
                               status="Rendering the marker under these conditions and locating it…")
 
-        return self.with_lab(go)
+        return self.task.with_lab(go)
 
     def _conditions_shown(self, pair: ConditionsPair) -> None:
         self.conditions_panel.draw_pair(pair)
@@ -490,7 +490,7 @@ class MarkerPage(MarkerAutopilot, WizardPage):
         pairs = self.conditions_panel.pairs_spin.value()
         side = self.conditions_panel.side_combo.currentText()
         self.tabs.setCurrentIndex(TAB_CONDITIONS)
-        return self.with_lab(lambda lab: self.start(
+        return self.task.with_lab(lambda lab: self.task.start(
             run_sweep, lab, locator, pairs, int(self.state.seed), side, on_done=self._swept, label="Conditions sweep",
             then=then, status=f"Sweeping light, occlusion and tilt, {pairs} pairs per value…"))
 

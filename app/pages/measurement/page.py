@@ -1,7 +1,7 @@
 """Step 5, Measurement: drive the robot through the pose list, capture, locate, write as it goes.
 
 The page runs app.jobs.measurement.measure_virtual (core.measurement.run.run_measurements) on a
-worker thread: for each pose the robot (``state.robot_connection``; in the virtual lab a
+worker thread: for each pose the robot (``state.hardware.robot_connection``; in the virtual lab a
 SimulatedRobot, which refuses joint values outside the limits) moves, both cameras capture
 (virtual lab: the pair rendered with a per-pose seeded generator), the marker is located
 (core.marker.location.MarkerLocator with the trained marker and the project's stereo.yaml) and
@@ -80,12 +80,12 @@ class MeasurementPage(RunMixin, TeachMixin, WizardPage):
         state.posesChanged.connect(lambda *_: self._poses_changed())
         state.markerChanged.connect(lambda *_: self._sources_changed())
         state.stereoChanged.connect(lambda *_: self._sources_changed())
-        state.connectionChanged.connect(self._connection_changed)
-        state.camerasChanged.connect(lambda *_: self._update_mode())
+        state.hardware.connectionChanged.connect(self._connection_changed)
+        state.hardware.camerasChanged.connect(lambda *_: self._update_mode())
         self._context_changed()
 
     def _build(self) -> None:
-        self.controls = RunControls(self.progress_row(), on_load=self.load_dialog, on_start=self.start_run,
+        self.controls = RunControls(self.task.progress_row(), on_load=self.load_dialog, on_start=self.start_run,
                                     on_pause=self._pause_toggled, on_start_over=self.start_over,
                                     on_teach=self._teach_toggled)
         self.table = PoseTable()
@@ -145,16 +145,16 @@ class MeasurementPage(RunMixin, TeachMixin, WizardPage):
             self._show_views()
 
     def _poses_changed(self) -> None:
-        if not self.busy and self.loaded_csv is None:
+        if not self.task.busy and self.loaded_csv is None:
             self._load_poses()
 
     def _sources_changed(self) -> None:
-        if not self.busy:
+        if not self.task.busy:
             self._show_sources()
             self._show_views()
 
     def _context_changed(self, *_) -> None:
-        self.forget_task()
+        self.task.forget()
         self._run_id += 1
         self._pause.clear()
         self.loaded_csv = None
@@ -186,7 +186,7 @@ class MeasurementPage(RunMixin, TeachMixin, WizardPage):
         self._redraw()
         if problem:
             self._set_status(problem, False)
-        elif not self.busy:
+        elif not self.task.busy:
             self._ready_status()
         if self.is_complete() and self.state.measurements is None:
             self.state.set_measurements(self.measurements_path())      # measured in an earlier session
@@ -203,7 +203,7 @@ class MeasurementPage(RunMixin, TeachMixin, WizardPage):
 
     def load_csv(self, path: str | Path) -> bool:
         """Measure the poses of this CSV (they go to the project's measurements.csv)."""
-        if self.busy:
+        if self.task.busy:
             return False
         if self.state.robot is None:
             self._set_status("Choose a robot model in the Setup step first.", False)
@@ -219,7 +219,7 @@ class MeasurementPage(RunMixin, TeachMixin, WizardPage):
 
     # -- WizardPage -------------------------------------------------------------------------
     def on_enter(self) -> None:
-        if not self.busy:
+        if not self.task.busy:
             self._load_poses()
         self.notify_complete()
 
@@ -239,7 +239,7 @@ class MeasurementPage(RunMixin, TeachMixin, WizardPage):
         if self.state.project is None or self.state.robot is None:
             done(False, "no project or robot model (Setup step)")
             return
-        if self.busy:
+        if self.task.busy:
             done(False, "the page is busy")
             return
         self._load_poses()
@@ -273,10 +273,10 @@ class MeasurementPage(RunMixin, TeachMixin, WizardPage):
         on_disk = path is not None and (path.exists() or rejects_path_for(path).exists())
         done_before = any(r.status != PENDING for r in self.rows)
         pending = bool(self._pending())
-        self.controls.set_buttons(busy=self.busy, can_start=self.poses is not None and pending,
+        self.controls.set_buttons(busy=self.task.busy, can_start=self.poses is not None and pending,
                                   resume=done_before and pending, can_start_over=done_before or on_disk,
                                   teach=self.teach_mode)
-        self.controls.teach_check.setEnabled(not self.busy and (self.state.virtual or self._drivable()))
+        self.controls.teach_check.setEnabled(not self.task.busy and (self.state.virtual or self._drivable()))
         self._show_teach()
 
     def _ready_status(self) -> None:

@@ -25,7 +25,7 @@ from core.provenance import fingerprint, record_inputs, recorded_inputs
 
 
 class RunMixin:
-    """Start / Measure the rest through `TaskMixin.start` once the lab exists; the pause event and the run
+    """Start / Measure the rest through the page's task once the lab exists; the pause event and the run
     id (the poses an older run reports are dropped) are the run's own."""
 
     def _inputs(self):
@@ -46,7 +46,7 @@ class RunMixin:
 
     def _robot_ready(self) -> bool:
         """The robot connection can move (else the reason in the status line)."""
-        driver = self.state.robot_connection
+        driver = self.state.hardware.robot_connection
         if driver is None:
             self._set_status("No robot connection (Setup step).", False)
             return False
@@ -58,7 +58,7 @@ class RunMixin:
 
     def start_run(self) -> bool:
         """Start the run, or resume it after the last measured or rejected pose."""
-        if self.busy:
+        if self.task.busy:
             return False
         try:
             self._inputs()
@@ -73,26 +73,26 @@ class RunMixin:
             if refused:
                 self._set_status(refused, False)
                 return False
-            if self.state.cameras is not None:
+            if self.state.hardware.cameras is not None:
                 return self._measure(None)
         elif not self._robot_ready():
             return False
         # the lab first (it replaces the simulated robot connection, renders the pairs), then the run
-        return self.with_lab(self._measure)
+        return self.task.with_lab(self._measure)
 
     @property
     def on_hardware(self) -> bool:
         """The run goes over a serial robot or the chosen cameras, not the virtual lab alone."""
         state = self.state
-        return state.real_robot or state.cameras is not None or not state.virtual
+        return state.hardware.real_robot or state.hardware.cameras is not None or not state.virtual
 
     def _hardware_refused(self) -> str | None:
         """Why the robot may not go through the poses still to measure (None: it may; the first
         motion of a real robot is confirmed here)."""
         state = self.state
-        if state.cameras is None and not state.virtual:
+        if state.hardware.cameras is None and not state.virtual:
             return "No cameras: open the two cameras on the Setup page."
-        driver = state.robot_connection
+        driver = state.hardware.robot_connection
         lost = getattr(driver, "lost", None)
         if lost:
             return (f"The connection to the robot is lost ({lost}). Connect the robot again on the Setup page, "
@@ -120,10 +120,10 @@ class RunMixin:
         self._made_from = (fingerprint(measurement_inputs(self.state.project)), done == 0)
         status = (f"Measuring {pending} pose{'s' if pending != 1 else ''}"
                   + (f" (continuing after the {done} done earlier)" if done else "") + "… Esc stops the robot.")
-        driver, path = self.state.robot_connection, self.measurements_path()
+        driver, path = self.state.hardware.robot_connection, self.measurements_path()
         if self.on_hardware:
             try:
-                source = capture_source(self.state.cameras, lab=lab, driver=driver, seed=int(self.state.seed))
+                source = capture_source(self.state.hardware.cameras, lab=lab, driver=driver, seed=int(self.state.seed))
             except RoboCalError as exc:
                 self._set_status(f"Cannot measure: {exc.message}", False)
                 self._finish_autopilot(False, exc.message)
@@ -131,7 +131,7 @@ class RunMixin:
             job, args = measure_hardware, (self.poses, path, trained, src.rect, driver, source)
         else:
             job, args = measure_virtual, (self.poses, path, trained, src.rect, driver, lab, int(self.state.seed))
-        return self.start(job, *args, paused=self._pause.is_set,
+        return self.task.start(job, *args, paused=self._pause.is_set,
                           report=lambda outcome, thumb: self.poseDone.emit(run_id, outcome, thumb),
                           on_done=self._finished, on_failed=self._run_failed, on_cancelled=self._run_cancelled,
                           label="Measuring", status=status)
@@ -144,17 +144,14 @@ class RunMixin:
             self._pause.set()
         else:
             self._pause.clear()
-        if self.busy:
+        if self.task.busy:
             self._set_status("Paused after the current pose: Continue when ready." if on else "Measuring…", None)
 
-    def cancel(self) -> None:
-        waiting = self.waiting_for_lab
-        super().cancel()
-        if not waiting and self.busy:
+    def on_cancel_requested(self) -> None:
+        if not self.task.waiting_for_lab and self.task.busy:
             self._set_status("Cancelling after the current pose…", None)
 
-    def _task_progress(self, fraction: float, message: str) -> None:
-        super()._task_progress(fraction, message)
+    def on_progress(self, fraction: float, message: str) -> None:
         if message.startswith("pose "):            # "pose <id> (k/n)": that pose is being measured
             try:
                 pid = int(message.split()[1])
@@ -206,7 +203,7 @@ class RunMixin:
                 self._set_status(f"The record of the run's inputs was not written: {exc.message}", False)
 
     def _robot_stopped(self) -> bool:
-        driver = self.state.robot_connection
+        driver = self.state.hardware.robot_connection
         return driver is not None and driver.stopped
 
     def _stopped_text(self, kept: str) -> str:
@@ -220,7 +217,7 @@ class RunMixin:
         kept = f"{c[MEASURED]} measured and {c[REJECTED]} rejected poses are in {result.measurements_path.name}"
         if result.fault:
             if self._robot_stopped():                 # the run stopped the robot: the window offers Resume
-                self.state.stoppedChanged.emit(True)
+                self.state.hardware.stoppedChanged.emit(True)
             nxt = self._next_pose_text()
             self._set_status(f"✗ Stopped before pose {nxt}: {result.fault.rstrip('.')}. {kept}; Measure the rest starts "
                              f"at pose {nxt} (connect the robot again on the Setup page first).", False)
@@ -274,7 +271,7 @@ class RunMixin:
     def start_over(self, confirm: bool = True) -> bool:
         """Move measurements.csv and its rejects file aside (renamed with the time), so that
         every pose is measured again. Nothing is deleted."""
-        if self.busy or self.state.project is None:
+        if self.task.busy or self.state.project is None:
             return False
         path = self.measurements_path()
         files = [p for p in (path, rejects_path_for(path)) if p.exists()]

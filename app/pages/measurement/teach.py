@@ -25,12 +25,12 @@ class TeachMixin:
     # -- mode ------------------------------------------------------------------------------
     def _drivable(self) -> bool:
         """RoboCal can move the connected robot."""
-        driver = self.state.robot_connection
+        driver = self.state.hardware.robot_connection
         return driver is not None and driver.connected and driver.info.can_move
 
     def _readable(self):
         """The connected driver when its joints can be read now, else None."""
-        driver = self.state.robot_connection
+        driver = self.state.hardware.robot_connection
         if driver is None or not driver.connected or getattr(driver, "lost", None):
             return None
         return driver
@@ -67,7 +67,7 @@ class TeachMixin:
             total = sum(self.splitter.sizes()) or 560
             self.splitter.setSizes([total * 9 // 20, 0, total * 11 // 20] if teach else [total // 2, total // 2, 0])
         self._update_buttons()
-        if not self.busy and self.poses is not None:
+        if not self.task.busy and self.poses is not None:
             self._ready_status()
 
     # -- the next pose ---------------------------------------------------------------------
@@ -90,7 +90,7 @@ class TeachMixin:
             self.teach.show_pose(pose_html(row.pose, f"{left} of {len(self.rows)} still to measure", model,
                                            self.poses.q_file[row.index]), arm)
         self._typed_changed(self.teach.joints_edit.text())
-        self.teach.set_enabled(busy=self.busy, can_read=self._readable() is not None, has_pose=row is not None)
+        self.teach.set_enabled(busy=self.task.busy, can_read=self._readable() is not None, has_pose=row is not None)
 
     def _typed_changed(self, text: str) -> None:
         """Check the typed values against the limits and the plan as they are typed."""
@@ -115,7 +115,7 @@ class TeachMixin:
     # -- recording -------------------------------------------------------------------------
     def record_pose(self) -> bool:
         """Record the pose shown where the robot is now (a worker task); False when refused."""
-        if self.busy:
+        if self.task.busy:
             return False
         try:
             trained, src = self._inputs()
@@ -134,7 +134,7 @@ class TeachMixin:
             except RoboCalError as exc:
                 self._set_status(f"✗ Pose {row.pose} not recorded: {exc.problem}. {exc.hint or ''}".strip(), False)
                 return False
-            if self.state.cameras is None and self.state.virtual:
+            if self.state.hardware.cameras is None and self.state.virtual:
                 self._set_status("The virtual lab's cameras see the simulated robot: read its joints from the "
                                  "controller (jog it on the Setup page), or open cameras.", False)
                 return False
@@ -142,15 +142,15 @@ class TeachMixin:
 
         def go(lab):
             try:
-                source = capture_source(self.state.cameras, lab=lab, driver=driver, seed=int(self.state.seed))
+                source = capture_source(self.state.hardware.cameras, lab=lab, driver=driver, seed=int(self.state.seed))
             except RoboCalError as exc:
                 self._set_status(f"Cannot record: {exc.message}", False)
                 return False
-            return self.start(record_taught_pose, row.pose, planned, path, trained, src.rect, source, model,
+            return self.task.start(record_taught_pose, row.pose, planned, path, trained, src.rect, source, model,
                               driver=driver, q_typed_file=typed, on_done=self._taught, on_failed=self._teach_failed,
                               label="Recording", status=f"Recording pose {row.pose}…")
 
-        return self.with_lab(go) if self.state.cameras is None and self.state.virtual else go(None)
+        return self.task.with_lab(go) if self.state.hardware.cameras is None and self.state.virtual else go(None)
 
     def _taught(self, taught) -> None:
         outcome = taught.outcome

@@ -39,7 +39,7 @@ class PosesPage(WizardPage):
         # the widgets tests and the autopilot reach by name
         self.count_spin, self.candidates_spin = self.controls.count_spin, self.controls.candidates_spin
         self.select_button = self.controls.select_button
-        self.cancel_button = self.progress_row().cancel_button
+        self.cancel_button = self.task.progress_row().cancel_button
         self.curve_plot, self.summary, self.facts = (self.results.curve_plot, self.results.summary,
                                                      self.results.facts)
         self.views, self.table = self.results.views, self.results.table
@@ -48,7 +48,7 @@ class PosesPage(WizardPage):
         layout.setContentsMargins(0, 0, 0, 0)
         layout.setSpacing(6)
         layout.addWidget(self.controls)
-        layout.addWidget(self.progress_row())
+        layout.addWidget(self.task.progress_row())
         layout.addWidget(self.results, 1)
         layout.addWidget(self.status)
 
@@ -71,7 +71,7 @@ class PosesPage(WizardPage):
 
     def _context_changed(self, *_):
         """Another project or robot: the selection no longer applies."""
-        self.forget_task()
+        self.task.forget()
         self.result = None
         self.loaded = None
         self._load_existing()
@@ -110,7 +110,7 @@ class PosesPage(WizardPage):
             self._finish_autopilot(False, self.status.text() or "pose selection could not start")
 
     def on_busy_changed(self) -> None:
-        self.controls.set_busy(self.busy)
+        self.controls.set_busy(self.task.busy)
 
     def on_cancelled(self) -> None:
         kept = " The previous selection is kept." if self.is_complete() else ""
@@ -121,7 +121,7 @@ class PosesPage(WizardPage):
     def start_selection(self) -> bool:
         """Select poses with the controls' settings: in the virtual lab (asked for first) or, for
         a hardware project, among every feasible pose of the robot."""
-        if self.busy:
+        if self.task.busy:
             return False
         robot = self.state.robot
         if robot is None:
@@ -130,9 +130,9 @@ class PosesPage(WizardPage):
         count, options = self.controls.count(), self.controls.options()
         status = f"Selecting {count} poses by {SHORT[options['index']]}…"
         if not self.state.virtual:
-            return self.start(run_pose_selection, robot, count, on_done=self._selected, status=status,
+            return self.task.start(run_pose_selection, robot, count, on_done=self._selected, status=status,
                               label="Selecting poses", **options)
-        return self.start_with_lab(run_pose_selection, robot, count, on_done=self._selected, status=status,
+        return self.task.start_with_lab(run_pose_selection, robot, count, on_done=self._selected, status=status,
                                    label="Selecting poses", **options)
 
     def _selected(self, r: PoseSelectionResult) -> None:
@@ -162,7 +162,7 @@ class PosesPage(WizardPage):
 
     def _show(self) -> None:
         self._draw()
-        if self.result is None and self.loaded is None and not self.busy:
+        if self.result is None and self.loaded is None and not self.task.busy:
             if self.state.robot is None:
                 self._set_status("Choose a robot model in the Setup step first.", ok=False)
             else:

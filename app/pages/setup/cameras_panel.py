@@ -69,7 +69,7 @@ class CameraPanel(QGroupBox):
         layout.addWidget(self.sources_form)
         layout.addWidget(self.preview, 1)
         layout.addWidget(self.status_label)
-        self.state.camerasChanged.connect(self._cameras_changed)
+        self.state.hardware.camerasChanged.connect(self._cameras_changed)
         self.state.projectChanged.connect(self.restore)
         self.refresh()
 
@@ -99,8 +99,8 @@ class CameraPanel(QGroupBox):
             edit.setText(path)
 
     def _kind_toggled(self, virtual: bool) -> None:
-        if virtual and self.state.cameras is not None:
-            self.state.set_cameras(None)
+        if virtual and self.state.hardware.cameras is not None:
+            self.state.hardware.set_cameras(None)
         self.refresh()
 
     # -- actions (tests call them) -------------------------------------------------------
@@ -108,11 +108,11 @@ class CameraPanel(QGroupBox):
         self.sources_radio.setChecked(True)
         choice = self.choice()
         self.stop_preview()
-        return self.page.start(open_cameras, choice, self.settings_form.settings(), on_done=lambda cams: self.state.set_cameras(cams, choice),
+        return self.page.task.start(open_cameras, choice, self.settings_form.settings(), on_done=lambda cams: self.state.hardware.set_cameras(cams, choice),
                                label="Opening the cameras", status="Opening the cameras…")
 
     def start_preview(self) -> None:
-        cams = self.state.cameras
+        cams = self.state.hardware.cameras
         if cams is None or (self.pump is not None and self.pump.running):
             return
         self.pump = PreviewPump(cams, self)
@@ -138,8 +138,8 @@ class CameraPanel(QGroupBox):
     def _cameras_changed(self, cams) -> None:
         self.stop_preview()
         self.preview.clear()
-        if cams is not None and self.state.camera_changes:
-            self.page._set_status("⚠ Not the cameras this project used: " + "; ".join(self.state.camera_changes)
+        if cams is not None and self.state.hardware.camera_changes:
+            self.page._set_status("⚠ Not the cameras this project used: " + "; ".join(self.state.hardware.camera_changes)
                                   + ". Check the cables (left and right) before capturing.", False)
         elif cams is not None:
             self.page._set_status("✓ Cameras open.", True)
@@ -157,10 +157,10 @@ class CameraPanel(QGroupBox):
         self.page._set_status(f"The preview stopped: {message}", False)
 
     def refresh(self, *_) -> None:
-        cams = self.state.cameras
+        cams = self.state.hardware.cameras
         sources = self.sources_radio.isChecked()
         self.sources_form.setEnabled(sources)
-        self.open_button.setEnabled(sources and not self.page.busy)
+        self.open_button.setEnabled(sources and not self.page.task.busy)
         running = self.pump is not None and self.pump.running
         self.preview_button.setEnabled(cams is not None)
         self.preview_button.setText("Stop preview" if running else "Start preview")
@@ -172,6 +172,6 @@ class CameraPanel(QGroupBox):
             self.status_label.setText("Give the left and right camera, then Open cameras. Auto focus is switched "
                                       "off and the MJPG format asked for, so both cameras fit on the USB bus.")
         else:
-            changed = "".join(f"<br><b style='color:#c5221f'>⚠ {esc(c)}</b>" for c in self.state.camera_changes)
+            changed = "".join(f"<br><b style='color:#c5221f'>⚠ {esc(c)}</b>" for c in self.state.hardware.camera_changes)
             self.status_label.setText(esc(cams.describe()) + changed + "<br>"
                                       + actual_table(cams.source.left, cams.source.right))

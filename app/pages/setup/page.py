@@ -96,7 +96,7 @@ class SetupPage(WizardPage):
         state.projectChanged.connect(self._refresh)
         state.cellChanged.connect(self._cell_changed)
         state.robotChanged.connect(self._refresh)
-        state.connectionChanged.connect(self._refresh)
+        state.hardware.connectionChanged.connect(self._refresh)
         self._refresh()
 
     def _build_project_box(self) -> QGroupBox:

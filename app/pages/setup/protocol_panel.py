@@ -90,19 +90,19 @@ class ProtocolPanel(QGroupBox):
 
         robot.profile_combo.currentTextChanged.connect(self._profile_changed)
         robot.connecting.connect(self.close_probe)          # one reader per port
-        self.state.connectionChanged.connect(self._connection_changed)
+        self.state.hardware.connectionChanged.connect(self._connection_changed)
         self._profile_changed()
 
     # -- choices -------------------------------------------------------------------------
     def profile(self):
-        driver = self.state.robot_connection
-        if self.state.real_robot and driver is not None:
+        driver = self.state.hardware.robot_connection
+        if self.state.hardware.real_robot and driver is not None:
             return driver.profile
         return load_profile(self.robot.profile_combo.currentText())
 
     def _controller_values(self):
-        driver = self.state.robot_connection
-        if self.state.real_robot and self.robot.joints is not None:
+        driver = self.state.hardware.robot_connection
+        if self.state.hardware.real_robot and self.robot.joints is not None:
             return driver.joint_map.to_controller(self.robot.joints)
         return self.values
 
@@ -135,7 +135,7 @@ class ProtocolPanel(QGroupBox):
         self._fill_templates()
 
     def _connection_changed(self, *_) -> None:
-        if self.state.real_robot:
+        if self.state.hardware.real_robot:
             self.close_probe()                  # one reader per port
         self._fill_templates()
         self.refresh()
@@ -149,9 +149,9 @@ class ProtocolPanel(QGroupBox):
             return False
         move = self._templates.get(next((k for k in self._templates if k.startswith("move")), ""), ())
         allowed = move[0] if move else None
-        driver = self.state.robot_connection
-        if self.state.real_robot and driver is not None:
-            return self.page.start(exchange_on_driver, driver, commands, allowed, on_done=self._show,
+        driver = self.state.hardware.robot_connection
+        if self.state.hardware.real_robot and driver is not None:
+            return self.page.task.start(exchange_on_driver, driver, commands, allowed, on_done=self._show,
                                    on_failed=self._failed, label="Protocol test", status=f"Sending {text}…")
         try:
             profile = self.profile()
@@ -159,7 +159,7 @@ class ProtocolPanel(QGroupBox):
             self.page._set_status(exc.message, False)
             return False
         choice = self.robot.choice()
-        return self.page.start(exchange_on_port, self.probe, profile, choice.port, choice.baud, commands, allowed,
+        return self.page.task.start(exchange_on_port, self.probe, profile, choice.port, choice.baud, commands, allowed,
                                on_done=self._opened_and_shown, on_failed=self._failed, label="Protocol test",
                                status=f"Sending {text}…")
 
@@ -209,6 +209,6 @@ class ProtocolPanel(QGroupBox):
         self.refresh()
 
     def refresh(self, *_) -> None:
-        busy = self.page.busy
+        busy = self.page.task.busy
         self.send_button.setEnabled(not busy)
         self.close_button.setEnabled(self.probe is not None and not busy)

@@ -3,7 +3,7 @@ serial port (port, protocol profile, joint map file, baud rate, speed), and a te
 (the controller's answer to HELLO shown), read the joints, move one joint a small step inside
 its limits (the first motion of a real robot is confirmed), Stop and Resume.
 
-Everything that waits for the controller runs on the page's worker (TaskMixin.start); Stop
+Everything that waits for the controller runs on the page's worker (page.task.start); Stop
 calls the driver from the GUI thread at once, also during a move."""
 from __future__ import annotations
 
@@ -58,10 +58,10 @@ class RobotPanel(QGroupBox):
         layout.addWidget(self.simulator_row)
         layout.addLayout(test)
 
-        self.state.connectionChanged.connect(self.refresh)
+        self.state.hardware.connectionChanged.connect(self.refresh)
         self.state.robotChanged.connect(self._robot_changed)
         self.state.projectChanged.connect(self.restore)
-        self.state.stoppedChanged.connect(self.refresh)
+        self.state.hardware.stoppedChanged.connect(self.refresh)
         self._robot_changed()
 
     def _build_serial_form(self) -> QWidget:
@@ -163,8 +163,8 @@ class RobotPanel(QGroupBox):
             self.joint_map_edit.setText(path)
 
     def _kind_toggled(self, virtual: bool) -> None:
-        if virtual and self.state.robot_choice.real:
-            self.state.use_virtual_robot()
+        if virtual and self.state.hardware.robot_choice.real:
+            self.state.hardware.use_virtual_robot()
             self.joints = None
         self.refresh()
 
@@ -176,28 +176,28 @@ class RobotPanel(QGroupBox):
         self.serial_radio.setChecked(True)
         choice = self.choice()
         self.connecting.emit()
-        return self.page.start(connect_serial, self.state.robot, choice, float(self.speed_spin.value()),
+        return self.page.task.start(connect_serial, self.state.robot, choice, float(self.speed_spin.value()),
                                on_done=lambda c: self._connected(c, choice), label="Connecting the robot",
                                status=f"Connecting to {choice.port or '(no port)'}…")
 
     def _connected(self, c: Connected, choice: RobotChoice) -> None:
-        self.state.use_serial_robot(c.driver, choice)
+        self.state.hardware.use_serial_robot(c.driver, choice)
         self.joints = c.joints
         self.page._set_status(f"✓ Connected: {c.info.name}, {c.info.dof} joints.", True)
         self.refresh()
 
     def disconnect_robot(self) -> None:
-        self.state.use_virtual_robot()
+        self.state.hardware.use_virtual_robot()
         self.virtual_radio.setChecked(True)
         self.joints = None
         self.refresh()
 
     def read_joints(self) -> bool:
-        driver = self.state.robot_connection
+        driver = self.state.hardware.robot_connection
         if driver is None:
             self.page._set_status("No robot connected.", False)
             return False
-        return self.page.start(read_joints, driver, on_done=self._joints_read, label="Reading the joints")
+        return self.page.task.start(read_joints, driver, on_done=self._joints_read, label="Reading the joints")
 
     def read_again(self) -> bool:
         """The joints shown were read before another step moved the robot: forget them (a jog
@@ -206,8 +206,8 @@ class RobotPanel(QGroupBox):
             return False
         self.joints = None
         self.refresh()
-        driver = self.state.robot_connection
-        if driver is None or not driver.connected or self.page.busy:
+        driver = self.state.hardware.robot_connection
+        if driver is None or not driver.connected or self.page.task.busy:
             return False
         return self.read_joints()
 
@@ -238,16 +238,16 @@ class RobotPanel(QGroupBox):
         if refused:
             self.page._set_status(refused, False)
             return False
-        return self.page.start(move_and_read, self.state.robot_connection, target, on_done=self._joints_read,
+        return self.page.task.start(move_and_read, self.state.hardware.robot_connection, target, on_done=self._joints_read,
                                label="Test move", status="Moving… (Esc stops)")
 
     def stop_robot(self) -> None:
-        if self.state.stop_robot():
+        if self.state.hardware.stop_robot():
             self.page._set_status("Robot stopped. Resume when the way is clear.", False)
 
     def resume_robot(self) -> None:
         try:
-            self.state.resume_robot()
+            self.state.hardware.resume_robot()
         except RoboCalError as exc:                       # a controller refusing to unlock
             self.page._set_status(f"Cannot resume: {exc.message}", False)
             return
@@ -261,7 +261,7 @@ class RobotPanel(QGroupBox):
         for i, joint in enumerate(model.joints if model is not None else ()):
             self.joint_combo.addItem(joint.name or f"J{i + 1}")
         self.joint_combo.blockSignals(False)
-        if self.state.robot_connection is None or not self.state.real_robot:
+        if self.state.hardware.robot_connection is None or not self.state.hardware.real_robot:
             self.joints = None
         self.refresh()
 
@@ -279,12 +279,12 @@ class RobotPanel(QGroupBox):
 
     def refresh(self, *_) -> None:
         state = self.state
-        driver = state.robot_connection
+        driver = state.hardware.robot_connection
         serial = self.serial_radio.isChecked()
         self.serial_form.setEnabled(serial)
-        busy = self.page.busy
+        busy = self.page.task.busy
         connected = driver is not None and driver.connected
-        real = state.real_robot
+        real = state.hardware.real_robot
         waiting = serial and not real           # Serial chosen, no serial robot connected (yet)
         self.connect_button.setEnabled(serial and not busy)
         self.disconnect_button.setEnabled(real and not busy)

@@ -47,7 +47,7 @@ class SimulatorRow(QWidget):
             layout.addWidget(w)
         layout.setContentsMargins(18, 0, 0, 0)
         self.setLayout(layout)
-        self.state.simulatorChanged.connect(self.refresh)
+        self.state.hardware.simulatorChanged.connect(self.refresh)
         self.refresh()
 
     def start(self) -> bool:
@@ -55,23 +55,23 @@ class SimulatorRow(QWidget):
             self.page._set_status("Choose the robot model first: the simulator serves that robot.", False)
             return False
         protocol = self.protocol_combo.currentData()
-        return self.page.start(start_simulator, self.state.robot, protocol, int(self.seed_spin.value()),
+        return self.page.task.start(start_simulator, self.state.robot, protocol, int(self.seed_spin.value()),
                                float(self.state.noise), on_done=lambda sim: self._started(sim, protocol),
                                label="Starting the simulator", status="Starting the controller simulator…")
 
     def _started(self, sim: ControllerSim, protocol: str) -> None:
-        self.state.set_simulator(sim)
+        self.state.hardware.set_simulator(sim)
         self.robot.serial_radio.setChecked(True)
         self.robot.port_edit.setText(sim.port)
         self.robot.profile_combo.setCurrentText(PROFILES[protocol])
         self.page._set_status(f"✓ Simulator serving on {sim.port}. Press Connect.", True)
 
     def stop(self) -> None:
-        self.state.set_simulator(None)
+        self.state.hardware.set_simulator(None)
 
     def refresh(self, *_) -> None:
-        sim = self.state.simulator
-        busy = self.page.busy
+        sim = self.state.hardware.simulator
+        busy = self.page.task.busy
         self.start_button.setEnabled(sim is None and not busy)
         self.stop_button.setEnabled(sim is not None)
         self.protocol_combo.setEnabled(sim is None)

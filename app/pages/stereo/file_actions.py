@@ -45,7 +45,7 @@ class StereoFileActions:
         """Make another tool's stereo calibration (one file, a pair, or ROS left + right) the
         project's stereo.yaml; the page's own pairs and calibration stay as they are."""
         project = self.state.project
-        if project is None or self.busy:
+        if project is None or self.task.busy:
             self._set_status("No project: create or open one in the Setup step (1)." if project is None
                              else "Busy: wait for the running task or cancel it.", ok=False)
             return None

@@ -1,4 +1,4 @@
-"""The Stereo page's queue of worker jobs, run one after the other with TaskMixin.start
+"""The Stereo page's queue of worker jobs, run one after the other with the page's task
 (detection in small batches, so thumbnails fill in between), and the wait for the virtual
 lab (`state.request_lab`) before rendering. The queue's progress covers all its jobs."""
 from __future__ import annotations
@@ -33,26 +33,25 @@ class JobQueueMixin:
         fn, label, on_done = self._queue.pop(0)
         total = max(self._queue_total, 1)
         share = (self._queue_done / total, (self._queue_done + 1) / total)
-        self.start(_share(fn, *share), on_done=on_done, then=self._job_ended, label=label)
+        self.task.start(_share(fn, *share), on_done=on_done, then=self._job_ended, label=label)
 
     def _job_ended(self) -> None:
         self._queue_done += 1
         self._next_job()
 
     def _wait_for_lab(self, then: Callable) -> None:
-        """Busy until the state's virtual lab is built; then `then(lab)` (TaskMixin's wait, which
-        Cancel and `forget_task` end)."""
-        self._follow_lab(then, self.on_failed)
+        """Busy until the state's virtual lab is built; then `then(lab)` (the page task's wait, which
+        Cancel and `task.forget` end)."""
+        self.task.follow_lab(then, self.on_failed)
 
     def _stop_jobs(self) -> None:
         self._queue.clear()
         self._queue_then = None
-        self.forget_task()
+        self.task.forget()
 
-    def cancel(self) -> None:
+    def on_cancel_requested(self) -> None:
         self._queue.clear()
         self._queue_then = None
-        super().cancel()
 
     def on_failed(self, message: str) -> None:
         self._queue.clear()

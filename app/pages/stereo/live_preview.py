@@ -53,8 +53,8 @@ class LivePreviewPanel(QGroupBox):
         layout.setSpacing(2)
         layout.addWidget(self.preview)
         layout.addLayout(marks)
-        state.camerasChanged.connect(self._cameras_changed)
-        self.setVisible(state.cameras is not None)
+        state.hardware.camerasChanged.connect(self._cameras_changed)
+        self.setVisible(state.hardware.cameras is not None)
 
     @property
     def seen(self) -> tuple[bool, bool] | None:
@@ -76,7 +76,7 @@ class LivePreviewPanel(QGroupBox):
 
     # -- the pump ---------------------------------------------------------------------------
     def start(self) -> None:
-        cams = self.state.cameras
+        cams = self.state.hardware.cameras
         if cams is None or self.pump is not None:
             return
         self._saved_seq = 0
@@ -120,11 +120,11 @@ class LivePreviewPanel(QGroupBox):
         self.preview.set_caption("")
         self.setVisible(cams is not None)
         if cams is not None and self.isVisible():
-            self.start()
+            self.task.start()
 
     def showEvent(self, event) -> None:
         super().showEvent(event)
-        self.start()
+        self.task.start()
 
     def hideEvent(self, event) -> None:
         super().hideEvent(event)

@@ -75,7 +75,7 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, StereoFileActions,
         self._board = self._default_board()
         self._build()
         state.projectChanged.connect(self._context_changed)
-        state.camerasChanged.connect(lambda *_: self.on_busy_changed())
+        state.hardware.camerasChanged.connect(lambda *_: self.on_busy_changed())
         self._context_changed()
 
     def _build(self) -> None:
@@ -83,7 +83,7 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, StereoFileActions,
         self.pairs.set_board(self._board)
         self.live = LivePreviewPanel(self.state, lambda: self._board)
         self.live.readyChanged.connect(lambda *_: self.on_busy_changed())
-        self.model = OptionsPanel(self.progress_row())
+        self.model = OptionsPanel(self.task.progress_row())
         self.results = ResultsPanel()
         self._connect_panels()
         self.save_button = button("Save stereo.yaml", "saveButton", on_click=self.save_stereo,
@@ -153,7 +153,7 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, StereoFileActions,
 
     def _default_board(self) -> Board:
         if self.state.virtual:
-            return self.state.labs.current.board if self.state.has_lab else DEFAULT_BOARD
+            return self.state.labs.current.board if self.state.labs.built else DEFAULT_BOARD
         return Board(9, 6, 24.0)
 
     def _context_changed(self, *_) -> None:
@@ -215,7 +215,7 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, StereoFileActions,
         if self.state.project is None:
             done(False, "no project (Setup step)")
             return
-        if self.busy:
+        if self.task.busy:
             done(False, "the page is busy")
             return
         self._autopilot_done = done
@@ -255,12 +255,12 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, StereoFileActions,
                                          f"baseline {r.baseline_mm:.1f} mm")
 
     def on_busy_changed(self) -> None:
-        busy, has_project, virtual = self.busy, self.state.project is not None, self.state.virtual
+        busy, has_project, virtual = self.task.busy, self.state.project is not None, self.state.virtual
         p, r = self.pairs, self.results
-        self.progress_row().bar.setVisible(busy)
+        self.task.progress_row().bar.setVisible(busy)
         for w in (p.folders_button, p.cols_spin, p.rows_spin, p.square_spin):
             w.setEnabled(not busy and has_project)
-        live = self.state.cameras is not None
+        live = self.state.hardware.cameras is not None
         for w in (p.virtual_button, p.virtual_count):
             w.setEnabled(not busy and has_project and virtual)
         ready = live and self.live.ready_pair() is not None
@@ -297,7 +297,7 @@ class StereoPage(JobQueueMixin, PairsActions, ResultsActions, StereoFileActions,
     def calibrate(self) -> bool:
         if self._board_timer.isActive():
             self.apply_board()             # a board edit not applied yet
-        if self.busy:
+        if self.task.busy:
             self._set_status("Busy: wait for the running task or cancel it.", ok=False)
             return False
         usable = self.usable_pairs()

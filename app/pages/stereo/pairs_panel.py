@@ -150,7 +150,7 @@ class PairsActions:
         if self.state.project is None:
             self._set_status("No project yet: create or open one in the Setup step (1).", ok=False)
             return False
-        if self.busy:
+        if self.task.busy:
             self._set_status("Busy: wait for the running task or cancel it.", ok=False)
             return False
         return True
@@ -231,7 +231,7 @@ class PairsActions:
             self._changed()
             self._calibration_note = " Left and right images swapped." + (
                 " The cameras opened on the Setup page are still the other way round: swap them there."
-                if self.state.cameras is not None else "")
+                if self.state.hardware.cameras is not None else "")
             if not self.calibrate():
                 self._calibration_note = ""
         self._set_status(f"Swapping left and right in {len(pairs)} pairs…")
@@ -273,7 +273,7 @@ class PairsActions:
         """With the cameras opened on the Setup page, the pair the live view shows, while the
         board is seen in both of its images (live_preview.py, saved by live_capture.py); without
         them, in the virtual lab, one pair from the lab's cameras with the board at a random pose."""
-        if self.state.cameras is not None:
+        if self.state.hardware.cameras is not None:
             pair = self.live.ready_pair()
             if pair is None:
                 self._set_status(CAMERA_TOOLTIP_NO_BOARD, ok=False)
@@ -301,7 +301,7 @@ class PairsActions:
         self._changed()
 
     def remove_pairs(self, keys: Sequence[int]) -> None:
-        if self.busy or not keys:
+        if self.task.busy or not keys:
             return
         gone = set(keys)
         for a in [a for a in self.items if a.key in gone]:
@@ -311,7 +311,7 @@ class PairsActions:
         self._report_pairs()
 
     def clear_pairs(self) -> None:
-        if self.busy:
+        if self.task.busy:
             return
         self.items.clear()
         self.pairs.strip.clear_all()
@@ -329,7 +329,7 @@ class PairsActions:
         new = self.pairs.board()
         if new == self._board:
             return
-        if self.busy:                      # after the running task
+        if self.task.busy:                      # after the running task
             self._board_timer.start()
             return
         old, self._board = self._board, new

@@ -241,7 +241,7 @@ class ResultsActions:
         if r is None or not chosen:
             self._set_status("Drag the threshold line below the bars of the pairs to drop.", ok=False)
             return False
-        if self.busy:
+        if self.task.busy:
             return False
         # by identity: pairs added or removed since the calibration renumber the others
         objects = {id(r.detections.pairs[i]) for i in chosen}

@@ -48,7 +48,7 @@ def test_lab_fixture_located_and_written(page, qtbot, lab, tmp_path):
     page.state.set_marker(lab_marker(lab))
     assert page.locate_fixture()
     assert not page.fixture.locate_button.isEnabled()
-    qtbot.waitUntil(lambda: not page.busy, timeout=TIMEOUT)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=TIMEOUT)
     run = page.fixture_run
     assert run is not None, page.status.text()
     assert "✓ Fixture located" in page.status.text()
@@ -83,7 +83,7 @@ def test_fixture_from_description_and_pairs(page, qtbot, lab, tmp_path):
     page.fixture.description_path = str(tmp_path / "fixture.json")
     page.fixture.pairs_folder = str(tmp_path / "pairs")
     assert page.locate_fixture()
-    qtbot.waitUntil(lambda: not page.busy, timeout=TIMEOUT)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=TIMEOUT)
     frame = page.fixture_run.result.frame
     assert frame.method == "three points" and page.fixture_run.true_error is None
     assert np.linalg.norm(frame.position - fixture.pose[:3, 3]) < 0.2
@@ -100,5 +100,5 @@ def test_a_missing_pair_is_one_message(page, qtbot, lab, tmp_path):
     page.fixture.description_path = str(tmp_path / "fixture.json")
     page.fixture.pairs_folder = str(tmp_path / "pairs")
     assert page.locate_fixture()
-    qtbot.waitUntil(lambda: not page.busy, timeout=TIMEOUT)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=TIMEOUT)
     assert page.fixture_run is None and "no left image of the fixture point 'A'" in page.status.text()

@@ -42,7 +42,7 @@ def page(qtbot, tmp_path):
 
 def calibrate(page):
     """This session's identification, saved as the project's calibrated.json."""
-    lab = page.state.lab
+    lab = page.state.labs.ready_now()
     result = identify(lab.nominal_robot, ideal_lab_measurements(lab, 50, sigma_mm=0.05, seed=4))
     write_calibrated_model(result, page.calibrated_path())
     page.refresh()
@@ -51,7 +51,7 @@ def calibrate(page):
 
 def run_check(page, qtbot) -> None:
     assert page.run_check()
-    qtbot.waitUntil(lambda: not page.busy, timeout=TIMEOUT)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=TIMEOUT)
     assert page.result is not None, page.status.text()
 
 
@@ -95,7 +95,7 @@ def test_a_payload_other_than_the_calibrations_is_said_after_the_check(page, qtb
 
 def test_tool_change_found_reidentified_and_back_within(page, qtbot, tmp_path):
     page.state.set_identification(calibrate(page))
-    export = ExportPage(page.state, page.tasks)
+    export = ExportPage(page.state, page.task.runner)
     qtbot.addWidget(export)
     assert export.calibrated_source() == "result"
     before = page.calibrated_path().read_text()
@@ -110,7 +110,7 @@ def test_tool_change_found_reidentified_and_back_within(page, qtbot, tmp_path):
     assert shot.stat().st_size > 10_000
 
     assert page.reidentify()
-    qtbot.waitUntil(lambda: not page.busy, timeout=TIMEOUT)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=TIMEOUT)
     assert page.update is not None, page.status.text()
     assert page.result.within and "Re-identified marker.x" in page.status.text()
     after = read_robot(page.calibrated_path())
@@ -138,7 +138,7 @@ def test_failed_reidentification_leaves_no_trace(page, qtbot):
     assert page.diagnosis.kind == "tool"
     page.controls.choose_change("link", 1.0, joint=3)    # the data of the re-identification: a bent link
     assert page.reidentify()
-    qtbot.waitUntil(lambda: not page.busy, timeout=TIMEOUT)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=TIMEOUT)
     assert page.update is None and "full calibration" in page.status.text()
     assert page.calibrated_path().read_bytes() == before
     history = page.calibrated_path().parent / "history"
@@ -148,7 +148,7 @@ def test_failed_reidentification_leaves_no_trace(page, qtbot):
 def test_log_survives_a_new_page(page, qtbot):
     calibrate(page)
     run_check(page, qtbot)
-    again = CheckPage(page.state, page.tasks)
+    again = CheckPage(page.state, page.task.runner)
     qtbot.addWidget(again)
     again.on_enter()
     assert len(again.results.overall_chart.x) == 1 and again.is_complete()
@@ -196,11 +196,11 @@ def test_two_tools_identify_the_second_then_check_with_each(two_tool_page, qtbot
     assert [page.controls.tool_combo.itemText(i) for i in range(2)] == ["gripper", "long_gripper"]
     page.controls.choose_tool("long_gripper")
     assert page.run_check()
-    qtbot.waitUntil(lambda: not page.busy, timeout=TIMEOUT)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=TIMEOUT)
     assert page.result is None and "has not been identified" in page.status.text()
 
     assert page.identify_tool()
-    qtbot.waitUntil(lambda: not page.busy, timeout=TIMEOUT)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=TIMEOUT)
     assert page.tool_update is not None, page.status.text()
     assert "Tool 'long_gripper' identified from 5 poses" in page.status.text()
     assert read_robot(page.calibrated_path()).calibration["tools"] == ["gripper", "long_gripper"]

@@ -83,7 +83,7 @@ def open_page(qtbot, state: WizardState, tasks: TaskRunner) -> CheckPage:
 
 
 def wait(page, qtbot) -> None:
-    qtbot.waitUntil(lambda: not page.busy, timeout=TIMEOUT)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=TIMEOUT)
 
 
 def test_a_tool_change_on_the_serial_robot_is_found_and_reidentified(lab, qtbot, tmp_path, confirmed):
@@ -94,8 +94,8 @@ def test_a_tool_change_on_the_serial_robot_is_found_and_reidentified(lab, qtbot,
     state, tasks = calibrated_project(lab, tmp_path / "project", cell), TaskRunner()
     try:
         choice = RobotChoice("serial", port, "robocal_v1")
-        state.use_serial_robot(open_serial_robot(state.robot, choice, reply_timeout=10.0), choice)
-        state.set_cameras(LiveCameras.open(CameraChoice("sources", str(cameras / "left"), str(cameras / "right"))))
+        state.hardware.use_serial_robot(open_serial_robot(state.robot, choice, reply_timeout=10.0), choice)
+        state.hardware.set_cameras(LiveCameras.open(CameraChoice("sources", str(cameras / "left"), str(cameras / "right"))))
         page = open_page(qtbot, state, tasks)
         assert not page.controls.change_box.isVisible()          # a real cell is never changed by simulation
         assert page.controls.cell_label.text() == (f"Measures on a real cell: the serial robot on {port} (robocal_v1), "
@@ -103,8 +103,8 @@ def test_a_tool_change_on_the_serial_robot_is_found_and_reidentified(lab, qtbot,
         before = page.calibrated_path().read_text()
 
         assert page.run_check()
-        qtbot.waitUntil(lambda: page.result is not None and not page.busy, timeout=TIMEOUT)
-        driver = state.robot_connection
+        qtbot.waitUntil(lambda: page.result is not None and not page.task.busy, timeout=TIMEOUT)
+        driver = state.hardware.robot_connection
         result, diagnosis = page.result, page.diagnosis
         assert len(page.cell.Q) == 8 and len(result.points) == 8, page.status.text()
         np.testing.assert_allclose(driver.current_joints(), page.cell.Q[-1], atol=1e-4)    # the robot moved there
@@ -118,7 +118,7 @@ def test_a_tool_change_on_the_serial_robot_is_found_and_reidentified(lab, qtbot,
         assert len(log.checks) == 1 and len(log.checks[0].points) == 8 and not log.checks[0].within
 
         assert page.reidentify()
-        qtbot.waitUntil(lambda: page.update is not None and not page.busy, timeout=TIMEOUT)
+        qtbot.waitUntil(lambda: page.update is not None and not page.task.busy, timeout=TIMEOUT)
         update = page.update
         assert len(update.proposed) >= 1 and update.after.within, page.status.text()
         assert page.result.within and "Re-identified marker.x" in page.status.text()
@@ -146,15 +146,15 @@ def test_a_real_cell_with_nothing_connected_says_so_and_measures_nothing(lab, qt
     tasks = TaskRunner()
     try:
         page = open_page(qtbot, state, tasks)
-        assert state.robot_connection is None and not state.has_lab
+        assert state.hardware.robot_connection is None and not state.labs.built
         assert "a real cell: the serial robot on /dev/ttyUSB0" in page.status.text()
         assert "no robot is connected" in page.status.text()
         assert not page.run_check()
         assert "Nothing measured: no robot is connected" in page.status.text()
         assert "never on the virtual lab" in page.status.text()
-        assert not page.busy and not state.has_lab and page.result is None
+        assert not page.task.busy and not state.labs.built and page.result is None
         assert not page.log_path().exists()
-        assert not page.choose_poses() and not page.busy
+        assert not page.choose_poses() and not page.task.busy
     finally:
         tasks.shutdown()
         state.close()
@@ -174,18 +174,18 @@ def test_a_robot_fault_ends_a_scheduled_check_keeping_the_log(lab, qtbot, tmp_pa
     state, tasks = calibrated_project(lab, tmp_path / "project", cell), TaskRunner()
     try:
         choice = RobotChoice("serial", sim.port, "robocal_v1")
-        state.use_serial_robot(open_serial_robot(state.robot, choice, reply_timeout=10.0), choice)
-        state.set_cameras(LiveCameras.open(CameraChoice("sources", str(cameras.left), str(cameras.right))))
+        state.hardware.use_serial_robot(open_serial_robot(state.robot, choice, reply_timeout=10.0), choice)
+        state.hardware.set_cameras(LiveCameras.open(CameraChoice("sources", str(cameras.left), str(cameras.right))))
         page = open_page(qtbot, state, tasks)
         page.controls.schedule_check.setChecked(True)
         assert page.schedule_timer.isActive()
         page._scheduled()                           # the timer's tick
-        qtbot.waitUntil(lambda: page.result is not None and not page.busy, timeout=TIMEOUT)
+        qtbot.waitUntil(lambda: page.result is not None and not page.task.busy, timeout=TIMEOUT)
         assert sim.fired == ["fault@3"] and page.result.cancelled
         assert len(page.result.points) == 2, page.status.text()
         assert "Robot fault: " in page.status.text() and "scheduled checks are off" in page.status.text()
         assert not page.controls.schedule_check.isChecked() and not page.schedule_timer.isActive()
-        assert state.robot_connection.stopped
+        assert state.hardware.robot_connection.stopped
         log = read_check_log(page.log_path())
         assert len(log.checks) == 1 and len(log.checks[0].points) == 2 and not log.checks[0].finished
         assert not page.run_check() and "stopped" in page.status.text()     # nothing moves before Resume
@@ -207,7 +207,7 @@ def test_teach_mode_records_each_check_pose_by_hand(lab, qtbot, tmp_path):
             "cameras": {"kind": "sources", "left": str(cameras.left), "right": str(cameras.right)}}
     state, tasks = calibrated_project(lab, tmp_path / "project", cell), TaskRunner()
     try:
-        state.set_cameras(LiveCameras.open(CameraChoice("sources", str(cameras.left), str(cameras.right))))
+        state.hardware.set_cameras(LiveCameras.open(CameraChoice("sources", str(cameras.left), str(cameras.right))))
         page = open_page(qtbot, state, tasks)
         assert page.teach.isVisible() and not page.controls.schedule_check.isEnabled()
         assert page.run_check()                     # the poses are chosen first
@@ -225,7 +225,7 @@ def test_teach_mode_records_each_check_pose_by_hand(lab, qtbot, tmp_path):
             assert f"Pose {k} recorded: marker located" in page.status.text()
         assert page.teach.check_button.isEnabled()
         assert page.run_check()
-        qtbot.waitUntil(lambda: page.result is not None and not page.busy, timeout=TIMEOUT)
+        qtbot.waitUntil(lambda: page.result is not None and not page.task.busy, timeout=TIMEOUT)
         assert page.result.within and len(page.result.points) == 8, page.status.text()
         assert "brought to each pose by hand (teach mode)" in page.status.text()
         logged = read_check_log(page.log_path()).checks[0].points
@@ -262,14 +262,14 @@ def test_the_fixture_panel_works_in_a_real_cell_project(lab, qtbot, tmp_path):
         wait(page, qtbot)
         frame = page.fixture_run.result.frame
         assert np.linalg.norm(frame.position - fixture.pose[:3, 3]) < 0.2, page.status.text()
-        assert (state.project.folder / "fixture_pose.json").is_file() and not state.has_lab
+        assert (state.project.folder / "fixture_pose.json").is_file() and not state.labs.built
     finally:
         tasks.shutdown()
         state.close()
 
 
 def test_stop_ends_a_check_on_the_cell(lab, qtbot, tmp_path, confirmed):
-    """The Stop key (the main window's Stop calls state.stop_robot) during a check: the robot halts,
+    """The Stop key (the main window's Stop calls state.hardware.stop_robot) during a check: the robot halts,
     the check ends with the points measured kept, nothing moves until Resume."""
     from app.sim_cameras import SimulatedCellCameras
     from core.robot.controller_sim import ControllerSim
@@ -281,13 +281,13 @@ def test_stop_ends_a_check_on_the_cell(lab, qtbot, tmp_path, confirmed):
     state, tasks = calibrated_project(lab, tmp_path / "project", cell), TaskRunner()
     try:
         choice = RobotChoice("serial", sim.port, "robocal_v1")
-        state.use_serial_robot(open_serial_robot(state.robot, choice, reply_timeout=10.0), choice)
-        state.set_cameras(LiveCameras.open(CameraChoice("sources", str(cameras.left), str(cameras.right))))
+        state.hardware.use_serial_robot(open_serial_robot(state.robot, choice, reply_timeout=10.0), choice)
+        state.hardware.set_cameras(LiveCameras.open(CameraChoice("sources", str(cameras.left), str(cameras.right))))
         page = open_page(qtbot, state, tasks)
         assert page.run_check()
         qtbot.waitUntil(lambda: sim.moves >= 3, timeout=TIMEOUT)
-        assert state.stop_robot()
-        qtbot.waitUntil(lambda: page.result is not None and not page.busy, timeout=TIMEOUT)
+        assert state.hardware.stop_robot()
+        qtbot.waitUntil(lambda: page.result is not None and not page.task.busy, timeout=TIMEOUT)
         moves = sim.moves
         assert page.result.cancelled and 2 <= len(page.result.points) < 8, page.status.text()
         assert "The robot was stopped. The run ended there" in page.status.text()

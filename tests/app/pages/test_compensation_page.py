@@ -61,7 +61,7 @@ def open_page(qtbot, state, tasks) -> CompensationPage:
 
 
 def wait(page, qtbot):
-    qtbot.waitUntil(lambda: not page.busy, timeout=TIMEOUT)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=TIMEOUT)
 
 
 def test_missing_calibration_is_said_plainly(state, tasks, qtbot):
@@ -161,8 +161,8 @@ def test_accuracy_map_measured_saved_and_drawn(state, lab, tasks, qtbot):
     page.map_panel.count_spin.setValue(6)
     # cancelled at the first target: nothing is written
     assert page.measure_map()
-    qtbot.waitUntil(lambda: page._task is not None, timeout=TIMEOUT)
-    page.cancel()
+    qtbot.waitUntil(lambda: page.task.handle is not None, timeout=TIMEOUT)
+    page.task.cancel()
     wait(page, qtbot)
     assert not (state.project.folder / "accuracy_map.json").exists() and not page.is_complete()
     assert page.measure_map()
@@ -198,7 +198,7 @@ def test_over_sim_robot_on_a_pty(state, lab, tasks, qtbot, nobody_at_the_screen)
     page = open_page(qtbot, state, tasks)
     with ControllerSim(lab.true_robot, time_scale=0.01) as sim:
         choice = RobotChoice("serial", sim.port)
-        state.use_serial_robot(open_serial_robot(state.robot, choice), choice)
+        state.hardware.use_serial_robot(open_serial_robot(state.robot, choice), choice)
         assert page.on_hardware
         assert page.add_point(lab.true_robot.target_position(meas.Q[7], "marker"), "camera")
         wait(page, qtbot)
@@ -208,12 +208,12 @@ def test_over_sim_robot_on_a_pty(state, lab, tasks, qtbot, nobody_at_the_screen)
         assert point.error_mm() < 0.5, page.status.text()
         assert sim.port in point.measured_by and "rendering the joints it reports" in point.measured_by
         np.testing.assert_allclose(sim.joints(), np.rad2deg(point.q_corrected), atol=2e-3)      # it moved there (deg)
-        assert state.motion_confirmed
+        assert state.hardware.motion_confirmed
         page.map_panel.count_spin.setValue(4)
         assert page.measure_map()
         wait(page, qtbot)
         moves = sum(line.startswith("MOVE") for line in sim.received)
-        state.use_virtual_robot()
+        state.hardware.use_virtual_robot()
     amap = page.amap
     assert amap is not None and amap.both.sum() >= 3, page.status.text()
     assert moves == 1 + 2 * amap.both.sum() and sim.port in amap.measured_by

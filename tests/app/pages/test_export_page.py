@@ -73,7 +73,7 @@ def export_report(page, qtbot) -> list:
     got = []
     page.export("report", finished=got.append)
     qtbot.waitUntil(lambda: bool(got), timeout=60000)
-    assert not page.busy
+    assert not page.task.busy
     return got[0]
 
 
@@ -105,15 +105,15 @@ def test_export_all_writes_every_available_file(page, calibration, qtbot):
     result = give_result(page, calibration)
     assert "from this session's identification" in page.row_text("urdf")
     qtbot.mouseClick(page.all_button, Qt.MouseButton.LeftButton)
-    assert page.busy and not page.all_button.isEnabled()          # the report is written on a worker
+    assert page.task.busy and not page.all_button.isEnabled()          # the report is written on a worker
     qtbot.waitUntil(lambda: "file(s) written" in page.status.text(), timeout=60000)
-    assert not page.busy and page.all_button.isEnabled()
+    assert not page.task.busy and page.all_button.isEnabled()
     folder = page.state.project.folder / "export"
     assert sorted(p.name for p in folder.iterdir()) == sorted(MODEL_FILES + ["report.html", "report.pdf"])
     assert page.is_complete()
     status = page.status.text()
     assert "5 file(s) written" in status and "Stereo camera files" in status and "Skipped" in status
-    bar = page.progress_row().bar
+    bar = page.task.progress_row().bar
     assert bar.value() == bar.maximum() and "report written" in bar.format()      # not left at "saving 95 %"
 
     model = read_robot(folder / "calibrated.json")
@@ -203,10 +203,10 @@ def test_a_new_project_resets_the_page(page, calibration, tmp_path, qtbot):
     give_result(page, calibration)
     first = page.folder()
     page.export_all()
-    assert page.is_complete() and page.busy                 # the report still being written
+    assert page.is_complete() and page.task.busy                 # the report still being written
     page.state.new_project(tmp_path / "second")
-    assert not page.is_complete() and not page.busy
-    qtbot.waitUntil(lambda: not page.tasks.busy, timeout=60000)
+    assert not page.is_complete() and not page.task.busy
+    qtbot.waitUntil(lambda: not page.task.runner.busy, timeout=60000)
     assert not (first / "report.html").exists() and "report" not in page.exported
     assert page.folder_edit.text() == str(tmp_path / "second" / "export")
     assert "available after the Identification step" in page.row_text("urdf")
@@ -248,13 +248,13 @@ def test_the_report_is_written_on_a_worker_with_progress_and_cancel(page, calibr
     (folder / "report.html").write_text("previous report")
     got = []
     page.export("report", finished=got.append)
-    row = page.progress_row()
-    assert page.busy and not page.rows["report"]["button"].isEnabled() and "Writing" in page.row_text("report")
+    row = page.task.progress_row()
+    assert page.task.busy and not page.rows["report"]["button"].isEnabled() and "Writing" in page.row_text("report")
     qtbot.waitUntil(lambda: "drawing figure" in row.bar.format(), timeout=60000)   # figures one by one
-    assert page.busy and row.cancel_button.isEnabled() and not got
+    assert page.task.busy and row.cancel_button.isEnabled() and not got
     qtbot.mouseClick(row.cancel_button, Qt.MouseButton.LeftButton)
     qtbot.waitUntil(lambda: bool(got), timeout=60000)
-    assert got == [[]] and not page.busy and "Cancelled" in page.row_text("report")
+    assert got == [[]] and not page.task.busy and "Cancelled" in page.row_text("report")
     assert sorted(p.name for p in folder.iterdir()) == ["report.html"]             # no temporary left
     assert (folder / "report.html").read_text() == "previous report"
     written = export_report(page, qtbot)

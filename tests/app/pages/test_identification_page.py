@@ -38,7 +38,7 @@ def cleanup():
     pages = []
     yield pages
     for page in pages:
-        page.tasks.shutdown()
+        page.task.runner.shutdown()
         page.state.close()
 
 
@@ -65,7 +65,7 @@ def write_synthetic(page, n_poses=30, seed=1):
 
 
 def wait_idle(qtbot, page, timeout=30000):
-    qtbot.waitUntil(lambda: not page.busy and not page.tasks.busy, timeout=timeout)
+    qtbot.waitUntil(lambda: not page.task.busy and not page.task.runner.busy, timeout=timeout)
 
 
 def identify(qtbot, page):
@@ -230,7 +230,7 @@ def test_unknown_parameter_to_fix_is_refused_on_the_page(hw_page):
     hw_page.on_enter()
     hw_page.options.fix_edit.setText("J9.a")
     assert not hw_page.start_identification()
-    assert "unknown parameter 'J9.a'" in hw_page.status.text() and not hw_page.busy
+    assert "unknown parameter 'J9.a'" in hw_page.status.text() and not hw_page.task.busy
 
 
 def test_cancel_keeps_the_page_usable(hw_page, qtbot):
@@ -238,12 +238,12 @@ def test_cancel_keeps_the_page_usable(hw_page, qtbot):
     write_synthetic(page)
     page.on_enter()
     assert page.start_identification()
-    assert page.progress_row().cancel_button.isEnabled() and not page.options.run_button.isEnabled()
-    qtbot.mouseClick(page.progress_row().cancel_button, Qt.MouseButton.LeftButton)
+    assert page.task.progress_row().cancel_button.isEnabled() and not page.options.run_button.isEnabled()
+    qtbot.mouseClick(page.task.progress_row().cancel_button, Qt.MouseButton.LeftButton)
     wait_idle(qtbot, page)
     assert page.status.text().startswith("Cancelled") and page.result is None
     assert not page.is_complete() and page.state.identification is None
-    assert page.options.run_button.isEnabled() and not page.progress_row().cancel_button.isEnabled()
+    assert page.options.run_button.isEnabled() and not page.task.progress_row().cancel_button.isEnabled()
     identify(qtbot, page)                                  # and it still works afterwards
     assert page.is_complete()
 

@@ -51,17 +51,17 @@ def test_training_image_and_live_pair_from_the_cameras(page, qtbot, lab, tmp_pat
     tp, lp = page.training_panel, page.live_panel
     assert not tp.capture_button.isEnabled()
     q = lab.random_visible_poses(1, np.random.default_rng(9))[0]
-    page.state.set_cameras(camera_folders(lab, q, tmp_path / "cams"))
+    page.state.hardware.set_cameras(camera_folders(lab, q, tmp_path / "cams"))
     assert tp.capture_button.isEnabled() and tp.capture_button.text() == "Capture (left camera)"
     assert page.capture_training()
-    qtbot.waitUntil(lambda: not page.busy, timeout=30000)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=30000)
     assert page.training_image is not None and page.training_image.source == "left camera"
     tp.size_spin.setValue(lab.marker.outer_size)
     assert page.train()
-    qtbot.waitUntil(lambda: not page.busy and page.trained is not None, timeout=60000)
+    qtbot.waitUntil(lambda: not page.task.busy and page.trained is not None, timeout=60000)
     assert lp.next_button.isEnabled() and lp.next_button.text() == "Capture pair"
     assert page.next_pose()
-    qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
     loc = page.live.location
     assert loc.ok and page.live.truth is None
     assert np.linalg.norm(loc.point - lab.marker_position(q)) < 2.0          # mm
@@ -81,7 +81,7 @@ def test_next_pose_moves_a_serial_robot_only_once_its_first_motion_is_confirmed(
     lab_marker(lab).save(state.project.folder / "marker.npz")
     with ControllerSim(lab.true_robot, time_scale=0.01) as sim:
         choice = RobotChoice("serial", sim.port)
-        state.use_serial_robot(open_serial_robot(state.robot, choice, reply_timeout=5.0), choice)
+        state.hardware.use_serial_robot(open_serial_robot(state.robot, choice, reply_timeout=5.0), choice)
         page = MarkerPage(state, tasks)
         qtbot.addWidget(page)
         page.on_enter()
@@ -92,11 +92,11 @@ def test_next_pose_moves_a_serial_robot_only_once_its_first_motion_is_confirmed(
             assert "not confirmed" in page.status.text()
             assert not any(line.startswith("MOVE") for line in sim.received)
             assert page.next_pose()
-            qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+            qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
             assert sum(line.startswith("MOVE") for line in sim.received) == 1
             assert page.live.location.ok and page.live.error < 1.0          # rendered at the reported joints
             assert page.next_pose()                                           # asked once per connection
-            qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+            qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
             assert sum(line.startswith("MOVE") for line in sim.received) == 2 and answers == []
         finally:
             tasks.shutdown()

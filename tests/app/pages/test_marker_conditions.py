@@ -26,12 +26,12 @@ def page(qtbot, lab, boxes):
     p.show()
     p.on_enter()
     yield p
-    p.tasks.shutdown()
+    p.task.runner.shutdown()
     p.state.close()
 
 
 def wait(qtbot, page, timeout=120000):
-    qtbot.waitUntil(lambda: not page.busy, timeout=timeout)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=timeout)
 
 
 def test_show_a_pair_under_chosen_conditions(qtbot, page, lab, boxes):
@@ -67,7 +67,7 @@ def test_sweep_fills_the_table_and_the_plots(qtbot, page, boxes, tmp_path):
     panel = page.conditions_panel
     panel.pairs_spin.setValue(1)
     qtbot.mouseClick(panel.sweep_button, Qt.MouseButton.LeftButton)
-    assert page.busy and not panel.sweep_button.isEnabled()
+    assert page.task.busy and not panel.sweep_button.isEnabled()
     wait(qtbot, page)
     table = panel.result
     assert table is not None and table.pairs == 1 and table.wrong == 0

@@ -41,12 +41,12 @@ def make_page(qtbot, lab, stereo=True):
 def page(qtbot, lab, boxes):
     p = make_page(qtbot, lab)
     yield p
-    p.tasks.shutdown()
+    p.task.runner.shutdown()
     p.state.close()
 
 
 def wait(qtbot, page, timeout=60000):
-    qtbot.waitUntil(lambda: not page.busy, timeout=timeout)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=timeout)
 
 
 def test_registered_for_the_marker_step():
@@ -65,7 +65,7 @@ def test_train_locate_plot_and_verify(qtbot, page, boxes, tmp_path):
     assert page.training_panel.training_view.overlays["auto_outline"].getData()[0] is not None
     # train on a worker: keypoints, outline and reference drawn, files in the project
     qtbot.mouseClick(page.training_panel.train_button, Qt.MouseButton.LeftButton)
-    assert page.busy
+    assert page.task.busy
     wait(qtbot, page)
     t = page.trained
     assert t is not None and t.n_image_features >= 100 and page.status.text().startswith("✓ Trained")
@@ -115,7 +115,7 @@ def test_train_locate_plot_and_verify(qtbot, page, boxes, tmp_path):
     # the verification run over a few random poses
     page.verification_panel.verify_spin.setValue(4)
     qtbot.mouseClick(page.verification_panel.verify_button, Qt.MouseButton.LeftButton)
-    assert page.progress_row().cancel_button.isEnabled()
+    assert page.task.progress_row().cancel_button.isEnabled()
     wait(qtbot, page)
     v = page.verification
     assert v.n == 4 and v.n_located >= 3 and v.median_error < 0.05
@@ -184,7 +184,7 @@ def test_too_few_features_says_why(qtbot, page, tmp_path, boxes):
 
 def test_crop_rectangle_trains_what_is_inside(qtbot, page):
     # the lab's training image with a second, larger dark square beside the marker
-    base = page.state.lab.render_training_image()
+    base = page.state.labs.ready_now().render_training_image()
     img = np.full((480, 900), 120, np.uint8)
     img[:, :480] = base
     img[60:420, 520:880] = 10
@@ -219,7 +219,7 @@ def test_preview_with_the_true_cameras_without_stereo(qtbot, lab, boxes):
         page.on_enter()
         assert page.stereo.kind == "file"
     finally:
-        page.tasks.shutdown()
+        page.task.runner.shutdown()
         page.state.close()
 
 
@@ -231,14 +231,14 @@ def test_saved_and_verified_marker_counts_on_reopening(qtbot, page, lab):
     assert page.next_pose()
     wait(qtbot, page)
     assert page.is_complete()
-    again = MarkerPage(page.state, page.tasks)
+    again = MarkerPage(page.state, page.task.runner)
     qtbot.addWidget(again)
     again.on_enter()
     assert again.trained is not None and again.verified and again.is_complete()
     assert "already has a trained marker" in again.status.text()
     # without the verification record the saved marker is trained but not verified
     (page.state.project.folder / VERIFICATION_FILE).unlink()
-    third = MarkerPage(page.state, page.tasks)
+    third = MarkerPage(page.state, page.task.runner)
     qtbot.addWidget(third)
     assert third.trained is not None and not third.is_complete()
 
@@ -262,7 +262,7 @@ def test_without_a_lab_the_page_asks_the_state_once_and_waits(qtbot, boxes):
     page = MarkerPage(state, TaskRunner())
     qtbot.addWidget(page)
     try:
-        assert not state.has_lab
+        assert not state.labs.built
         assert page.capture_training()
         assert "Building the virtual lab" in page.status.text()
         assert not page.training_panel.capture_button.isEnabled()
@@ -270,9 +270,9 @@ def test_without_a_lab_the_page_asks_the_state_once_and_waits(qtbot, boxes):
         assert not page.compare()                       # one request at a time
         qtbot.waitUntil(lambda: page.training_image is not None, timeout=60000)
         wait(qtbot, page)
-        assert state.has_lab and page.training_image.source == "virtual lab camera"
+        assert state.labs.built and page.training_image.source == "virtual lab camera"
         assert page.training_panel.capture_button.isEnabled() and page.compare_panel.compare_button.isEnabled()
         assert boxes == []
     finally:
-        page.tasks.shutdown()
+        page.task.runner.shutdown()
         state.close()

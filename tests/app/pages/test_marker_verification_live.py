@@ -23,7 +23,7 @@ def page(qtbot, boxes):
     p.show()
     p.on_enter()
     yield p
-    p.tasks.shutdown()
+    p.task.runner.shutdown()
     state.close()
 
 
@@ -33,11 +33,11 @@ def test_points_shown_as_they_come_and_kept_on_cancel(qtbot, page, tmp_path):
     panel.verify_spin.setValue(POSES)
     assert page.verify()
     qtbot.waitUntil(lambda: f"pose 3 of {POSES}" in panel.verify_summary.text(), timeout=120_000)
-    assert page.busy and "so far" in panel.verify_summary.text()
+    assert page.task.busy and "so far" in panel.verify_summary.text()
     assert panel.precision_plot.n_errors + panel.precision_plot.n_sigmas > 0     # drawn while it runs
     page.grab().save(str(tmp_path / "marker-verification-running.png"))
-    page.cancel()
-    qtbot.waitUntil(lambda: not page.busy, timeout=60_000)
+    page.task.cancel()
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=60_000)
     v = page.verification
     assert v is not None and v.cancelled_after is not None and 3 <= v.n < POSES, page.status.text()
     assert f"cancelled after {v.n} of {POSES} poses" in panel.verify_summary.text()

@@ -92,7 +92,7 @@ def test_the_page_takes_the_covariance_from_the_projects_stereo_json(qtbot, tmp_
         assert page.trained is not None and page.stereo.kind == "file"
         page.verification_panel.verify_spin.setValue(3)
         assert page.verify()
-        qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+        qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
         v = page.verification
         assert v.n_located >= 2 and np.all(np.isfinite(v.calibration_sigmas[v.located]))
         text = unescape(page.verification_panel.verify_summary.text())

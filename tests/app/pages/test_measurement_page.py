@@ -81,12 +81,12 @@ def test_cancel_keeps_every_measurement_and_resume_continues(qtbot, page, boxes)
     assert "poses.csv" in page.controls.source_label.text() and "stereo.yaml" in page.controls.source_label.text()
     assert page.controls.start_button.text() == "Start"
     qtbot.mouseClick(page.controls.start_button, Qt.MouseButton.LeftButton)
-    assert page.busy and page.progress_row().cancel_button.isEnabled() and page.controls.pause_button.isEnabled()
+    assert page.task.busy and page.task.progress_row().cancel_button.isEnabled() and page.controls.pause_button.isEnabled()
     qtbot.waitUntil(lambda: len(page_ids(page)) >= 2, timeout=30000)
     # each pose shown as measured is already on disk (written and flushed per pose)
     assert set(page_ids(page)) <= set(measured_ids(page))
-    qtbot.mouseClick(page.progress_row().cancel_button, Qt.MouseButton.LeftButton)
-    qtbot.waitUntil(lambda: not page.busy, timeout=30000)
+    qtbot.mouseClick(page.task.progress_row().cancel_button, Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=30000)
     first = measured_ids(page)
     assert 2 <= len(first) < N_POSES
     assert sorted(page_ids(page)) == sorted(first)          # the table is the file
@@ -97,7 +97,7 @@ def test_cancel_keeps_every_measurement_and_resume_continues(qtbot, page, boxes)
     rows_before = {p: page.rows[page._row_of[p]].point.copy() for p in first}
     # resume: the rest is measured, nothing twice, nothing lost
     qtbot.mouseClick(page.controls.start_button, Qt.MouseButton.LeftButton)
-    qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
     r = page.result
     assert not r.cancelled and sorted(o.pose for o in r.skipped) == sorted(first)
     ids = measured_ids(page)
@@ -123,13 +123,13 @@ def test_pause_and_continue(qtbot, page):
     qtbot.waitUntil(lambda: len(page_ids(page)) >= 1, timeout=30000)
     page.pause()
     assert page.paused and page.controls.pause_button.text() == "Continue"
-    qtbot.waitUntil(lambda: "paused" in page.progress_row().bar.format(), timeout=30000)
+    qtbot.waitUntil(lambda: "paused" in page.task.progress_row().bar.format(), timeout=30000)
     done = len(measured_ids(page))
     qtbot.wait(600)
-    assert page.busy and len(measured_ids(page)) == done        # nothing measured while paused
+    assert page.task.busy and len(measured_ids(page)) == done        # nothing measured while paused
     page.pause(False)
     assert not page.paused
-    qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
     assert not page.result.cancelled and not page_ids(page, PENDING)
 
 
@@ -140,10 +140,10 @@ def test_pose_outside_the_joint_limits_is_refused_and_reported(qtbot, page, q_fi
     write_poses(path, bad)
     assert page.load_csv(path)
     assert len(page.rows) == 3 and "mixed.csv" in page.controls.source_label.text()
-    robot = page.state.robot_connection
+    robot = page.state.hardware.robot_connection
     moves = robot.move_count
     assert page.start_run()
-    qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
     row = page.rows[1]
     assert row.status == REJECTED and "outside its limits" in row.reason and "not moved" in row.reason
     assert robot.move_count == moves + 2                      # the refused pose sent nothing
@@ -156,7 +156,7 @@ def test_pose_outside_the_joint_limits_is_refused_and_reported(qtbot, page, q_fi
 
 def test_start_over_moves_the_files_aside(qtbot, page):
     assert page.start_run()
-    qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
     n = len(measured_ids(page))
     assert page.start_over(confirm=False)
     folder = page.state.project.folder
@@ -188,7 +188,7 @@ def test_stop_key_stops_the_robot_and_the_run(qtbot, lab, trained, q_file, boxes
     try:
         win.show()
         page = win.go_to(Step.MEASUREMENT)
-        robot = state.robot_connection
+        robot = state.hardware.robot_connection
         assert page.start_run()
         qtbot.waitUntil(lambda: len(page_ids(page)) >= 1, timeout=30000)
         win.activateWindow()
@@ -196,7 +196,7 @@ def test_stop_key_stops_the_robot_and_the_run(qtbot, lab, trained, q_file, boxes
         qtbot.keyClick(win, Qt.Key.Key_Escape)
         assert robot.stopped                     # stop() returned: no move is under way, none follows
         moves_at_stop = robot.move_count
-        qtbot.waitUntil(lambda: not page.busy, timeout=30000)
+        qtbot.waitUntil(lambda: not page.task.busy, timeout=30000)
         assert robot.move_count == moves_at_stop                 # nothing more sent after Stop
         assert "Robot stopped" in page.status.text() and "Resume after stop" in page.status.text()
         first = measured_ids(page)
@@ -205,7 +205,7 @@ def test_stop_key_stops_the_robot_and_the_run(qtbot, lab, trained, q_file, boxes
         assert not page.start_run() and "stopped" in page.status.text()
         win.resume_robot()
         assert page.start_run()
-        qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+        qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
         ids = measured_ids(page)
         assert len(ids) == len(set(ids)) and set(first) <= set(ids) and not page_ids(page, PENDING)
     finally:
@@ -229,7 +229,7 @@ def test_autopilot_measures_the_poses(qtbot, page):
 
 def test_measurements_of_another_pose_list_are_not_counted(qtbot, page, q_file):
     assert page.start_run()
-    qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
     assert page.is_complete()
     other = np.array(q_file, dtype=float)
     other[:, 0] += 1.0                                        # the same pose numbers, other joint values
@@ -238,10 +238,10 @@ def test_measurements_of_another_pose_list_are_not_counted(qtbot, page, q_file):
     assert not page_ids(page) and not page.is_complete()
     assert "another pose list" in page.status.text() and page.controls.over_button.isEnabled()
     assert page.start_run()                                       # the run refuses the file and says why
-    qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
     assert "another pose list" in page.status.text() and "Start over" in page.status.text()
     assert page.start_over(confirm=False) and page.start_run()
-    qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
     assert len(page_ids(page)) >= 9
 
 

@@ -64,7 +64,7 @@ def hardware(qtbot, lab, trained, Q, tmp_path):
     state.new_project(tmp_path / "project", mode=HARDWARE)
     state.choose_preset("educational_6r")
     prepare(state, lab, trained, Q)
-    state.set_cameras(rendered_folders(lab, Q, tmp_path / "cams"))
+    state.hardware.set_cameras(rendered_folders(lab, Q, tmp_path / "cams"))
     yield state
     state.close()
 
@@ -92,16 +92,16 @@ def test_a_hardware_project_measures_every_pose_over_a_pty(qtbot, hardware, lab,
     assert page.teach_mode and page.teach.isVisible()           # no robot yet: RoboCal cannot move it
     with ControllerSim(lab.true_robot, time_scale=0.01) as sim:
         choice = RobotChoice("serial", sim.port)
-        state.use_serial_robot(open_serial_robot(state.robot, choice), choice)
+        state.hardware.use_serial_robot(open_serial_robot(state.robot, choice), choice)
         try:
             assert not page.teach_mode and not page.teach.isVisible() and page.views.isVisible()
             assert page.controls.teach_check.isEnabled() and not page.controls.teach_check.isChecked()
             qtbot.mouseClick(page.controls.start_button, Qt.MouseButton.LeftButton)
-            assert page.busy and state.motion_confirmed             # the first motion was confirmed
-            qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+            assert page.task.busy and state.hardware.motion_confirmed             # the first motion was confirmed
+            qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
             page.grab().save(str(tmp_path / "measurement-hardware.png"))
         finally:
-            state.robot_connection.disconnect()
+            state.hardware.robot_connection.disconnect()
     ids = measured_ids(page)
     assert sorted(ids) == list(range(N_POSES)), page.status.text()          # every pose, once
     assert sum(line.startswith("MOVE") for line in sim.received) == N_POSES
@@ -122,16 +122,16 @@ def test_a_disconnect_keeps_what_was_measured_and_resume_finishes(qtbot, lab, tr
     link = tmp_path / "robot"
     with ControllerSim(lab.true_robot, time_scale=0.01, faults="disconnect@3", link=link) as sim:
         choice = RobotChoice("serial", str(link))
-        state.use_serial_robot(open_serial_robot(state.robot, choice), choice)
+        state.hardware.use_serial_robot(open_serial_robot(state.robot, choice), choice)
         try:
             page = open_page(qtbot, state, tasks)
             stopped_seen = []
-            state.stoppedChanged.connect(stopped_seen.append)
+            state.hardware.stoppedChanged.connect(stopped_seen.append)
             assert not page.teach_mode and page.start_run()
-            qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+            qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
             text = page.status.text()
             assert "Stopped before pose 3" in text and "connection is lost" in text, text
-            assert state.robot_connection.stopped and stopped_seen == [True]      # the window offers Resume
+            assert state.hardware.robot_connection.stopped and stopped_seen == [True]      # the window offers Resume
             assert "Measure the rest starts at pose 3" in text and "Setup page" in text
             assert sorted(measured_ids(page)) == [0, 1, 2]                   # kept on disk
             assert [r.pose for r in page.rows if r.status == PENDING] == list(range(3, N_POSES))
@@ -141,12 +141,12 @@ def test_a_disconnect_keeps_what_was_measured_and_resume_finishes(qtbot, lab, tr
             moves = sum(line.startswith("MOVE") for line in sim.received)
             assert not page.start_run() and "connection to the robot is lost" in page.status.text()
             qtbot.wait(400)                                              # the controller comes back
-            state.use_serial_robot(open_serial_robot(state.robot, choice), choice)
-            assert not state.motion_confirmed
+            state.hardware.use_serial_robot(open_serial_robot(state.robot, choice), choice)
+            assert not state.hardware.motion_confirmed
             qtbot.mouseClick(page.controls.start_button, Qt.MouseButton.LeftButton)
-            qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+            qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
         finally:
-            state.robot_connection.disconnect()
+            state.hardware.robot_connection.disconnect()
     ids = measured_ids(page)
     assert sorted(ids) == list(range(N_POSES)), page.status.text()          # each pose exactly once
     assert sum(line.startswith("MOVE") for line in sim.received) == moves + N_POSES - 3
@@ -160,7 +160,7 @@ def test_teach_mode_records_a_typed_pose_and_refuses_one_outside_the_limits(qtbo
     state, tasks = hardware, TaskRunner()
     page = open_page(qtbot, state, tasks)
     model = state.robot
-    assert state.robot_connection is None and page.teach_mode
+    assert state.hardware.robot_connection is None and page.teach_mode
     assert page.teach.isVisible() and not page.views.isVisible()
     check = page.controls.teach_check
     assert check.isChecked() and not check.isEnabled()
@@ -175,7 +175,7 @@ def test_teach_mode_records_a_typed_pose_and_refuses_one_outside_the_limits(qtbo
     page.teach.joints_edit.setText(" ".join(f"{v:.3f}" for v in bad))
     assert "J3: 500.000° is outside its limits" in page.teach.check_label.text()
     qtbot.mouseClick(page.teach.record_button, Qt.MouseButton.LeftButton)
-    assert not page.busy and "Pose 0 not recorded" in page.status.text() and "outside its limits" in page.status.text()
+    assert not page.task.busy and "Pose 0 not recorded" in page.status.text() and "outside its limits" in page.status.text()
     assert not page.measurements_path().exists() and not rejects_path_for(page.measurements_path()).exists()
     # the values the pendant shows, J2 2° off the plan: warned, recorded
     typed = planned + np.array([0, 2.0, 0, 0, 0, 0])
@@ -183,8 +183,8 @@ def test_teach_mode_records_a_typed_pose_and_refuses_one_outside_the_limits(qtbo
     assert "J2 is 2.00° from the planned pose" in page.teach.check_label.text()
     assert "Inside the joint limits" in page.teach.check_label.text()
     qtbot.mouseClick(page.teach.record_button, Qt.MouseButton.LeftButton)
-    assert page.busy
-    qtbot.waitUntil(lambda: not page.busy, timeout=30000)
+    assert page.task.busy
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=30000)
     assert measured_ids(page) == [0], page.status.text()
     np.testing.assert_allclose(read_measurements(page.measurements_path()).q_file[0], typed, atol=1e-3)
     assert page.rows[0].status == MEASURED and page.pair.thumb.image_shape()[1] > 600
@@ -209,7 +209,7 @@ def test_the_stop_key_ends_a_run_over_a_pty(qtbot, hardware, lab):
     qtbot.addWidget(win)
     with ControllerSim(lab.true_robot, time_scale=0.05) as sim:
         choice = RobotChoice("serial", sim.port)
-        state.use_serial_robot(open_serial_robot(state.robot, choice), choice)
+        state.hardware.use_serial_robot(open_serial_robot(state.robot, choice), choice)
         try:
             win.show()
             page = win.go_to(Step.MEASUREMENT)
@@ -218,19 +218,19 @@ def test_the_stop_key_ends_a_run_over_a_pty(qtbot, hardware, lab):
             win.activateWindow()
             qtbot.waitUntil(lambda: QApplication.activeWindow() is win, timeout=5000)
             qtbot.keyClick(win, Qt.Key.Key_Escape)
-            assert state.robot_connection.stopped and "STOP" in sim.received
+            assert state.hardware.robot_connection.stopped and "STOP" in sim.received
             moves = sum(line.startswith("MOVE") for line in sim.received)
-            qtbot.waitUntil(lambda: not page.busy, timeout=30000)
+            qtbot.waitUntil(lambda: not page.task.busy, timeout=30000)
             assert sum(line.startswith("MOVE") for line in sim.received) == moves      # nothing sent after Stop
             assert "Robot stopped" in page.status.text() and "Resume after stop" in page.status.text()
             first = measured_ids(page)
             assert first and len(first) < N_POSES
             win.resume_robot()
             assert page.start_run()
-            qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+            qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
             assert sorted(measured_ids(page)) == list(range(N_POSES)), page.status.text()
         finally:
-            state.robot_connection.disconnect()
+            state.hardware.robot_connection.disconnect()
             close_window(win)
 
 
@@ -240,22 +240,22 @@ def test_teach_mode_reads_the_joints_from_the_controller(qtbot, hardware, lab, Q
     page = open_page(qtbot, state, tasks)
     with ControllerSim(lab.true_robot, time_scale=0.01) as sim:
         choice = RobotChoice("serial", sim.port)
-        state.use_serial_robot(open_serial_robot(state.robot, choice), choice)
+        state.hardware.use_serial_robot(open_serial_robot(state.robot, choice), choice)
         try:
             assert not page.teach_mode and page.controls.teach_check.isEnabled()
             page.controls.teach_check.setChecked(True)
             assert page.teach_mode and page.teach.isVisible() and not page.controls.start_button.isEnabled()
             assert page.teach.read_check.isChecked() and not page.teach.joints_edit.isEnabled()
-            state.robot_connection.move_to(Q[0])                     # the technician's pendant
+            state.hardware.robot_connection.move_to(Q[0])                     # the technician's pendant
             moves = sum(line.startswith("MOVE") for line in sim.received)
             assert page.record_pose()
-            qtbot.waitUntil(lambda: not page.busy, timeout=30000)
+            qtbot.waitUntil(lambda: not page.task.busy, timeout=30000)
             assert sum(line.startswith("MOVE") for line in sim.received) == moves    # RoboCal moved nothing
             assert "✓ Pose 0 recorded. Next: pose 1." in page.status.text()
             page.controls.teach_check.setChecked(False)
             assert not page.teach_mode and page.views.isVisible() and page.controls.start_button.isEnabled()
         finally:
-            state.robot_connection.disconnect()
+            state.hardware.robot_connection.disconnect()
     assert measured_ids(page) == [0], page.status.text()
     np.testing.assert_allclose(read_measurements(page.measurements_path()).q_file[0],
                                state.robot.q_to_file(Q[0]), atol=1e-3)

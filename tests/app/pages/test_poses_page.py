@@ -32,8 +32,8 @@ def select(qtbot, page, count=12, candidates=300):
     page.count_spin.setValue(count)
     page.candidates_spin.setValue(candidates)
     qtbot.mouseClick(page.select_button, Qt.MouseButton.LeftButton)
-    assert page.busy and not page.select_button.isEnabled() and page.cancel_button.isEnabled()
-    qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+    assert page.task.busy and not page.select_button.isEnabled() and page.cancel_button.isEnabled()
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
 
 
 def test_registered_for_the_pose_step():
@@ -93,8 +93,8 @@ def test_cancel_keeps_nothing(qtbot, page):
     page.count_spin.setValue(12)
     page.candidates_spin.setValue(2000)
     page.start_selection()
-    page.cancel()
-    qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+    page.task.cancel()
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
     assert page.result is None and not page.is_complete()
     assert page.status.text().startswith("Cancelled") and page.select_button.isEnabled()
 
@@ -140,25 +140,25 @@ def test_autopilot_selects_the_demo_poses(qtbot, page):
 
 def test_the_selection_runs_in_the_state_lab(qtbot, page):
     select(qtbot, page, count=10, candidates=200)
-    assert page.state.has_lab and page.result.robot is page.state.lab.nominal_robot
+    assert page.state.labs.built and page.result.robot is page.state.labs.ready_now().nominal_robot
     assert page.result.depth is not None                 # the lab's cameras constrained the candidates
 
 
 def test_cancel_a_running_selection(qtbot, page):
-    page.state.request_lab(lambda lab: None)
-    qtbot.waitUntil(lambda: page.state.has_lab, timeout=60000)
+    page.state.labs.when_ready(lambda lab: None)
+    qtbot.waitUntil(lambda: page.state.labs.built, timeout=60000)
     page.count_spin.setValue(12)
     page.candidates_spin.setValue(2000)
-    assert page.start_selection() and page._task is not None     # the lab exists: the selection itself runs
-    page.cancel()
-    qtbot.waitUntil(lambda: not page.busy, timeout=60000)
+    assert page.start_selection() and page.task.handle is not None     # the lab exists: the selection itself runs
+    page.task.cancel()
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
     assert page.result is None and page.status.text().startswith("Cancelled") and page.select_button.isEnabled()
 
 
 def test_robot_change_while_the_lab_is_built_drops_the_selection(qtbot, page):
-    assert page.start_selection() and page.busy and not page.state.has_lab
+    assert page.start_selection() and page.task.busy and not page.state.labs.built
     page.state.choose_preset("puma560")
-    assert not page.busy and page.select_button.isEnabled()
-    page.state.request_lab(lambda lab: None)                 # the lab of the new robot
-    qtbot.waitUntil(lambda: page.state.has_lab, timeout=60000)
-    assert page.result is None and not page.busy and "Select poses" in page.status.text()
+    assert not page.task.busy and page.select_button.isEnabled()
+    page.state.labs.when_ready(lambda lab: None)                 # the lab of the new robot
+    qtbot.waitUntil(lambda: page.state.labs.built, timeout=60000)
+    assert page.result is None and not page.task.busy and "Select poses" in page.status.text()

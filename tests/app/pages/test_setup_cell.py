@@ -55,7 +55,7 @@ def test_a_new_real_cell_project_is_saved_shown_and_changed(page, tmp_path):
     saved = json.loads((tmp_path / "cell" / "project.json").read_text())
     assert saved["mode"] == "hardware" and saved["robot_connection"]["port"] == "/dev/ttyUSB0"
     assert saved["cameras"] == {"kind": "sources", "left": "0", "right": "1"}
-    assert page.state.real_cell and page.state.robot_connection is None      # never the lab's simulated robot
+    assert page.state.real_cell and page.state.hardware.robot_connection is None      # never the lab's simulated robot
     assert "Cell: a real cell: the serial robot on /dev/ttyUSB0 (robocal_v1), cameras 0 and 1" in \
         page.project_details.text()
     assert page.robot_panel.port_edit.text() == "/dev/ttyUSB0" and page.robot_panel.serial_radio.isChecked()
@@ -64,12 +64,12 @@ def test_a_new_real_cell_project_is_saved_shown_and_changed(page, tmp_path):
 
     assert page.change_cell((projects.VIRTUAL_LAB, None, None))
     assert projects.open_project(project.folder).mode == projects.VIRTUAL_LAB
-    assert not page.state.real_cell and page.state.robot_connection is not None
-    assert not is_real(page.state.robot_connection)
+    assert not page.state.real_cell and page.state.hardware.robot_connection is not None
+    assert not is_real(page.state.hardware.robot_connection)
     assert "Cell: the virtual lab" in page.project_details.text() and page.robot_panel.virtual_radio.isEnabled()
 
     assert page.change_cell((projects.HARDWARE, {"kind": "teach"}, None))
-    assert page.state.project.teach_mode and page.state.robot_connection is None
+    assert page.state.project.teach_mode and page.state.hardware.robot_connection is None
     assert "teach mode" in page.state.cell and "cameras 0 and 1" in page.state.cell
 
 

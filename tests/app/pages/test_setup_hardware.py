@@ -69,13 +69,13 @@ def connect(page, qtbot, port):
     panel.serial_radio.setChecked(True)
     panel.port_edit.setText(port)
     assert panel.connect_robot()
-    qtbot.waitUntil(lambda: page.state.real_robot and not page.busy, timeout=10000)
+    qtbot.waitUntil(lambda: page.state.hardware.real_robot and not page.task.busy, timeout=10000)
     return panel
 
 
 def test_a_serial_robot_connects_reads_and_moves_after_confirmation(page, qtbot, sim, non_interactive, capsys):
     panel = connect(page, qtbot, sim.port)
-    driver = page.state.robot_connection
+    driver = page.state.hardware.robot_connection
     assert isinstance(driver, SerialRobot) and driver.connected
     assert driver.speed == 25.0                                   # default speed for a real robot
     assert "ROBOCAL" not in panel.info_label.text()              # the controller's name, not the raw line
@@ -84,11 +84,11 @@ def test_a_serial_robot_connects_reads_and_moves_after_confirmation(page, qtbot,
     assert panel.joints is not None and "Joints:" in panel.joints_label.text()
 
     panel.joint_combo.setCurrentIndex(1)
-    assert not page.state.motion_confirmed
+    assert not page.state.hardware.motion_confirmed
     assert panel.jog(+1)
     assert "first motion" in capsys.readouterr().err              # the confirmation was asked
-    qtbot.waitUntil(lambda: not page.busy, timeout=10000)
-    assert page.state.motion_confirmed
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=10000)
+    assert page.state.hardware.motion_confirmed
     assert sim.joints()[1] == pytest.approx(2.0, abs=1e-6)
     assert panel.joints[1] == pytest.approx(np.deg2rad(2.0), abs=1e-6)
     assert [line for line in sim.received if line.startswith("MOVE")] == ["MOVE 0.0000 2.0000 0.0000 0.0000 0.0000 0.0000"]
@@ -128,8 +128,8 @@ def test_stop_latches_until_resume(page, qtbot, sim, non_interactive):
     t = time.monotonic()
     panel.stop_robot()                                            # GUI thread, during the move
     assert time.monotonic() - t < 1.0
-    qtbot.waitUntil(lambda: not page.busy, timeout=10000)
-    assert "STOP" in sim.received and page.state.robot_connection.stopped
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=10000)
+    assert "STOP" in sim.received and page.state.hardware.robot_connection.stopped
     assert abs(sim.joints()[0]) < 9.9                             # it did not finish the move
     assert "stopped" in panel.info_label.text()
     assert not panel.jog_plus.isEnabled() or not panel.jog(+1)
@@ -137,11 +137,11 @@ def test_stop_latches_until_resume(page, qtbot, sim, non_interactive):
     assert not panel.jog(+1) and "Resume" in page.status.text()
     assert sum(line.startswith("MOVE") for line in sim.received) == moves
     panel.resume_robot()
-    assert not page.state.robot_connection.stopped
+    assert not page.state.hardware.robot_connection.stopped
     assert panel.read_joints()
-    qtbot.waitUntil(lambda: not page.busy, timeout=5000)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=5000)
     assert panel.jog(+1)
-    qtbot.waitUntil(lambda: not page.busy, timeout=10000)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=10000)
     assert sum(line.startswith("MOVE") for line in sim.received) == moves + 1
 
 
@@ -150,8 +150,8 @@ def test_a_wrong_port_is_one_clear_message(page, qtbot, tmp_path):
     panel.serial_radio.setChecked(True)
     panel.port_edit.setText(str(tmp_path / "no-such-port"))
     assert panel.connect_robot()
-    qtbot.waitUntil(lambda: not page.busy, timeout=10000)
-    assert "no-such-port" in page.status.text() and not page.state.real_robot
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=10000)
+    assert "no-such-port" in page.status.text() and not page.state.hardware.real_robot
 
 
 def test_two_video_files_preview_side_by_side_without_blocking(page, qtbot, tmp_path):
@@ -164,7 +164,7 @@ def test_two_video_files_preview_side_by_side_without_blocking(page, qtbot, tmp_
     timer.timeout.connect(lambda: ticks.append(time.monotonic()))
     timer.start(50)
     assert panel.open_cameras()
-    qtbot.waitUntil(lambda: page.state.cameras is not None, timeout=10000)
+    qtbot.waitUntil(lambda: page.state.hardware.cameras is not None, timeout=10000)
     assert panel.pump is not None and panel.pump.running           # the preview starts on its own
     # frames arrive (the bench measures the rate) while the event loop keeps running
     qtbot.waitUntil(lambda: panel.pump.shown >= 10 and len(ticks) >= 40, timeout=15000)
@@ -185,9 +185,9 @@ def test_an_image_folder_and_a_video_file_as_cameras(page, qtbot, tmp_path):
     panel.left_edit.setText(str(write_video(tmp_path / "left.avi", frames=5)))
     panel.right_edit.setText(str(folder))
     assert panel.open_cameras()
-    qtbot.waitUntil(lambda: page.state.cameras is not None and panel.pump is not None
+    qtbot.waitUntil(lambda: page.state.hardware.cameras is not None and panel.pump is not None
                     and panel.pump.shown >= 8, timeout=10000)       # both loop past their ends
-    frames = page.state.cameras.capture()
+    frames = page.state.hardware.cameras.capture()
     assert frames.left.shape == (FRAME[1], FRAME[0], 3) and frames.right.shape == (120, 160)
 
 
@@ -196,8 +196,8 @@ def test_a_missing_camera_source_names_it(page, qtbot, tmp_path):
     panel.left_edit.setText(str(tmp_path / "nothing.avi"))
     panel.right_edit.setText("")
     assert panel.open_cameras()
-    qtbot.waitUntil(lambda: not page.busy, timeout=10000)
-    assert "nothing.avi" in page.status.text() and page.state.cameras is None
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=10000)
+    assert "nothing.avi" in page.status.text() and page.state.hardware.cameras is None
 
 
 def test_camera_settings_are_asked_and_what_did_not_take_is_shown(page, qtbot, tmp_path):
@@ -215,7 +215,7 @@ def test_camera_settings_are_asked_and_what_did_not_take_is_shown(page, qtbot, t
     panel.left_edit.setText(str(left))
     panel.right_edit.setText(str(right))
     assert panel.open_cameras()
-    qtbot.waitUntil(lambda: page.state.cameras is not None, timeout=10000)
+    qtbot.waitUntil(lambda: page.state.hardware.cameras is not None, timeout=10000)
     text = panel.status_label.text()
     assert "Settings that did not take" in text
     assert "the video file refused width = 1280 (it uses 640)" in text

@@ -158,7 +158,7 @@ def test_connection_and_cameras_offer_the_virtual_lab_and_hardware(page):
     assert "Choose a robot model to connect the simulated robot" in robot.info_label.text()
     page.choose_preset("ur5")
     assert "connected" in robot.info_label.text()
-    assert page.state.robot_connection.connected
+    assert page.state.hardware.robot_connection.connected
     words = screen_words(page).lower()
     assert "not yet" not in words and "issue" not in words and "arrives with" not in words
 
@@ -180,7 +180,7 @@ def test_a_hardware_project_offers_real_hardware_only(page, tmp_path):
     robot, cams = page.robot_panel, page.camera_panel
     assert robot.serial_radio.isChecked() and cams.sources_radio.isChecked()
     assert not robot.virtual_radio.isEnabled() and not cams.virtual_radio.isEnabled()
-    assert page.state.robot_connection is None
+    assert page.state.hardware.robot_connection is None
     assert "not yet" not in screen_words(page).lower()
 
 
@@ -198,7 +198,7 @@ def test_autopilot_sets_up_a_demo(page):
 def test_choosing_the_virtual_robot_without_a_model_connects_nothing(page, qtbot):
     qtbot.mouseClick(page.robot_panel.virtual_radio, Qt.MouseButton.LeftButton)
     assert page.robot_panel.virtual_radio.isChecked()
-    assert page.state.robot_connection is None           # nothing to connect without a robot
+    assert page.state.hardware.robot_connection is None           # nothing to connect without a robot
 
 
 @pytest.mark.parametrize("width", [1000, 1700])

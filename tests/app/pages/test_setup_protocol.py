@@ -46,7 +46,7 @@ def send(page, qtbot, template=None, text=None):
     else:
         panel.line_edit.setText(text)
     assert panel.send_line()
-    qtbot.waitUntil(lambda: not page.busy, timeout=10000)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=10000)
     return panel.log.toPlainText()
 
 
@@ -83,7 +83,7 @@ def test_robocal_profile_line_by_line(page, qtbot):
         moves = sim.moves
         panel.line_edit.setText("MOVE 10 0 0 0 0 0")
         assert panel.send_line()
-        qtbot.waitUntil(lambda: not page.busy, timeout=10000)
+        qtbot.waitUntil(lambda: not page.task.busy, timeout=10000)
         assert "typed by hand" in page.status.text()
         time.sleep(0.1)
         assert sim.moves == moves and sim.received[-1] == "WAVE"
@@ -114,12 +114,12 @@ def test_connect_closes_the_test_port_and_the_robot_lends_its_link(page, qtbot):
             assert panel.probe is not None
             assert page.robot_panel.connect_robot()
             assert panel.probe is None                          # closed before the port is opened again
-            qtbot.waitUntil(lambda: page.state.real_robot and not page.busy, timeout=10000)
+            qtbot.waitUntil(lambda: page.state.hardware.real_robot and not page.task.busy, timeout=10000)
             log = send(page, qtbot, "position")
             assert log.count("✓ position") == 1 and panel.probe is None
             assert "move (to the joints read)" in panel._templates  # the connected robot's joints
             assert page.robot_panel.read_joints()
-            qtbot.waitUntil(lambda: not page.busy, timeout=10000)
+            qtbot.waitUntil(lambda: not page.task.busy, timeout=10000)
             assert "Joints read." in page.status.text()          # the driver goes on after the test
     finally:
         messages.set_non_interactive(False)
@@ -139,20 +139,20 @@ def test_the_classroom_simulator_starts_fills_the_port_and_stops_with_the_projec
         row.protocol_combo.setCurrentIndex(row.protocol_combo.findData("grbl"))
         row.seed_spin.setValue(3)
         assert row.start()
-        qtbot.waitUntil(lambda: page.state.simulator is not None and not page.busy, timeout=30000)
-        sim = page.state.simulator
+        qtbot.waitUntil(lambda: page.state.hardware.simulator is not None and not page.task.busy, timeout=30000)
+        sim = page.state.hardware.simulator
         assert sim.protocol == "grbl" and sim.port.startswith("/dev/")
         assert page.robot_panel.port_edit.text() == sim.port
         assert page.robot_panel.profile_combo.currentText() == "grbl_joint_arm"
         assert sim.port in row.device_label.text() and not row.start_button.isEnabled()
         assert page.robot_panel.connect_robot()
-        qtbot.waitUntil(lambda: page.state.real_robot and not page.busy, timeout=10000)
-        assert page.state.robot_connection.port == sim.port
+        qtbot.waitUntil(lambda: page.state.hardware.real_robot and not page.task.busy, timeout=10000)
+        assert page.state.hardware.robot_connection.port == sim.port
         page.grab().save(str(tmp_path / "setup_simulator.png"))
 
         page.state.new_project(tmp_path / "other")                  # the project closes: the simulator stops
-        assert page.state.simulator is None and not sim._thread.is_alive()
-        assert not page.state.real_robot
+        assert page.state.hardware.simulator is None and not sim._thread.is_alive()
+        assert not page.state.hardware.real_robot
         assert row.start_button.isEnabled() and row.device_label.text() == ""
     finally:
         messages.set_non_interactive(False)
@@ -164,9 +164,9 @@ def test_closing_the_app_stops_the_simulator(qtbot, tmp_path):
     p = SetupPage(state, tasks)
     qtbot.addWidget(p)
     assert p.robot_panel.simulator_row.start()
-    qtbot.waitUntil(lambda: state.simulator is not None and not p.busy, timeout=30000)
-    sim = state.simulator
+    qtbot.waitUntil(lambda: state.hardware.simulator is not None and not p.task.busy, timeout=30000)
+    sim = state.hardware.simulator
     assert sim.protocol == "robocal" and p.robot_panel.profile_combo.currentText() == "robocal_v1"
     tasks.shutdown()
     state.close()
-    assert state.simulator is None and not sim._thread.is_alive()
+    assert state.hardware.simulator is None and not sim._thread.is_alive()

@@ -51,7 +51,7 @@ def open_cameras(page, qtbot, left, right):
     panel.left_edit.setText(str(left))
     panel.right_edit.setText(str(right))
     assert panel.open_cameras()
-    qtbot.waitUntil(lambda: page.state.cameras is not None and not page.busy, timeout=10000)
+    qtbot.waitUntil(lambda: page.state.hardware.cameras is not None and not page.task.busy, timeout=10000)
 
 
 def test_the_hardware_choice_is_restored_and_a_swapped_cable_noticed(make_page, qtbot, tmp_path):
@@ -68,12 +68,12 @@ def test_the_hardware_choice_is_restored_and_a_swapped_cable_noticed(make_page, 
             robot.baud_combo.setCurrentText("57600")
             robot.speed_spin.setValue(40)
             assert robot.connect_robot()
-            qtbot.waitUntil(lambda: page.state.real_robot and not page.busy, timeout=10000)
+            qtbot.waitUntil(lambda: page.state.hardware.real_robot and not page.task.busy, timeout=10000)
     finally:
         messages.set_non_interactive(False)
     page.camera_panel.settings_form.width_spin.setValue(1280)
     open_cameras(page, qtbot, a, b)
-    assert page.state.camera_changes == [] and "✓ Cameras open." in page.status.text()
+    assert page.state.hardware.camera_changes == [] and "✓ Cameras open." in page.status.text()
 
     saved = json.loads((tmp_path / "project" / "project.json").read_text())
     assert saved["robot_connection"] == {"kind": "serial", "port": sim.port, "profile": "grbl_joint_arm",
@@ -88,13 +88,13 @@ def test_the_hardware_choice_is_restored_and_a_swapped_cable_noticed(make_page, 
     robot = again.robot_panel
     assert robot.serial_radio.isChecked() and robot.port_edit.text() == sim.port
     assert robot.profile_combo.currentText() == "grbl_joint_arm" and robot.baud_combo.currentText() == "57600"
-    assert robot.speed_spin.value() == 40 and not again.state.real_robot          # not connected by itself
+    assert robot.speed_spin.value() == 40 and not again.state.hardware.real_robot          # not connected by itself
     cams = again.camera_panel
     assert cams.sources_radio.isChecked() and cams.left_edit.text() == str(a) and cams.right_edit.text() == str(b)
     assert cams.settings_form.width_spin.value() == 1280 and not cams.settings_form.autofocus_check.isChecked()
 
     open_cameras(again, qtbot, b, a)                                              # cables exchanged
-    assert again.state.camera_changes == ["the left and right cameras are swapped (cables exchanged)"]
+    assert again.state.hardware.camera_changes == ["the left and right cameras are swapped (cables exchanged)"]
     assert "swapped" in again.status.text() and "swapped" in cams.status_label.text()
     again.grab().save(str(tmp_path / "setup_swapped.png"))
 

@@ -50,13 +50,13 @@ def made(qtbot):
 
     yield make
     for page in pages:
-        page.tasks.shutdown()
+        page.task.runner.shutdown()
     for state in {id(p.state): p.state for p in pages}.values():
         state.close()
 
 
 def idle(qtbot, page):
-    qtbot.waitUntil(lambda: not page.busy, timeout=TIMEOUT)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=TIMEOUT)
 
 
 def measure(page, seed):
@@ -98,7 +98,7 @@ def test_check_sees_the_calibration_saved_in_this_session(qtbot, lab, tmp_path, 
     assert check.status.text() == MISSING and not check.controls.run_button.isEnabled()
     ident = made(IdentificationPage, state, tasks)
     assert ident.use_ideal_measurements(then_identify=True)
-    qtbot.waitUntil(lambda: ident.run_result is not None and not ident.busy, timeout=TIMEOUT)
+    qtbot.waitUntil(lambda: ident.run_result is not None and not ident.task.busy, timeout=TIMEOUT)
     assert ident.save_calibrated()
     # the Check page was not entered again: the saved file alone changes its words
     assert check.status.text() != MISSING and "Ready to check" in check.status.text(), check.status.text()
@@ -111,7 +111,7 @@ def test_marker_inside_a_project_and_out_of_date_after_a_new_stereo_calibration(
     page = made(MarkerPage, state, TaskRunner())
     assert "No project" not in page.status.text()
     assert page.status.text().startswith("No trained marker in this project yet")
-    page.tasks.shutdown()
+    page.task.runner.shutdown()
     # a trained and verified marker, then the Stereo step saves another stereo.yaml
     project = state.project
     save_trained(project, lab_marker(lab))
@@ -143,7 +143,7 @@ def test_setup_reads_the_joints_again_after_another_step_moved_the_robot(qtbot, 
     assert panel.joints_label.text() == "Joints: " + "  ".join(f"{v:.2f}" for v in before)
     lo, hi = state.robot.limits()
     q = np.clip(panel.joints + 0.3, lo, hi)          # a measurement run left the robot elsewhere
-    state.robot_connection.move_to(q)
+    state.hardware.robot_connection.move_to(q)
     page.on_leave()
     page.on_enter()
     assert not panel.jog_plus.isEnabled()             # no jog from the old reading meanwhile

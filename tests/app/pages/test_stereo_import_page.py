@@ -24,7 +24,7 @@ def page(qtbot, tmp_path):
     p = StereoPage(state, tasks)
     qtbot.addWidget(p)
     yield p
-    p.tasks.shutdown()
+    p.task.runner.shutdown()
     p.state.close()
 
 
@@ -52,7 +52,7 @@ def test_import_button_makes_a_ros_pair_the_projects_calibration(page, qtbot, tm
     assert source.kind == "file" and "stereo RMS —" in source.label
     assert "unknown (not in the imported calibration)" in calibration_report(page.state.project)
     # the page, opened again on the project, finds the step done
-    again = StereoPage(page.state, page.tasks)
+    again = StereoPage(page.state, page.task.runner)
     qtbot.addWidget(again)
     assert again.is_complete() and "stereo RMS —" in again.status.text()
 

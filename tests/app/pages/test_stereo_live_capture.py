@@ -73,7 +73,7 @@ def same(a: np.ndarray, b: np.ndarray) -> bool:
 
 
 def open_cameras(page, folders) -> None:
-    page.state.set_cameras(LiveCameras.open(CameraChoice("sources", str(folders / "left"), str(folders / "right"))))
+    page.state.hardware.set_cameras(LiveCameras.open(CameraChoice("sources", str(folders / "left"), str(folders / "right"))))
 
 
 def saved_pair(page, n: int) -> list[np.ndarray]:
@@ -109,7 +109,7 @@ def test_capture_only_while_the_pair_shown_has_the_board_in_both(page, qtbot, ca
     qtbot.waitUntil(lambda: live.seen == (False, False), timeout=WAIT_MS)
     assert live.left_label.text() == NOT_SEEN and live.right_label.text() == NOT_SEEN
     assert live.ready_pair() is None and not button.isEnabled() and "both cameras" in button.toolTip()
-    assert not page.capture_pair() and not page.busy and page.items == []
+    assert not page.capture_pair() and not page.task.busy and page.items == []
     assert not (page.state.project.folder / "checkerboard" / "left").exists()
     # a board frame is the one shown: Capture is allowed
     qtbot.waitUntil(lambda: live.seen == (True, True), timeout=WAIT_MS)
@@ -134,7 +134,7 @@ def test_the_pair_saved_is_the_pair_checked(page, qtbot, camera_folders, rendere
     assert pair.answer == (True, True) and frame_index(pair, rendered) is not None
     assert page.capture_pair()
     assert live.ready_pair() is None              # this pair cannot be saved twice
-    qtbot.waitUntil(lambda: not page.busy and len(page.items) == 1, timeout=WAIT_MS)
+    qtbot.waitUntil(lambda: not page.task.busy and len(page.items) == 1, timeout=WAIT_MS)
     left, right = saved_pair(page, 0)
     assert same(left, pair.left) and same(right, pair.right)
     assert page.items[0].source == "cameras" and page.items[0].detection.accepted
@@ -154,9 +154,9 @@ def test_live_capture_of_every_frame_calibrates(page, qtbot, camera_folders, ren
         qtbot.waitUntil(new_frame_ready, timeout=WAIT_MS)
         pair = live.ready_pair()
         qtbot.mouseClick(button, Qt.MouseButton.LeftButton)
-        assert page.busy and live.ready_pair() is None     # the click took the pair shown
+        assert page.task.busy and live.ready_pair() is None     # the click took the pair shown
         taken.append(frame_index(pair, rendered))
-        qtbot.waitUntil(lambda: not page.busy and len(page.items) == n + 1, timeout=WAIT_MS)
+        qtbot.waitUntil(lambda: not page.task.busy and len(page.items) == n + 1, timeout=WAIT_MS)
         assert all(same(a, b) for a, b in zip(saved_pair(page, n), (pair.left, pair.right)))
         expected = coverage([a.detection for a in page.usable_pairs()]).bars
         assert bars.values() == pytest.approx(expected)   # the bars follow every capture
@@ -166,7 +166,7 @@ def test_live_capture_of_every_frame_calibrates(page, qtbot, camera_folders, ren
     assert {a.source for a in page.items} == {"cameras"}
     assert sum(a.detection.accepted for a in page.items) == N_PAIRS
     assert page.calibrate()
-    qtbot.waitUntil(lambda: not page.busy, timeout=90000)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=90000)
     assert page.result is not None and page.result.pairs_used == N_PAIRS and page.result.file.rms_stereo < 1.0
 
 
@@ -178,5 +178,5 @@ def test_preview_stops_when_hidden_and_with_the_cameras(page, qtbot, camera_fold
     assert not page.pairs.capture_button.isEnabled()
     page.show()
     qtbot.waitUntil(lambda: page.live.seen is not None, timeout=WAIT_MS)
-    page.state.set_cameras(None)
+    page.state.hardware.set_cameras(None)
     assert page.live.pump is None and not page.live.isVisible() and preview_threads() == []

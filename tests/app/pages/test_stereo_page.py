@@ -70,12 +70,12 @@ def make_page(qtbot, tmp_path, mode=None):
 def page(qtbot, tmp_path, shared_lab):
     p = make_page(qtbot, tmp_path)
     yield p
-    p.tasks.shutdown()
+    p.task.runner.shutdown()
     p.state.close()
 
 
 def wait(qtbot, page, timeout=WAIT_MS):
-    qtbot.waitUntil(lambda: not page.busy, timeout=timeout)
+    qtbot.waitUntil(lambda: not page.task.busy, timeout=timeout)
 
 
 def patch_dirs(monkeypatch, *answers):
@@ -89,7 +89,7 @@ def test_virtual_lab_pairs_calibrate_drop_outlier_and_export(page, qtbot, tmp_pa
     assert not page.model.calibrate_button.isEnabled() and not page.save_button.isEnabled()
     page.pairs.virtual_count.setValue(12)
     qtbot.mouseClick(page.pairs.virtual_button, Qt.MouseButton.LeftButton)
-    assert page.busy and page.progress_row().cancel_button.isEnabled()
+    assert page.task.busy and page.task.progress_row().cancel_button.isEnabled()
     wait(qtbot, page)
     assert len(page.items) == 12 and page.pairs.strip.count() == 12
     folder = page.state.project.folder / "checkerboard"
@@ -175,7 +175,7 @@ def test_capture_is_disabled_for_hardware_until_cameras_are_opened(qtbot, tmp_pa
         assert page.pairs.folders_button.isEnabled()
         assert page.board == Board(9, 6, 24.0)
     finally:
-        page.tasks.shutdown()
+        page.task.runner.shutdown()
         page.state.close()
 
 
@@ -255,7 +255,7 @@ def test_real_pairs_flagged_outlier_dropped(qtbot, tmp_path, monkeypatch):
         assert page.result.pairs_used == 25 - n
         assert abs(page.result.file.K1[0, 0] / 518.05 - 1) < 0.02
     finally:
-        page.tasks.shutdown()
+        page.task.runner.shutdown()
         page.state.close()
 
 
@@ -265,7 +265,7 @@ def test_bad_folders_give_a_clear_message(page, qtbot, tmp_path, rendered_folder
     shutil.copytree(rendered_folders / "right", right)
     (left / "img_08.png").write_bytes((left / "img_00.png").read_bytes())
     assert not page.add_folders(left, right)                # unequal counts: nothing starts
-    assert not page.busy and page.items == []
+    assert not page.task.busy and page.items == []
     text = page.status.text()
     assert "9 left images" in text and "8 right images" in text and "img_08.png" in text
 
@@ -290,8 +290,8 @@ def test_bad_folders_give_a_clear_message(page, qtbot, tmp_path, rendered_folder
 # -- cancel -------------------------------------------------------------------------------------
 def test_cancel_rendering_keeps_finished_pairs_only(page, qtbot):
     page.add_virtual_pairs(12)
-    qtbot.waitUntil(lambda: len(page.items) >= 1 or not page.busy, timeout=WAIT_MS)
-    page.cancel()
+    qtbot.waitUntil(lambda: len(page.items) >= 1 or not page.task.busy, timeout=WAIT_MS)
+    page.task.cancel()
     wait(qtbot, page)
     assert "Cancelled" in page.status.text()
     assert 1 <= len(page.items) < 12
@@ -304,7 +304,7 @@ def test_cancel_calibration(page, qtbot, monkeypatch, rendered_folders):
     assert page.add_folders(rendered_folders / "left", rendered_folders / "right")
     wait(qtbot, page)
     assert page.calibrate()
-    page.cancel()
+    page.task.cancel()
     wait(qtbot, page)
     assert page.result is None and "Cancelled" in page.status.text()
     assert page.model.calibrate_button.isEnabled() and not page.save_button.isEnabled()
@@ -323,10 +323,10 @@ def test_autopilot_renders_calibrates_and_saves(page, qtbot, monkeypatch):
     # the same project opened again: the step is already done
     other = WizardState()
     other.open_project(page.state.project.folder)
-    again = StereoPage(other, page.tasks)
+    again = StereoPage(other, page.task.runner)
     qtbot.addWidget(again)
     assert again.is_complete()                        # done at once, from stereo.yaml
-    qtbot.waitUntil(lambda: not again.busy, timeout=WAIT_MS)
+    qtbot.waitUntil(lambda: not again.task.busy, timeout=WAIT_MS)
     assert "already has stereo.yaml" in again.status.text() and "saved pairs are back" in again.status.text()
     assert len(again.items) == 12                     # the pairs rendered into the project
     assert again.is_complete()
@@ -340,7 +340,7 @@ def test_autopilot_without_pairs_in_a_hardware_project_fails_clearly(qtbot, tmp_
         page.autopilot(lambda ok=True, message="": done.append((ok, message)))
         assert done == [(False, "no checkerboard pairs: add pairs from folders first")]
     finally:
-        page.tasks.shutdown()
+        page.task.runner.shutdown()
         page.state.close()
 
 
@@ -367,7 +367,7 @@ def test_swapped_real_pairs_are_swapped_on_the_spot(page, qtbot, monkeypatch, tm
     assert before.cameras_look_swapped and page.swap_button.isVisible()
     assert "Swap left and right" in page.status.text()
     qtbot.mouseClick(page.swap_button, Qt.MouseButton.LeftButton)
-    qtbot.waitUntil(lambda: page.result is not None and not page.busy, timeout=WAIT_MS)
+    qtbot.waitUntil(lambda: page.result is not None and not page.task.busy, timeout=WAIT_MS)
     after = page.result
     assert not after.cameras_look_swapped and not page.swap_button.isVisible()
     assert page.items[0].detection.name == "right01.jpg | left01.jpg"
@@ -392,11 +392,11 @@ def test_swapping_pairs_saved_in_the_project_swaps_their_folders(qtbot, tmp_path
         assert page.result.cameras_look_swapped
         first_right = (saved / "right" / "img_00.png").read_bytes()
         assert page.swap_cameras()
-        qtbot.waitUntil(lambda: page.result is not None and not page.busy, timeout=WAIT_MS)
+        qtbot.waitUntil(lambda: page.result is not None and not page.task.busy, timeout=WAIT_MS)
         assert not page.result.cameras_look_swapped
         assert (saved / "left" / "img_00.png").read_bytes() == first_right
         assert (saved / "left" / "img_00.png").read_bytes() == (rendered_folders / "left" / "img_00.png").read_bytes()
         assert page.items[0].detection.name == "img_00.png | img_00.png"
     finally:
-        page.tasks.shutdown()
+        page.task.runner.shutdown()
         page.state.close()
