@@ -1,11 +1,15 @@
 """The Check page's controls: the tool mounted (a robot with several tools), the check poses, "Run
-check now", the schedule, and on the virtual lab (only) the change to simulate."""
+check now", the schedule, and on the virtual lab (only) the change to simulate. What is chosen is
+read as the model's options (`options()`, `show_options(o)`; `optionsChanged` on every change);
+the check poses are drawn from the model's events (`follow(model)`)."""
 from __future__ import annotations
 
 import numpy as np
+from PySide6.QtCore import Signal
 from PySide6.QtWidgets import (QCheckBox, QComboBox, QGroupBox, QLabel, QListWidget, QVBoxLayout, QWidget)
 
 from app.pages import forms
+from app.pages.check.model import CheckModel, CheckOptions
 
 #: (label, change kind) of the "Simulate a change" choice
 CHANGES = [("none", ""), ("tool offset (mm)", "tool"), ("base shift (mm)", "base"),
@@ -16,6 +20,8 @@ MOUNT = ("another tool mounted", "mount")
 
 
 class CheckControls(QWidget):
+    optionsChanged = Signal()          # anything `options()` returns may have changed
+
     def __init__(self, parent=None):
         super().__init__(parent)
         self._changes = list(CHANGES)
@@ -101,6 +107,41 @@ class CheckControls(QWidget):
         layout.addWidget(run_box)
         layout.addWidget(self.change_box)
         layout.addStretch(1)
+        for changed in (self.count_spin.valueChanged, self.tool_combo.currentIndexChanged,
+                        self.change_combo.currentIndexChanged, self.mount_combo.currentIndexChanged,
+                        self.joint_spin.valueChanged, self.size_spin.valueChanged, self.payload_check.toggled,
+                        self.payload_spin.valueChanged, self.schedule_check.toggled, self.minutes_spin.valueChanged):
+            changed.connect(lambda *_: self.optionsChanged.emit())
+
+    def options(self) -> CheckOptions:
+        """What is chosen: pose count, tool mounted, change simulated, payload, schedule."""
+        return CheckOptions(count=self.count_spin.value(), tool=self.tool(), change=self.change_spec(),
+                            payload_kg=self.payload_kg(),
+                            schedule_minutes=self.minutes_spin.value() if self.schedule_check.isChecked() else None)
+
+    def show_options(self, options: CheckOptions) -> None:
+        """Show `options` as chosen (its change as `change_spec()` writes it)."""
+        self.count_spin.setValue(options.count)
+        if options.tool is not None:
+            self.choose_tool(options.tool)
+        kind, _, value = (options.change or "").partition(":")
+        if kind == "mount":
+            self.choose_change("mount", self.size_spin.value(), tool=value)
+        else:
+            name = kind.rstrip("0123456789")
+            self.choose_change(name, float(value) if value else self.size_spin.value(),
+                               int(kind[len(name):] or self.joint_spin.value()))
+        self.payload_check.setChecked(options.payload_kg is not None)
+        if options.payload_kg is not None:
+            self.payload_spin.setValue(options.payload_kg)
+        if options.schedule_minutes is not None:
+            self.minutes_spin.setValue(options.schedule_minutes)
+        self.schedule_check.setChecked(options.schedule_minutes is not None)
+
+    def follow(self, model: CheckModel) -> None:
+        """List the check poses when chosen, none when the calibration changed."""
+        model.on("poses", lambda outcome: self.show_poses(outcome.cell.model.q_to_file(outcome.cell.Q)))
+        model.on("cleared", lambda _: self.poses_list.clear())
 
     def _change_kind_changed(self) -> None:
         kind = self._changes[self.change_combo.currentIndex()][1]
@@ -127,6 +168,7 @@ class CheckControls(QWidget):
             self.change_combo.addItems([label for label, _ in changes])
             self.change_combo.blockSignals(False)
         self._change_kind_changed()
+        self.optionsChanged.emit()
 
     def payload_kg(self) -> float | None:
         """The payload mounted now (kg), or None when not said."""

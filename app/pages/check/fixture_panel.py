@@ -1,5 +1,6 @@
 """The Check page's Fixture panel: where a fixture is in the robot's base frame, from the virtual
-lab's fixture or from a fixture description and a folder of image pairs (app/jobs/fixture.py)."""
+lab's fixture or from a fixture description and a folder of image pairs (app/jobs/fixture.py); the
+located fixture drawn from the model's events (`follow(model)`)."""
 from __future__ import annotations
 
 import numpy as np
@@ -7,6 +8,7 @@ from PySide6.QtWidgets import QComboBox, QFileDialog, QGroupBox, QLabel, QVBoxLa
 
 from app.html import esc
 from app.pages import forms
+from app.pages.check.model import CheckModel
 
 SOURCES = [("virtual lab fixture", "lab"), ("image pairs", "files")]
 
@@ -84,6 +86,9 @@ class FixturePanel(QGroupBox):
     def set_enabled(self, busy: bool, ready: bool) -> None:
         self.locate_button.setEnabled(ready and not busy)
         self.source_combo.setEnabled(not busy)
+
+    def follow(self, model: CheckModel) -> None:
+        model.on("fixture", self.show_run)
 
     def show_run(self, run) -> None:
         """The located fixture: pose ± σ, residuals per point, the files written, the lab's truth."""

@@ -1,5 +1,6 @@
 """The Check page's results: the verdict, the diagnosis in plain words, "Re-identify", and the
-control charts read from the check log (overall RMS error, then one per check pose)."""
+control charts read from the check log (overall RMS error, then one per check pose), drawn from
+the model's events (`follow(model)`)."""
 from __future__ import annotations
 
 from PySide6.QtCore import Qt
@@ -7,6 +8,8 @@ from PySide6.QtWidgets import QGridLayout, QLabel, QScrollArea, QVBoxLayout, QWi
 
 from app.html import esc
 from app.pages import forms
+from app.pages.check.model import CheckModel, CheckOutcome
+from app.pages.check.texts import short_verdict
 from core.monitoring.log import CheckLog
 from widgets.control_chart import ControlChart
 
@@ -104,3 +107,18 @@ class CheckResults(QWidget):
     def show_diagnosis(self, text: str, can_reidentify: bool) -> None:
         self.diagnosis_label.setText(text)
         self.reidentify_button.setEnabled(can_reidentify)
+
+    def show_check(self, outcome: CheckOutcome) -> None:
+        """The last check's verdict and its diagnosis (Re-identify offered when it can estimate the change)."""
+        result, diagnosis = outcome.check, outcome.diagnosis
+        self.show_verdict(short_verdict(result), result.within, result.verdict())
+        if diagnosis is None:
+            self.show_diagnosis("The marker is where the calibrated model puts it." if result.within else "", False)
+        else:
+            self.show_diagnosis(diagnosis.text, outcome.can_reidentify)
+
+    def follow(self, model: CheckModel) -> None:
+        """Draw each check, the log's charts, and nothing checked after the calibration changed."""
+        model.on("check", self.show_check)
+        model.on("log", self.show_log)
+        model.on("cleared", lambda _: (self.show_verdict("No check yet.", None), self.show_diagnosis("", False)))

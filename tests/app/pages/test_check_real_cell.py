@@ -179,7 +179,7 @@ def test_a_robot_fault_ends_a_scheduled_check_keeping_the_log(lab, qtbot, tmp_pa
         page = open_page(qtbot, state, tasks)
         page.controls.schedule_check.setChecked(True)
         assert page.schedule_timer.isActive()
-        page._scheduled()                           # the timer's tick
+        page.schedule.tick()                        # the timer's tick
         qtbot.waitUntil(lambda: page.result is not None and not page.task.busy, timeout=TIMEOUT)
         assert sim.fired == ["fault@3"] and page.result.cancelled
         assert len(page.result.points) == 2, page.status.text()
