@@ -30,18 +30,18 @@ def setup_on_lab(path, count, tool, *, lab, progress=None, cancelled=None) -> jo
 
 
 class CheckRuns:
-    """Runs on the virtual lab or on the real cell (`cell`), teach mode's recorded poses (`teach`).
+    """Runs on the virtual lab or on the real cell (`real_cell`), teach mode's recorded poses (`teach`).
     The page's callables: `set_status(text, ok)`, `status_text()`, `finish_autopilot(ok, message)`,
     `refresh()` (read the log, redraw) and `on_busy_changed()` (enable the controls)."""
 
-    def __init__(self, state, model: CheckModel, inputs: CheckInputs, task: PageTask, cell: RealCell,
+    def __init__(self, state, model: CheckModel, inputs: CheckInputs, task: PageTask, real_cell: RealCell,
                  teach: TeachPoses, schedule: CheckSchedule, *, set_status: Callable, status_text: Callable[[], str],
                  finish_autopilot: Callable, refresh: Callable[[], None], on_busy_changed: Callable[[], None]):
         self.state = state
         self.model = model
         self.inputs = inputs
         self.task = task
-        self.cell = cell
+        self.real_cell = real_cell
         self.teach = teach
         self.schedule = schedule
         self._set_status = set_status
@@ -56,7 +56,7 @@ class CheckRuns:
         is checked yet."""
         self.task.forget()
         self.model.clear()
-        self.cell.measure = None
+        self.real_cell.measure = None
         self._refresh()
 
     def can_run(self) -> bool:
@@ -66,7 +66,7 @@ class CheckRuns:
             self._finish_autopilot(False, MISSING)
             return False
         if not self.state.virtual:
-            problem = self.cell.problem()
+            problem = self.real_cell.problem()
             if problem is not None:
                 self._set_status(f"Nothing measured: {problem}. (This project measures on {self.state.cell}; "
                                  "never on the virtual lab.)", False)
@@ -124,11 +124,11 @@ class CheckRuns:
 
     def _drive_check(self, key: tuple) -> bool:
         cell = self.model.result.cell
-        measure = self.cell.measure_for(cell.Q)
+        measure = self.real_cell.measure_for(cell.Q)
         if measure is None:
             self._finish_autopilot(False, self._status_text())
             return False
-        self.where = self.cell.words()
+        self.where = self.real_cell.words()
         return self.task.start(cell_check.check_cell, cell, measure, log=self.inputs.log_path(),
                                on_done=lambda value: self._checked((cell, *value), key),
                                status=f"Checking: {self.where}… Esc stops the robot.")
@@ -140,8 +140,8 @@ class CheckRuns:
                              "recorded.", False)
             return False
         key = self.inputs.key()
-        self.where = self.cell.words()
-        self.cell.measure = None
+        self.where = self.real_cell.words()
+        self.real_cell.measure = None
 
         def checked(value) -> None:
             self.teach.forget()
@@ -154,7 +154,7 @@ class CheckRuns:
         cell, result, diagnosis = value
         self.model.take_check(cell, result, diagnosis, key)
         self._refresh()
-        fault = self.cell.fault_words(self.schedule.switch_off)
+        fault = self.real_cell.fault_words(self.schedule.switch_off)
         payload = job.payload_comparison(self.model.options.payload_kg, cell.model)[0]
         self._set_status(("✓ " if result.within and not fault else "⚠ ") + short_verdict(result)
                          + " Points " + self.where + "." + fault + (" " + payload if payload else ""),
@@ -173,10 +173,10 @@ class CheckRuns:
             return False
         path, log = self.inputs.calibrated_path(), self.inputs.log_path()
         if not self.state.virtual:
-            measure = self.cell.measure_for()
+            measure = self.real_cell.measure_for()
             if measure is None:
                 return False
-            self.where = self.cell.words()
+            self.where = self.real_cell.words()
             return self.task.start(cell_check.reidentify_cell, outcome.cell, outcome.check, outcome.diagnosis,
                                    measure, path, self.inputs.cell_options(), log=log, on_done=self._reidentified,
                                    status=f"Re-identifying from the proposed poses, {self.where}… Esc stops the "
@@ -203,7 +203,7 @@ class CheckRuns:
                          f"pose{'s' if len(update.proposed) != 1 else ''} and the check, "
                          f"{self.where}; wrote {update.path.name} (the previous one is kept in history/). Check "
                          f"of the updated robot: {short_verdict(update.after)}"
-                         + self.cell.fault_words(self.schedule.switch_off),
+                         + self.real_cell.fault_words(self.schedule.switch_off),
                          update.after.within and not update.after.cancelled)
 
     def identify_tool(self) -> bool:
@@ -214,10 +214,10 @@ class CheckRuns:
             return False
         path = self.inputs.calibrated_path()
         if not self.state.virtual:
-            measure = self.cell.measure_for()
+            measure = self.real_cell.measure_for()
             if measure is None:
                 return False
-            self.where = self.cell.words()
+            self.where = self.real_cell.words()
             return self.task.start(cell_check.identify_tool_cell, path, options.tool, measure,
                                    self.inputs.cell_options(), on_done=self._tool_identified,
                                    status=f"Identifying the tool '{options.tool}' from its proposed poses, "

@@ -9,6 +9,7 @@ import pytest
 
 from app.pages.check.controls_panel import CheckControls
 from app.pages.check.model import CheckModel, CheckOptions
+from core.monitoring.log import CheckLog, LoggedCheck
 
 
 def heard(model: CheckModel, *events: str) -> list:
@@ -44,7 +45,7 @@ def test_each_outcome_is_heard_as_what_is_drawn():
     assert [e for e, _ in events][3:] == ["check"] and not model.result.can_reidentify
     model.take_log(None)
     assert events[-1] == ("log", None) and model.result.next_seed() == 1 and not model.result.complete
-    log = SimpleNamespace(checks=[SimpleNamespace(finished=False), SimpleNamespace(finished=True)])
+    log = CheckLog([LoggedCheck("1"), LoggedCheck("2", rms_mm=0.1, rms_limit_mm=0.2, within=True)], dof=6)
     model.take_log(log)
     assert model.result.next_seed() == 3 and model.result.complete
     run = SimpleNamespace(name="fixture")
