@@ -128,7 +128,7 @@ class CheckPage(WizardPage):
         return self.model.result.diagnosis
 
     @property
-    def update(self):
+    def reidentification(self):
         """The last re-identification (app.jobs.check.Update)."""
         return self.model.result.update
 

@@ -111,7 +111,7 @@ def test_tool_change_found_reidentified_and_back_within(page, qtbot, tmp_path):
 
     assert page.reidentify()
     qtbot.waitUntil(lambda: not page.task.busy, timeout=TIMEOUT)
-    assert page.update is not None, page.status.text()
+    assert page.reidentification is not None, page.status.text()
     assert page.result.within and "Re-identified marker.x" in page.status.text()
     after = read_robot(page.calibrated_path())
     assert after.calibration["history"][-1]["changed"] == ["marker.x", "marker.y", "marker.z"]
@@ -139,7 +139,7 @@ def test_failed_reidentification_leaves_no_trace(page, qtbot):
     page.controls.choose_change("link", 1.0, joint=3)    # the data of the re-identification: a bent link
     assert page.reidentify()
     qtbot.waitUntil(lambda: not page.task.busy, timeout=TIMEOUT)
-    assert page.update is None and "full calibration" in page.status.text()
+    assert page.reidentification is None and "full calibration" in page.status.text()
     assert page.calibrated_path().read_bytes() == before
     history = page.calibrated_path().parent / "history"
     assert not history.exists() or not any(history.iterdir())

@@ -118,8 +118,8 @@ def test_a_tool_change_on_the_serial_robot_is_found_and_reidentified(lab, qtbot,
         assert len(log.checks) == 1 and len(log.checks[0].points) == 8 and not log.checks[0].within
 
         assert page.reidentify()
-        qtbot.waitUntil(lambda: page.update is not None and not page.task.busy, timeout=TIMEOUT)
-        update = page.update
+        qtbot.waitUntil(lambda: page.reidentification is not None and not page.task.busy, timeout=TIMEOUT)
+        update = page.reidentification
         assert len(update.proposed) >= 1 and update.after.within, page.status.text()
         assert page.result.within and "Re-identified marker.x" in page.status.text()
         assert f"serial robot on {port}" in page.status.text()
