@@ -112,7 +112,8 @@ class MarkerModel(StepModel[MarkerOptions, MarkerResult]):
         """The trained marker (None: none), trained on `image` (default: the current one)."""
         self._locator = None
         self.set_result(replace(self.result, trained=trained, offset=np.asarray(offset, dtype=float),
-                                saved_path=path, training_image=image or self.result.training_image))
+                                saved_path=path,
+                                training_image=self.result.training_image if image is None else image))
         self.emit("trained", self.result)
 
     def forget(self) -> None:
