@@ -1,7 +1,12 @@
 """Step 3, Marker: train the end-effector marker, then check its 3D location on stereo pairs.
 
-The page is page.py, one panel per tab (*_panel.py) and the stereo line (stereo_bar.py); the
-work it runs on worker threads is app/jobs/marker.py. The chapter's chain, one tab each:
+The page is page.py, a small controller: the step's options and results are the Qt-free model
+(model.py); one panel per tab (*_panel.py) and the stereo line (stereo_bar.py) say what was
+chosen (`options()`) and draw from the model's events; the helpers the page holds start the
+work through its task and put what it returns into the model: training.py (the training image,
+training, the project's saved marker), locating.py (live pair, verification), studies.py
+(comparison, imaging conditions) and autopilot.py (the classroom demo). The work they run on
+worker threads is app/jobs/marker.py. The chapter's chain, one tab each:
 
 1. **Training** (core.marker.training.train_marker, worker thread): a training image loaded
    from a file or taken with the left camera (cameras opened on the Setup page) or the virtual

@@ -2,7 +2,7 @@
 each trained and detected in the same random views of the virtual lab (the chapter's Fig. 11)."""
 from __future__ import annotations
 
-from PySide6.QtCore import QSize, Qt
+from PySide6.QtCore import QSize, Qt, Signal
 from PySide6.QtGui import QIcon, QPixmap
 from PySide6.QtWidgets import (QAbstractItemView, QHeaderView, QLabel, QTableWidget, QTableWidgetItem, QVBoxLayout,
                                QWidget)
@@ -10,9 +10,9 @@ from PySide6.QtWidgets import (QAbstractItemView, QHeaderView, QLabel, QTableWid
 from app.html import number
 from app.jobs.marker import Comparison
 from app.pages.forms import button, row, spin
+from app.pages.marker.model import ComparisonOptions
 from widgets.thumbnail_strip import to_qimage
 
-COMPARE_VIEWS = 20
 HEADERS = ["Pattern", "Features", "Matches", "Inliers", "Detected", "Wrong", "Median error"]
 NOTE = ("Five candidate patterns with the same outer square (the chapter's Fig. 11): each is trained from "
         "its own training image and detected in the same random views. <b>Features</b>: SIFT keypoints on "
@@ -22,12 +22,16 @@ NOTE = ("Five candidate patterns with the same outer square (the chapter's Fig. 
 
 
 class ComparePanel(QWidget):
-    """The Compare markers tab; the page connects `compare_button` and calls `draw(comparison)`."""
+    """The Compare markers tab; the page connects `compare_button` and calls `draw(comparison)`.
+    `options()` the views chosen (`optionsChanged()` on a change), `show_options(o)` binds back."""
+
+    optionsChanged = Signal()
 
     def __init__(self, parent: QWidget | None = None):
         super().__init__(parent)
-        self.compare_spin = spin(COMPARE_VIEWS, 5, 400, name="compareSpin",
+        self.compare_spin = spin(ComparisonOptions().views, 5, 400, name="compareSpin",
                                  tooltip="Random views (400–900 mm, tilted up to 60°) each candidate is detected in")
+        self.compare_spin.valueChanged.connect(lambda *_: self.optionsChanged.emit())
         self.compare_button = button("Compare markers", "compareButton")
         self.compare_table = QTableWidget(0, len(HEADERS))
         self.compare_table.setObjectName("compareTable")
@@ -46,6 +50,12 @@ class ComparePanel(QWidget):
         layout.addLayout(row("Views per pattern:", self.compare_spin, self.compare_button))
         layout.addWidget(self.compare_table, 1)
         layout.addWidget(self.compare_note)
+
+    def options(self) -> ComparisonOptions:
+        return ComparisonOptions(self.compare_spin.value())
+
+    def show_options(self, options: ComparisonOptions) -> None:
+        self.compare_spin.setValue(options.views)
 
     def draw(self, comparison: Comparison | None) -> None:
         """One row per pattern, the recommended one in bold (None: an empty table)."""

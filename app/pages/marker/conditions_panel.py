@@ -5,7 +5,7 @@ class can see where the marker method breaks."""
 from __future__ import annotations
 
 import numpy as np
-from PySide6.QtCore import Qt
+from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import (QAbstractItemView, QComboBox, QHBoxLayout, QHeaderView, QLabel, QSlider, QSplitter,
                                QTableWidget, QTableWidgetItem, QVBoxLayout, QWidget)
 
@@ -13,6 +13,7 @@ from app.html import esc, number
 from app.jobs.marker_conditions import ConditionsPair
 from app.lab import SIDES, ImagingConditions, RobustnessTable
 from app.pages.forms import button, spin
+from app.pages.marker.model import ConditionsOptions
 from widgets.flow_layout import FlowLayout
 from widgets.image_view import ImageView
 from widgets.robustness_plot import RobustnessPlot
@@ -29,32 +30,37 @@ NOTE = ("<b>Detected</b>: located and passing every check, of the pairs rendered
 
 class ConditionsPanel(QWidget):
     """The Conditions tab; the page connects `show_button` and `sweep_button` and calls
-    `draw_pair(pair)` and `draw_table(table)`."""
+    `draw_pair(pair)` and `draw_table(table)`. `options()` the conditions and sweep chosen
+    (`optionsChanged()` on a change), `show_options(o)` binds them back."""
+
+    optionsChanged = Signal()
 
     def __init__(self, parent: QWidget | None = None):
         super().__init__(parent)
+        start = ConditionsOptions()
         self.light_slider = QSlider(Qt.Orientation.Horizontal)
         self.light_slider.setObjectName("lightSlider")
         self.light_slider.setRange(5, 150)
-        self.light_slider.setValue(100)
+        self.light_slider.setValue(round(100 * start.conditions.light))
         self.light_slider.setToolTip("Light on the scene, % of the lab's normal light (the sensor noise stays)")
         self.light_slider.setMinimumWidth(140)
         self.light_label = QLabel()
         self.light_slider.valueChanged.connect(self._light_changed)
-        self._light_changed(100)
-        self.occlusion_spin = spin(0, 0, 90, name="occlusionSpin", suffix=" %",
+        self._light_changed(self.light_slider.value())
+        self.occlusion_spin = spin(round(100 * start.conditions.occlusion), 0, 90, name="occlusionSpin", suffix=" %",
                                    tooltip="Share of the marker's outer square covered by a dark band or patch")
         self.side_combo = QComboBox()
         self.side_combo.setObjectName("sideCombo")
         self.side_combo.addItems(SIDES)
-        self.side_combo.setCurrentText("corner")
+        self.side_combo.setCurrentText(start.conditions.side)
         self.side_combo.setToolTip("Where the occluder lies: a band along one side of the marker, or over a corner")
         self.tilt_spin = spin(RANDOM_TILT, RANDOM_TILT, 85, name="tiltSpin", suffix="°",
                               tooltip="Angle between the marker's normal and the direction to the cameras")
         self.tilt_spin.setSpecialValueText("random ≤ 30°")
+        self.tilt_spin.setValue(RANDOM_TILT if start.conditions.tilt is None else round(start.conditions.tilt))
         self.show_button = button("Show pair", "showConditionsButton",
                                   tooltip="Render one marker pair under these conditions and locate it")
-        self.pairs_spin = spin(8, 1, 200, name="sweepPairsSpin",
+        self.pairs_spin = spin(start.sweep_pairs, 1, 200, name="sweepPairsSpin",
                                tooltip="Pairs rendered per condition value in the sweep")
         self.sweep_button = button("Sweep", "sweepButton",
                                    tooltip="Detection rate and 3D error over light levels, occlusions and tilts")
@@ -82,6 +88,9 @@ class ConditionsPanel(QWidget):
         note.setObjectName("hint")
         note.setWordWrap(True)
         self.result: RobustnessTable | None = None
+        for changed in (self.light_slider.valueChanged, self.occlusion_spin.valueChanged,
+                        self.side_combo.currentTextChanged, self.tilt_spin.valueChanged, self.pairs_spin.valueChanged):
+            changed.connect(lambda *_: self.optionsChanged.emit())
 
         layout = QVBoxLayout(self)
         layout.setContentsMargins(4, 4, 4, 4)
@@ -115,10 +124,21 @@ class ConditionsPanel(QWidget):
         self.light_label.setText(f"{value / 100:.2f}×")
 
     def conditions(self) -> ImagingConditions:
-        """The conditions chosen in the controls."""
+        """The conditions chosen in the controls (they keep them within bounds)."""
         tilt = self.tilt_spin.value()
         return ImagingConditions(light=self.light_slider.value() / 100.0, occlusion=self.occlusion_spin.value() / 100.0,
                                  side=self.side_combo.currentText(), tilt=None if tilt == RANDOM_TILT else float(tilt))
+
+    def options(self) -> ConditionsOptions:
+        return ConditionsOptions(self.conditions(), self.pairs_spin.value())
+
+    def show_options(self, options: ConditionsOptions) -> None:
+        c = options.conditions
+        self.light_slider.setValue(round(100 * c.light))
+        self.occlusion_spin.setValue(round(100 * c.occlusion))
+        self.side_combo.setCurrentText(c.side)
+        self.tilt_spin.setValue(RANDOM_TILT if c.tilt is None else round(c.tilt))
+        self.pairs_spin.setValue(options.sweep_pairs)
 
     def draw_pair(self, pair: ConditionsPair | None) -> None:
         """The left image of the pair with the located reference point, and what was found."""

@@ -10,8 +10,9 @@ from PySide6.QtWidgets import QCheckBox, QHBoxLayout, QLabel, QWidget
 from app.html import esc
 from app.jobs.marker import TrainingImage, auto_outline, crop_around
 from app.pages.forms import button, double_spin
+from app.pages.marker.model import MarkerResult, TrainingOptions
 from app.pages.measurement_inputs import TRAINING_FILE
-from core.marker.training import DEFAULT_OUTER_SIZE, TrainedMarker
+from core.marker.training import TrainedMarker
 from widgets.flow_layout import FlowLayout
 from widgets.marker_views import TrainingImageView
 
@@ -36,12 +37,15 @@ def trained_html(t: TrainedMarker, offset: np.ndarray, saved_name: str = "") -> 
 
 class TrainingPanel(QWidget):
     """The Training tab. `controls` is the row above the tabs (load, capture, crop, outer
-    square, Train); the page connects its buttons. `image` is the shown training image.
+    square, Train); the page connects its buttons. `image` is the shown training image;
+    `options()` the outer square and crop chosen, `show_options(o)` binds them back.
 
-    Signal: `statusChanged(text, ok)` (ok True, False or None) for the page's status line.
+    Signals: `statusChanged(text, ok)` (ok True, False or None) for the page's status line;
+    `optionsChanged()` when what `options()` returns may have changed.
     """
 
     statusChanged = Signal(str, object)
+    optionsChanged = Signal()
 
     def __init__(self, parent: QWidget | None = None):
         super().__init__(parent)
@@ -55,9 +59,10 @@ class TrainingPanel(QWidget):
         self.crop_check.setToolTip("Drag the blue rectangle around the marker: only what is inside is trained "
                                    "(for an image with other dark squares or clutter)")
         self.crop_check.toggled.connect(self._crop_toggled)
-        self.size_spin = double_spin(DEFAULT_OUTER_SIZE, 1.0, 1000.0, decimals=2, step=1.0, name="sizeSpin",
+        self.size_spin = double_spin(TrainingOptions().outer_size, 1.0, 1000.0, decimals=2, step=1.0, name="sizeSpin",
                                      suffix=" mm",
                                      tooltip="Side of the marker's outer black square, measured on the real marker")
+        self.size_spin.valueChanged.connect(lambda *_: self.optionsChanged.emit())
         self.train_button = button("Train", "trainButton")
         self.controls = FlowLayout()          # wraps on a narrow window
         for w in (self.load_button, self.capture_button, self.crop_check):
@@ -90,9 +95,19 @@ class TrainingPanel(QWidget):
             self.capture_button.setText("Capture (virtual lab)")
             self.capture_button.setToolTip("A frontal image of the marker plate with the virtual lab's camera")
 
-    def crop_box(self) -> tuple[int, int, int, int] | None:
-        """The crop rectangle (x0, y0, x1, y1) px when cropping is ticked, else None."""
-        return self.training_view.crop_box() if self.crop_check.isChecked() else None
+    def options(self) -> TrainingOptions:
+        """The outer square's side (mm) and the crop rectangle (x0, y0, x1, y1) px when cropping
+        is ticked, else None."""
+        crop = self.training_view.crop_box() if self.crop_check.isChecked() else None
+        return TrainingOptions(float(self.size_spin.value()), crop)
+
+    def show_options(self, options: TrainingOptions) -> None:
+        self.size_spin.setValue(options.outer_size)
+        if (options.crop is not None) != self.crop_check.isChecked():
+            self.crop_check.setChecked(options.crop is not None)
+        if options.crop is not None and options.crop != self.training_view.crop_box():
+            self.training_view.set_crop_box(options.crop)
+            self._crop_changed(self.training_view.crop_box())
 
     def clear(self) -> None:
         self.image = None
@@ -100,6 +115,13 @@ class TrainingPanel(QWidget):
         self.training_view.set_auto_outline(None)
         self.training_view.clear_detection()
         self.training_info.setText("")
+        self.optionsChanged.emit()
+
+    def draw_trained(self, result: MarkerResult) -> None:
+        """The model's training image with its trained marker (None: the image alone; no
+        image: an empty view)."""
+        self.image = result.training_image
+        self.show_training(result.trained, result.offset, result.saved_path.name if result.saved_path else "")
 
     def set_image(self, image: TrainingImage) -> None:
         """A new training image, not trained yet: crop off, the crop box around the found outline
@@ -121,6 +143,7 @@ class TrainingPanel(QWidget):
             self.training_view.set_crop_box((w // 4, h // 4, 3 * w // 4, 3 * h // 4))
             self.statusChanged.emit(f"Training image {w}x{h} px: {image.outline_problem} Drag a crop rectangle "
                                     "around the marker, or load another image.", False)
+        self.optionsChanged.emit()
 
     def show_training(self, trained: TrainedMarker | None = None, offset=(0.0, 0.0), saved_name: str = "") -> None:
         """The image with its found outline; with `trained` (trained on the crop at `offset` px),
@@ -148,6 +171,7 @@ class TrainingPanel(QWidget):
 
     def _crop_changed(self, box) -> None:
         """Find the outline again inside the crop (fast: no worker needed)."""
+        self.optionsChanged.emit()
         img = self.image
         if img is None:
             return

@@ -12,10 +12,10 @@ from PySide6.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
 from app.html import esc, number
 from app.jobs.marker import VerificationResult
 from app.pages.forms import button, row, scrolling, spin
+from app.pages.marker.model import VerificationOptions
 from widgets.precision_plot import PrecisionPlot
 from widgets.progress_row import ProgressRow
 
-DEFAULT_VERIFY = 20
 IDLE_TEXT = ("<span style='color:#5f6368'>The robot visits N random poses where both cameras see the marker; "
              "each pair is located and compared with the virtual lab's true marker position.</span>")
 
@@ -72,15 +72,18 @@ def sigma_explanation(v: VerificationResult) -> str:
 class VerificationPanel(QWidget):
     """The Verification tab with the page's progress row; the page connects `verify_button`
     and calls `draw(result)`. `pointsArrived(result so far)` may be emitted from a worker thread
-    (Qt queues it to the GUI thread); the page draws it while its verification runs."""
+    (Qt queues it to the GUI thread); the page draws it while its verification runs.
+    `options()` the poses chosen (`optionsChanged()` on a change), `show_options(o)` binds back."""
 
     pointsArrived = Signal(object)
+    optionsChanged = Signal()
 
     def __init__(self, progress: ProgressRow, parent: QWidget | None = None):
         super().__init__(parent)
         self.progress = progress
-        self.verify_spin = spin(DEFAULT_VERIFY, 1, 500, name="verifySpin",
+        self.verify_spin = spin(VerificationOptions().poses, 1, 500, name="verifySpin",
                                 tooltip="Random robot poses where both cameras see the marker")
+        self.verify_spin.valueChanged.connect(lambda *_: self.optionsChanged.emit())
         self.verify_button = button("Run verification", "verifyButton")
         self.verify_summary = QLabel()
         self.verify_summary.setObjectName("verifySummary")
@@ -99,6 +102,12 @@ class VerificationPanel(QWidget):
         body.addWidget(scrolling(self.verify_summary))
         body.addWidget(self.precision_plot, 1)
         layout.addLayout(body, 1)
+
+    def options(self) -> VerificationOptions:
+        return VerificationOptions(self.verify_spin.value())
+
+    def show_options(self, options: VerificationOptions) -> None:
+        self.verify_spin.setValue(options.poses)
 
     def draw(self, v: VerificationResult | None, running: bool = False) -> None:
         """The summary and the precision plot of `v` (None: what a verification does); `running`:

@@ -55,15 +55,15 @@ def test_training_image_and_live_pair_from_the_cameras(page, qtbot, lab, tmp_pat
     assert tp.capture_button.isEnabled() and tp.capture_button.text() == "Capture (left camera)"
     assert page.capture_training()
     qtbot.waitUntil(lambda: not page.task.busy, timeout=30000)
-    assert page.training_image is not None and page.training_image.source == "left camera"
+    assert page.model.result.training_image is not None and page.model.result.training_image.source == "left camera"
     tp.size_spin.setValue(lab.marker.outer_size)
     assert page.train()
-    qtbot.waitUntil(lambda: not page.task.busy and page.trained is not None, timeout=60000)
+    qtbot.waitUntil(lambda: not page.task.busy and page.model.result.trained is not None, timeout=60000)
     assert lp.next_button.isEnabled() and lp.next_button.text() == "Capture pair"
     assert page.next_pose()
     qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
-    loc = page.live.location
-    assert loc.ok and page.live.truth is None
+    loc = page.model.result.live.location
+    assert loc.ok and page.model.result.live.truth is None
     assert np.linalg.norm(loc.point - lab.marker_position(q)) < 2.0          # mm
     assert "Located" in page.status.text() and "truth" not in page.status.text()
     assert not page.verification_panel.verify_button.isEnabled()           # verification needs the lab's truth
@@ -94,7 +94,8 @@ def test_next_pose_moves_a_serial_robot_only_once_its_first_motion_is_confirmed(
             assert page.next_pose()
             qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
             assert sum(line.startswith("MOVE") for line in sim.received) == 1
-            assert page.live.location.ok and page.live.error < 1.0          # rendered at the reported joints
+            live = page.model.result.live
+            assert live.location.ok and live.error < 1.0                      # rendered at the reported joints
             assert page.next_pose()                                           # asked once per connection
             qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
             assert sum(line.startswith("MOVE") for line in sim.received) == 2 and answers == []

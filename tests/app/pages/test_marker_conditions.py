@@ -36,7 +36,7 @@ def wait(qtbot, page, timeout=120000):
 
 def test_show_a_pair_under_chosen_conditions(qtbot, page, lab, boxes):
     panel = page.conditions_panel
-    assert page.trained is not None and panel.show_button.isEnabled() and panel.sweep_button.isEnabled()
+    assert page.model.result.trained is not None and panel.show_button.isEnabled() and panel.sweep_button.isEnabled()
     panel.light_slider.setValue(30)
     assert panel.light_label.text() == "0.30×"
     panel.occlusion_spin.setValue(5)

@@ -56,18 +56,18 @@ def test_registered_for_the_marker_step():
 def test_train_locate_plot_and_verify(qtbot, page, boxes, tmp_path):
     state = page.state
     assert not page.is_complete()
-    assert "stereo.yaml" in page.stereo_bar.stereo_label.text() and page.stereo.kind == "file"
+    assert "stereo.yaml" in page.stereo_bar.stereo_label.text() and page.model.stereo.kind == "file"
     assert not page.stereo_bar.preview_button.isVisible()
     # a training image from the virtual lab's camera: the outline is found automatically
     qtbot.mouseClick(page.training_panel.capture_button, Qt.MouseButton.LeftButton)
     wait(qtbot, page)
-    assert page.training_image is not None and page.training_image.outline is not None
+    assert page.model.result.training_image is not None and page.model.result.training_image.outline is not None
     assert page.training_panel.training_view.overlays["auto_outline"].getData()[0] is not None
     # train on a worker: keypoints, outline and reference drawn, files in the project
     qtbot.mouseClick(page.training_panel.train_button, Qt.MouseButton.LeftButton)
     assert page.task.busy
     wait(qtbot, page)
-    t = page.trained
+    t = page.model.result.trained
     assert t is not None and t.n_image_features >= 100 and page.status.text().startswith("✓ Trained")
     assert np.allclose(t.reference_px, [239.5, 239.5], atol=0.1)
     assert len(page.training_panel.training_view.overlays["inliers"].data) == t.n_image_features
@@ -81,7 +81,7 @@ def test_train_locate_plot_and_verify(qtbot, page, boxes, tmp_path):
     with qtbot.waitSignal(page.completeChanged, timeout=60000):
         qtbot.mouseClick(page.live_panel.next_button, Qt.MouseButton.LeftButton)
         wait(qtbot, page)
-    live = page.live
+    live = page.model.result.live
     assert live.location.ok, live.location.reason
     assert page.tabs.currentIndex() == TAB_LIVE
     for view in (page.live_panel.left_view, page.live_panel.right_view):
@@ -117,7 +117,7 @@ def test_train_locate_plot_and_verify(qtbot, page, boxes, tmp_path):
     qtbot.mouseClick(page.verification_panel.verify_button, Qt.MouseButton.LeftButton)
     assert page.task.progress_row().cancel_button.isEnabled()
     wait(qtbot, page)
-    v = page.verification
+    v = page.model.result.verification
     assert v.n == 4 and v.n_located >= 3 and v.median_error < 0.05
     text = page.verification_panel.verify_summary.text()
     assert f"{v.n_located} of 4" in text and "median 3D error" in text and "RMS 3D error" in text
@@ -135,7 +135,8 @@ def assert_the_report_draws_the_pair_and_the_verification(page):
     """marker_details.json and the crops hold the last live pair and the verification; the
     report's marker figures show these numbers."""
     folder = page.state.project.folder
-    live, v, c = page.live, page.verification, page.live.location.correspondence
+    live, v = page.model.result.live, page.model.result.verification
+    c = live.location.correspondence
     details = json.loads((folder / DETAILS_FILE).read_text())
     assert details["format"] == DETAILS_FORMAT and details["marker"] == MARKER_FILE
     assert details["live"]["error_mm"] == pytest.approx(live.error, abs=1e-9)
@@ -172,10 +173,10 @@ def test_too_few_features_says_why(qtbot, page, tmp_path, boxes):
     path = tmp_path / "plain.png"
     cv2.imwrite(str(path), img)
     assert page.load_image(path)
-    assert page.training_image.outline is not None
+    assert page.model.result.training_image.outline is not None
     assert page.train()
     wait(qtbot, page)
-    assert page.trained is None and not page.is_complete()
+    assert page.model.result.trained is None and not page.is_complete()
     text = page.status.text()
     assert text.startswith("✗") and "SIFT features" in text and "at least 40" in text and "texture" in text
     assert not (page.state.project.folder / MARKER_FILE).exists()
@@ -198,26 +199,26 @@ def test_crop_rectangle_trains_what_is_inside(qtbot, page):
     assert "found" in page.status.text()
     assert page.train()
     wait(qtbot, page)
-    t = page.trained
+    t = page.model.result.trained
     assert t is not None, page.status.text()
     assert t.image.shape == (280, 280)                  # trained on the crop
-    assert np.allclose(page.trained_offset, [100, 100])
-    assert np.allclose(t.reference_px + page.trained_offset, [239.5, 239.5], atol=0.2)
+    assert np.allclose(page.model.result.offset, [100, 100])
+    assert np.allclose(t.reference_px + page.model.result.offset, [239.5, 239.5], atol=0.2)
 
 
 def test_preview_with_the_true_cameras_without_stereo(qtbot, lab, boxes):
     page = make_page(qtbot, lab, stereo=False)
     try:
-        assert page.stereo.rect is None and page.stereo_bar.preview_button.isVisibleTo(page)
+        assert page.model.stereo.rect is None and page.stereo_bar.preview_button.isVisibleTo(page)
         assert "no stereo calibration" in page.stereo_bar.stereo_label.text()
         assert page.use_preview()
-        assert page.stereo.kind == "preview" and "PREVIEW" in page.stereo_bar.stereo_label.text()
+        assert page.model.stereo.kind == "preview" and "PREVIEW" in page.stereo_bar.stereo_label.text()
         assert not page.stereo_bar.preview_button.isVisibleTo(page)
         # a stereo.yaml written later takes over from the preview
         from tests.app.virtual_inputs import true_stereo_yaml
         true_stereo_yaml(lab, page.state.project.path("stereo"))
         page.on_enter()
-        assert page.stereo.kind == "file"
+        assert page.model.stereo.kind == "file"
     finally:
         page.task.runner.shutdown()
         page.state.close()
@@ -234,13 +235,13 @@ def test_saved_and_verified_marker_counts_on_reopening(qtbot, page, lab):
     again = MarkerPage(page.state, page.task.runner)
     qtbot.addWidget(again)
     again.on_enter()
-    assert again.trained is not None and again.verified and again.is_complete()
+    assert again.model.result.trained is not None and again.model.result.verified and again.is_complete()
     assert "already has a trained marker" in again.status.text()
     # without the verification record the saved marker is trained but not verified
     (page.state.project.folder / VERIFICATION_FILE).unlink()
     third = MarkerPage(page.state, page.task.runner)
     qtbot.addWidget(third)
-    assert third.trained is not None and not third.is_complete()
+    assert third.model.result.trained is not None and not third.is_complete()
 
 
 def test_autopilot_trains_and_verifies(qtbot, page):
@@ -249,7 +250,8 @@ def test_autopilot_trains_and_verifies(qtbot, page):
     qtbot.waitUntil(lambda: bool(outcome), timeout=90000)
     ok, message = outcome[0]
     assert ok, message
-    assert page.is_complete() and page.verification.n == 10 and page.verification.n_located >= 9
+    v = page.model.result.verification
+    assert page.is_complete() and v.n == 10 and v.n_located >= 9
     assert "SIFT features" in message and "located" in message
 
 
@@ -268,9 +270,9 @@ def test_without_a_lab_the_page_asks_the_state_once_and_waits(qtbot, boxes):
         assert not page.training_panel.capture_button.isEnabled()
         assert not page.compare_panel.compare_button.isEnabled()
         assert not page.compare()                       # one request at a time
-        qtbot.waitUntil(lambda: page.training_image is not None, timeout=60000)
+        qtbot.waitUntil(lambda: page.model.result.training_image is not None, timeout=60000)
         wait(qtbot, page)
-        assert state.labs.built and page.training_image.source == "virtual lab camera"
+        assert state.labs.built and page.model.result.training_image.source == "virtual lab camera"
         assert page.training_panel.capture_button.isEnabled() and page.compare_panel.compare_button.isEnabled()
         assert boxes == []
     finally:

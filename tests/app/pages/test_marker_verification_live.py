@@ -29,7 +29,7 @@ def page(qtbot, boxes):
 
 def test_points_shown_as_they_come_and_kept_on_cancel(qtbot, page, tmp_path):
     panel = page.verification_panel
-    assert page.trained is not None and not page.is_complete()
+    assert page.model.result.trained is not None and not page.is_complete()
     panel.verify_spin.setValue(POSES)
     assert page.verify()
     qtbot.waitUntil(lambda: f"pose 3 of {POSES}" in panel.verify_summary.text(), timeout=120_000)
@@ -38,7 +38,7 @@ def test_points_shown_as_they_come_and_kept_on_cancel(qtbot, page, tmp_path):
     page.grab().save(str(tmp_path / "marker-verification-running.png"))
     page.task.cancel()
     qtbot.waitUntil(lambda: not page.task.busy, timeout=60_000)
-    v = page.verification
+    v = page.model.result.verification
     assert v is not None and v.cancelled_after is not None and 3 <= v.n < POSES, page.status.text()
     assert f"cancelled after {v.n} of {POSES} poses" in panel.verify_summary.text()
     assert panel.precision_plot.n_errors == int(v.located.sum())                 # the kept points stay drawn

@@ -89,11 +89,11 @@ def test_the_page_takes_the_covariance_from_the_projects_stereo_json(qtbot, tmp_
     try:
         state.projectChanged.emit(project)                  # the page takes the saved marker
         page.on_enter()
-        assert page.trained is not None and page.stereo.kind == "file"
+        assert page.model.result.trained is not None and page.model.stereo.kind == "file"
         page.verification_panel.verify_spin.setValue(3)
         assert page.verify()
         qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
-        v = page.verification
+        v = page.model.result.verification
         assert v.n_located >= 2 and np.all(np.isfinite(v.calibration_sigmas[v.located]))
         text = unescape(page.verification_panel.verify_summary.text())
         assert number(v.median_total_sigma, 3, "mm") in text and number(v.median_sigma, 3, "mm") in text
