@@ -34,8 +34,8 @@ from pathlib import Path
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import QSplitter, QVBoxLayout
 
-from app.jobs.measurement import MEASURED, PENDING, PoseRow
-from app.pages.base import WizardPage, out_of_date
+from app.jobs.measurement import PENDING, PoseRow
+from app.pages.base import WizardPage
 from app.pages.measurement.controls import RunControls
 from app.pages.measurement.model import MeasurementModel
 from app.pages.measurement.pair_view import PairView
@@ -45,7 +45,6 @@ from app.pages.measurement.run import MeasurementRun, RunHooks
 from app.pages.measurement.teach import TeachHooks, Teaching
 from app.pages.measurement.teach_panel import TeachPanel
 from app.pages.measurement.summary import SummaryLabel
-from app.pages.measurement.texts import ready_text
 from app.pages.measurement.views import MeasurementViews
 from app.pages.measurement_inputs import measurement_inputs
 from app.pages.steps import Step
@@ -67,7 +66,8 @@ class MeasurementPage(WizardPage):
         self._build()
         self.inputs = PoseListInputs(model, self.task, state, controls=self.controls, views=self.views,
                                      hooks=InputsHooks(say=self._set_status, measurements_path=self.measurements_path,
-                                                       ready_status=self._ready_status, is_complete=self.is_complete))
+                                                       is_complete=self.is_complete, changed_inputs=self.changed_inputs,
+                                                       teach_mode=lambda: self.teach_mode))
         self.run = MeasurementRun(model, self.task, state, self.controls, RunHooks(
             say=self._set_status, finish_autopilot=self._finish_autopilot,
             autopilot_running=lambda: self._autopilot_done is not None, post=self.poseDone.emit,
@@ -76,7 +76,7 @@ class MeasurementPage(WizardPage):
         self.teaching = Teaching(model, self.task, state, controls=self.controls, panel=self.teach, views=self.views,
                                  splitter=self.splitter, table=self.table, hooks=TeachHooks(
                                      say=self._set_status, measurements_path=self.measurements_path,
-                                     update_buttons=self._update_buttons, ready_status=self._ready_status,
+                                     update_buttons=self._update_buttons, ready_status=self.inputs.ready_status,
                                      is_complete=self.is_complete))
         self.poseDone.connect(self.run.pose_reported)
         # the panels redraw from the model; the buttons and the wizard hear of every change of the rows
@@ -232,7 +232,7 @@ class MeasurementPage(WizardPage):
         if not self.start_run():
             self._finish_autopilot(False, self.status.text() or "the measurement could not start")
 
-    # -- buttons and status -----------------------------------------------------------------------
+    # -- buttons -----------------------------------------------------------------------
     def _update_buttons(self) -> None:
         path, rows, busy = self.measurements_path(), self.model.rows, self.task.busy
         on_disk = path is not None and (path.exists() or rejects_path_for(path).exists())
@@ -243,13 +243,3 @@ class MeasurementPage(WizardPage):
                                   teach=self.teach_mode)
         self.controls.teach_check.setEnabled(not busy and (self.state.virtual or self.teaching.drivable()))
         self.teaching.show()
-
-    def _ready_status(self) -> None:
-        changed, model = self.changed_inputs(), self.model
-        if changed and not model.pending():
-            self._set_status(out_of_date("measurements.csv", changed,
-                                         "Start over… to measure every pose with them."), False)
-            return
-        complete = self.is_complete()
-        ok = False if model.file_problem else (complete if not model.pending() and model.counts()[MEASURED] else None)
-        self._set_status(ready_text(model.rows, model.n_min, model.file_problem, complete, self.teach_mode), ok)

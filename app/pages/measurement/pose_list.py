@@ -12,9 +12,11 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Callable
 
+from app.jobs.measurement import MEASURED
+from app.pages.base import out_of_date
 from app.pages.measurement.controls import RunControls
 from app.pages.measurement.model import MeasurementModel
-from app.pages.measurement.texts import sources_html
+from app.pages.measurement.texts import ready_text, sources_html
 from app.pages.measurement.views import MeasurementViews
 from app.pages.measurement_inputs import project_marker, stereo_source
 from app.pages.page_task import PageTask
@@ -29,12 +31,14 @@ class InputsHooks:
 
     say: Callable[[str, bool | None], None]          # the page's status line
     measurements_path: Callable[[], Path | None]
-    ready_status: Callable[[], None]                 # the status line before a run
     is_complete: Callable[[], bool]
+    changed_inputs: Callable[[], list[str]]          # stereo.yaml or marker.npz changed since the measurements
+    teach_mode: Callable[[], bool]
 
 
 class PoseListInputs:
-    """Loads the pose list and its statuses into the model; shows where the inputs come from."""
+    """Loads the pose list and its statuses into the model; shows where the inputs come from and,
+    in the status line, what the files hold."""
 
     def __init__(self, model: MeasurementModel, task: PageTask, state, *, controls: RunControls,
                  views: MeasurementViews, hooks: InputsHooks):
@@ -53,7 +57,7 @@ class PoseListInputs:
         if problem:
             self.hooks.say(problem, False)
         elif not self.task.busy:
-            self.hooks.ready_status()
+            self.ready_status()
         if self.hooks.is_complete() and state.measurements is None:
             state.set_measurements(self.hooks.measurements_path())      # measured in an earlier session
 
@@ -98,3 +102,14 @@ class PoseListInputs:
         stereo_ok = src is not None and src.rect is not None
         stereo = src.label if stereo_ok else (src.problem if src is not None else "no project")
         self.controls.source_label.setText(sources_html(self.model.poses_label, marker, marker_ok, stereo, stereo_ok))
+
+    def ready_status(self) -> None:
+        """The status line before a run: what the files hold and what Start (or Record pose) will do."""
+        changed, model = self.hooks.changed_inputs(), self.model
+        if changed and not model.pending():
+            self.hooks.say(out_of_date("measurements.csv", changed, "Start over… to measure every pose with them."),
+                           False)
+            return
+        complete = self.hooks.is_complete()
+        ok = False if model.file_problem else (complete if not model.pending() and model.counts()[MEASURED] else None)
+        self.hooks.say(ready_text(model.rows, model.n_min, model.file_problem, complete, self.hooks.teach_mode()), ok)
