@@ -92,3 +92,21 @@ def preview_source(lab) -> StereoSource:
     """The virtual lab's TRUE cameras (a preview before calibrating; not a calibration)."""
     return StereoSource(StereoRectification.from_rig(lab.rig), "preview",
                         "PREVIEW: the virtual lab's true cameras (not a calibration; calibrate in step 2 to measure)")
+
+
+def run_inputs(state, poses) -> tuple[TrainedMarker, StereoSource]:
+    """What a measurement run (or a taught pose) locates the marker with: (trained marker, stereo
+    source); a RoboCalError saying what is missing (no project or robot, no `poses`, no trained
+    marker, no stereo calibration)."""
+    if state.project is None or state.robot is None:
+        raise RoboCalError("no project or robot yet", hint="Create a project and choose a robot (Setup step).")
+    if poses is None:
+        raise RoboCalError("no pose list", hint="Select poses in step 4, or load a poses CSV.")
+    trained = project_marker(state)
+    if trained is None:
+        raise RoboCalError("no trained marker", hint="Train the marker in step 3 (Marker).")
+    src = stereo_source(state)
+    if src.rect is None:
+        raise RoboCalError(src.problem or "no stereo calibration",
+                           hint="Calibrate the cameras in step 2 and save stereo.yaml.")
+    return trained, src

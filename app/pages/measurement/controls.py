@@ -1,31 +1,34 @@
 """The Measurement page's top rows: where the inputs come from, Load poses, Start / Measure the rest,
-Pause / Continue, the progress row with Cancel, Start over, Teach mode."""
+Pause / Continue, the progress row with Cancel, Start over, Teach mode (`options()`: the switches)."""
 from __future__ import annotations
 
 from typing import Callable
 
 from PySide6.QtCore import Qt
-from PySide6.QtWidgets import QCheckBox, QGridLayout, QLabel, QWidget
+from PySide6.QtWidgets import QCheckBox, QFileDialog, QGridLayout, QLabel, QWidget
 
 from app.pages.forms import button
+from app.pages.measurement.model import RunSwitches
 from widgets.flow_layout import FlowLayout
 from widgets.progress_row import ProgressRow
 
 
 class RunControls(QWidget):
-    """The run's buttons around the page's `progress` row. `on_load()`, `on_start()`,
-    `on_pause(on)`, `on_start_over()` and `on_teach(on)` are the page's handlers."""
+    """The run's buttons around the page's `progress` row. `on_load(path)` (a poses CSV the user
+    chose; the dialog opens in `folder()`), `on_start()`, `on_pause(on)`, `on_start_over()` and
+    `on_teach(on)` are the page's handlers."""
 
-    def __init__(self, progress: ProgressRow, *, on_load: Callable, on_start: Callable,
-                 on_pause: Callable[[bool], None], on_start_over: Callable, on_teach: Callable[[bool], None],
-                 parent: QWidget | None = None):
+    def __init__(self, progress: ProgressRow, *, on_load: Callable[[str], object], folder: Callable[[], str],
+                 on_start: Callable, on_pause: Callable[[bool], None], on_start_over: Callable,
+                 on_teach: Callable[[bool], None], parent: QWidget | None = None):
         super().__init__(parent)
         self.progress = progress
+        self._on_load, self._folder = on_load, folder
         self.source_label = QLabel()
         self.source_label.setObjectName("sourceLabel")
         self.source_label.setWordWrap(True)
         self.source_label.setTextFormat(Qt.TextFormat.RichText)
-        self.load_button = button("Load poses CSV…", "loadPosesButton", on_click=on_load,
+        self.load_button = button("Load poses CSV…", "loadPosesButton", on_click=self._ask_poses_csv,
                                   tooltip="Measure the poses of another file (pose,q1,...,qn; degrees, mm for "
                                           "prismatic joints) instead of the Pose sequence step's")
         self.start_button = button("Start", "startButton", on_click=on_start)
@@ -54,6 +57,22 @@ class RunControls(QWidget):
             run.addWidget(w)
         grid.addLayout(run, 1, 0, 1, 6)
         grid.setColumnStretch(3, 1)
+
+    def _ask_poses_csv(self) -> None:
+        path, _ = QFileDialog.getOpenFileName(self, "Poses to measure", self._folder(),
+                                              "Poses CSV (*.csv);;All files (*)")
+        if path:
+            self._on_load(path)
+
+    def options(self) -> RunSwitches:
+        return RunSwitches(teach=self.teach_check.isChecked(), paused=self.pause_button.isChecked())
+
+    def show_options(self, switches: RunSwitches) -> None:
+        """Tick Teach mode (without telling the page) and press or release Pause (the page hears it)."""
+        self.teach_check.blockSignals(True)
+        self.teach_check.setChecked(switches.teach)
+        self.teach_check.blockSignals(False)
+        self.pause_button.setChecked(switches.paused)
 
     def set_buttons(self, *, busy: bool, can_start: bool, resume: bool, can_start_over: bool,
                     teach: bool = False) -> None:

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from PySide6.QtWidgets import QLabel, QVBoxLayout, QWidget
 
+from app.jobs.measurement import MEASURED
 from app.pages.measurement.texts import short
 from widgets.image_view import ImageView
 
@@ -22,6 +23,14 @@ class PairView(QWidget):
         layout.setSpacing(2)
         layout.addWidget(self.label)
         layout.addWidget(self.thumb, 1)
+
+    def follow(self, model) -> None:
+        """Show the pair of each pose a MeasurementModel reports done ("pose", with a thumbnail)."""
+        model.on("pose", self._pose_done)
+
+    def _pose_done(self, shown) -> None:
+        if shown.thumbnail is not None:
+            self.show_pair(shown.row.pose, shown.thumbnail, shown.row.status == MEASURED, shown.row.reason)
 
     def show_pair(self, pose: int, thumb, measured: bool, reason: str) -> None:
         self.thumb.set_image(thumb)

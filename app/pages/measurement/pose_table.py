@@ -14,7 +14,8 @@ STATUS_COLOURS = {MEASURED: "#188038", REJECTED: "#c5221f", PENDING: "#5f6368", 
 
 
 class PoseTable(QTableWidget):
-    """One row per pose; the status coloured, a rejection's full reason in its tooltip."""
+    """One row per pose; the status coloured, a rejection's full reason in its tooltip. After
+    `follow(model)` it shows a MeasurementModel's rows as they change."""
 
     def __init__(self, parent=None):
         super().__init__(0, 6, parent)
@@ -28,6 +29,17 @@ class PoseTable(QTableWidget):
         header.setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
         header.setSectionResizeMode(STATUS_COLUMN, QHeaderView.ResizeMode.Stretch)
         self.setMinimumWidth(400)
+
+    def follow(self, model) -> None:
+        """Every row anew ("rows"), a pose being measured ("row"), a pose done ("pose": selected,
+        which scrolls to it)."""
+        model.on("rows", self.set_rows)
+        model.on("row", lambda i: self.set_row(i, model.rows[i]))
+        model.on("pose", self._pose_done)
+
+    def _pose_done(self, shown) -> None:
+        self.set_row(shown.index, shown.row)
+        self.selectRow(shown.index)
 
     def set_rows(self, rows: list[PoseRow]) -> None:
         """Show every row (no selection signal while filling)."""

@@ -1,7 +1,7 @@
 """The Measurement page's teach-mode panel: the next pose to bring the robot to (its joint values
 beside the limits, and the nominal arm in that pose seen from above and from the side, in the
 robot's base frame), where the joint values come from (read from the controller, or typed or
-pasted from the pendant), what the check found, and Record pose."""
+pasted from the pendant: `options()`), what the check found, and Record pose."""
 from __future__ import annotations
 
 from typing import Callable
@@ -12,6 +12,7 @@ from PySide6.QtWidgets import QCheckBox, QGridLayout, QLabel, QLineEdit, QVBoxLa
 
 from app.html import esc
 from app.pages.forms import button, row
+from app.pages.measurement.model import JointSource
 from app.pages.measurement.texts import WARN
 from widgets.workspace_views import OrthoView
 
@@ -90,6 +91,16 @@ class TeachPanel(QWidget):
         grid.setColumnStretch(0, 5)
         grid.setColumnStretch(1, 3)
         grid.setColumnStretch(2, 3)
+
+    def options(self) -> JointSource:
+        return JointSource(read_from_controller=self.read_check.isChecked(), typed=self.joints_edit.text())
+
+    def show_options(self, source: JointSource) -> None:
+        """Tick Read the joint values, and put `source.typed` in the field (each only when it changes)."""
+        if source.read_from_controller != self.read_check.isChecked():
+            self.read_check.setChecked(source.read_from_controller)
+        if source.typed != self.joints_edit.text():
+            self.joints_edit.setText(source.typed)
 
     def show_pose(self, html: str, arm) -> None:
         """The next pose (`pose_html`) and the nominal arm in it ((P, 3) mm, base frame; None: none)."""

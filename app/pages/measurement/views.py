@@ -1,12 +1,15 @@
 """Top and side views of the measured points, the poses still to measure (nominal model), the
-selected pose's arm and the cameras, in the left camera frame (mm)."""
+selected pose's arm and the cameras, in the left camera frame (mm); they follow the page's
+MeasurementModel."""
 from __future__ import annotations
+
+from typing import Callable
 
 import numpy as np
 
 from app.jobs.measurement import MEASURED, PENDING, RUNNING, PoseRow, nominal_arm, nominal_predictions
 from widgets.plot_theme import AFTER, colour
-from widgets.workspace_views import ARM, CAMERA, CANDIDATE, HIGHLIGHT, WorkspaceViews
+from widgets.workspace_views import ARM, CAMERA, CANDIDATE, HIGHLIGHT, WorkspaceViews, camera_wedges
 
 CAPTION = (f"<span style='color:{AFTER}'>●</span> measured marker positions &nbsp; "
            f"<span style='color:{CANDIDATE}'>●</span> poses still to measure (nominal model) &nbsp; "
@@ -18,7 +21,8 @@ CAPTION = (f"<span style='color:{AFTER}'>●</span> measured marker positions &n
 class MeasurementViews(WorkspaceViews):
     """WorkspaceViews with the page's caption; the poses still to measure plainly visible.
     The nominal model's predictions need the virtual lab (none outside it); they are kept until
-    `forget_predictions()` (another pose list or lab)."""
+    `forget_predictions()` (another pose list or lab). After `follow(model, ...)` they redraw on
+    the model's "rows" and "pose" events."""
 
     def __init__(self, parent=None):
         super().__init__(title_top="Top view (x–z, left camera frame)",
@@ -28,9 +32,40 @@ class MeasurementViews(WorkspaceViews):
             view.candidates.setSize(6)
             view.candidates.setBrush(colour(CANDIDATE, 190))
         self._predicted = self._arms = None
+        self._wedges = None
+        self._model = None
+        self._lab: Callable = lambda: None
+        self._selected: Callable[[], int | None] = lambda: None
+
+    def follow(self, model, *, lab: Callable, selected: Callable[[], int | None]) -> None:
+        """Draw `model` (a MeasurementModel) as it changes: `lab()` is the virtual lab or None (the
+        nominal model's predictions need it), `selected()` the row whose arm is drawn."""
+        self._model, self._lab, self._selected = model, lab, selected
+        model.on("rows", lambda _rows: self.redraw())
+        model.on("pose", lambda shown: self.redraw(shown.index))
+
+    def set_cameras(self, rect) -> None:
+        """The cameras of the stereo rectification `rect` (None: none drawn), up to 1 m deep."""
+        self._wedges = camera_wedges(rect.rig, 1000.0) if rect is not None else None
+
+    def redraw(self, highlight: int | None = None) -> None:
+        """The followed model's rows; the arm of row `highlight` (None: the selected row)."""
+        if self._model is not None:
+            self.show_rows(self._model.rows, self._model.joints(), self._lab(), self._wedges,
+                           self._selected() if highlight is None else highlight)
+
+    def highlight_selected(self) -> None:
+        if self._model is not None:
+            self.highlight_row(self._model.rows, self._model.joints(), self._lab(), self._selected())
 
     def forget_predictions(self) -> None:
         self._predicted = self._arms = None
+
+    def lab_changed(self, lab) -> None:
+        """Another virtual lab (None: none yet): its nominal model's predictions are drawn."""
+        if lab is not None:
+            self.forget_predictions()
+            self.redraw()
 
     def _predictions(self, Q, lab):
         """Marker positions of every pose by the lab's placed nominal robot; None outside the lab."""

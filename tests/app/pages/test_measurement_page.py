@@ -94,7 +94,7 @@ def test_cancel_keeps_every_measurement_and_resume_continues(qtbot, page, boxes)
     assert page.controls.start_button.text() == "Measure the rest" and page.controls.start_button.isEnabled()
     pending = page_ids(page, PENDING)
     assert pending and len(pending) + len(first) + len(page_ids(page, REJECTED)) == N_POSES
-    rows_before = {p: page.rows[page._row_of[p]].point.copy() for p in first}
+    rows_before = {p: page.rows[page.model.row_of(p)].point.copy() for p in first}
     # resume: the rest is measured, nothing twice, nothing lost
     qtbot.mouseClick(page.controls.start_button, Qt.MouseButton.LeftButton)
     qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
@@ -105,7 +105,7 @@ def test_cancel_keeps_every_measurement_and_resume_continues(qtbot, page, boxes)
     assert set(first) <= set(ids)                             # none lost
     assert len(ids) + len(read_rejects(rejects_path_for(page.measurements_path()))) == N_POSES
     for p in first:                                           # the earlier points are kept as they were
-        np.testing.assert_allclose(page.rows[page._row_of[p]].point, rows_before[p], atol=1e-3)
+        np.testing.assert_allclose(page.rows[page.model.row_of(p)].point, rows_before[p], atol=1e-3)
     assert not page_ids(page, PENDING) and len(ids) >= N_POSES - 1
     assert not page.controls.start_button.isEnabled()                  # nothing left to measure
     # the points drawn in both views, the current pair as a thumbnail, the summary
