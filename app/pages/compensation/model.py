@@ -77,7 +77,8 @@ class CompensationModel(StepModel[CompensationOptions, MeasuredMap]):
         return self.cell
 
     def forget(self) -> None:
-        """Another project or robot: no cell, no points, no map."""
+        """Another project or robot: no cell, no points, no map (the plot keeps the last map drawn
+        until another is measured or read)."""
         self.cell = self._cell_key = None
         self.result = None
         self.clear_points()

@@ -14,7 +14,7 @@ from app.pages.base import WizardPage
 from app.pages.export import export_all
 from app.pages.export.folder_box import FolderBox
 from app.pages.export.items import REPORT, ExportSources
-from app.pages.export.model import EXPORT_FOLDER, ExportModel, ExportOptions, exported_text
+from app.pages.export.model import ExportModel, ExportOptions, exported_text
 from app.pages.export.rows_panel import ExportRows
 from app.pages.steps import Step
 from app.report.gui_drawer import GuiDrawer
@@ -24,8 +24,6 @@ from core.errors import RoboCalError
 from core.files import ensure_writable_dir
 from core.locks import output_locks
 from widgets.wrapping_box import hold_height_for_width
-
-__all__ = ["EXPORT_FOLDER", "ExportPage"]
 
 
 def _finished(finished, written: list[Path]) -> list[Path]:

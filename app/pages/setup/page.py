@@ -17,7 +17,7 @@ from app import project_actions
 from app.pages.base import WizardPage
 from app.pages.setup.cameras_panel import CameraPanel
 from app.pages.setup.cell_dialog import change_cell
-from app.pages.setup.model import SetupModel, SetupView, preset_title, robot_summary
+from app.pages.setup.model import SetupModel, SetupView
 from app.pages.setup.project_box import ProjectBox
 from app.pages.setup.protocol_panel import ProtocolPanel
 from app.pages.setup.robot_box import RobotBox
@@ -26,8 +26,6 @@ from app.pages.setup.urdf_dialog import ask_urdf_chain
 from app.pages.steps import Step
 from core.errors import RoboCalError
 from core.robot.model import RobotModel
-
-__all__ = ["DEMO_PRESET", "URDF_SUFFIXES", "SetupPage", "preset_title", "robot_summary"]
 
 DEMO_PRESET = "educational_6r"
 URDF_SUFFIXES = (".urdf", ".xacro", ".xml")       # read by the URDF importer, not as robot.json
