@@ -5,6 +5,7 @@ from __future__ import annotations
 from PySide6.QtWidgets import QGroupBox, QVBoxLayout
 
 from app.pages import forms
+from app.pages.compensation.model import MeasuredMap
 from widgets.accuracy_map_plot import AccuracyMapPlot
 
 
@@ -27,9 +28,17 @@ class MapPanel(QGroupBox):
         layout.addWidget(self.plot, 1)
         layout.addWidget(self.summary)
 
-    def show_map(self, amap, path=None) -> None:
-        self.plot.set_map(amap)
-        if amap is None:
+    def options(self) -> int:
+        """How many targets the accuracy map has."""
+        return self.count_spin.value()
+
+    def show_options(self, targets: int) -> None:
+        self.count_spin.setValue(targets)
+
+    def show_map(self, measured: MeasuredMap | None) -> None:
+        """Draw the model's result (None: no map, the plot cleared)."""
+        self.plot.set_map(measured.amap if measured is not None else None)
+        if measured is None:
             return
-        text = amap.summary()
-        self.summary.setText(text + (f" Written to {path.name}." if path is not None else ""))
+        path = measured.path
+        self.summary.setText(measured.amap.summary() + (f" Written to {path.name}." if path is not None else ""))

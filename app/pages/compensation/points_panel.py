@@ -3,18 +3,30 @@ fixture located on the Check page) or load a joint program taught with the nomin
 point and writing the corrected program act on what is listed in the table."""
 from __future__ import annotations
 
-from PySide6.QtWidgets import QCheckBox, QComboBox, QGroupBox, QLabel, QVBoxLayout
+from pathlib import Path
+from typing import Callable
 
+from PySide6.QtCore import Signal
+from PySide6.QtWidgets import QCheckBox, QComboBox, QFileDialog, QGroupBox, QLabel, QVBoxLayout
+
+from app.jobs.compensation import PROGRAM_NAME
 from app.pages import forms
+from app.pages.compensation.model import FRAMES, PointOptions
 from widgets.flow_layout import FlowLayout
 
-FRAMES = [("robot base frame", "base"), ("camera frame (left camera)", "camera"),
-          ("located fixture (fixture_pose.json)", "fixture")]
+FRAME_LABELS = ["robot base frame", "camera frame (left camera)", "located fixture (fixture_pose.json)"]
 
 
 class PointsPanel(QGroupBox):
-    def __init__(self, parent=None):
+    """Signals: `programChosen(path)` and `outputChosen(path)`: the file dialogs' answers, which
+    open in the project's folder `folder()` (None: no project)."""
+
+    programChosen = Signal(str)
+    outputChosen = Signal(str)
+
+    def __init__(self, folder: Callable[[], Path | None] = lambda: None, parent=None):
         super().__init__("Points", parent)
+        self._folder = folder
         note = QLabel("Type a point where the marker should go, or load a program (targets, or joints taught "
                       "with the nominal model): RoboCal computes the joints that put the calibrated robot there.")
         note.setWordWrap(True)
@@ -23,7 +35,7 @@ class PointsPanel(QGroupBox):
         self.z_spin = forms.double_spin(0.0, -5000.0, 5000.0, decimals=2, step=1.0, name="pointZ", suffix=" mm")
         self.frame_combo = QComboBox()
         self.frame_combo.setObjectName("pointFrame")
-        for label, _ in FRAMES:
+        for label in FRAME_LABELS:
             self.frame_combo.addItem(label)
         self.add_button = forms.button("Add point", "addPointButton",
                                        tooltip="Compute the nominal and the corrected joints of this point")
@@ -56,13 +68,36 @@ class PointsPanel(QGroupBox):
         layout.addLayout(buttons)
         layout.addWidget(self.nominal_check)
         layout.addStretch(1)
+        self.load_button.clicked.connect(lambda *_: self._choose_program())
+        self.write_button.clicked.connect(lambda *_: self._choose_output())
 
     @property
     def frame(self) -> str:
-        return FRAMES[self.frame_combo.currentIndex()][1]
+        return FRAMES[self.frame_combo.currentIndex()]
 
-    def point(self) -> tuple[float, float, float]:
-        return (self.x_spin.value(), self.y_spin.value(), self.z_spin.value())
+    def options(self) -> PointOptions:
+        """The point typed (mm), its frame and the model Go to point uses."""
+        return PointOptions((self.x_spin.value(), self.y_spin.value(), self.z_spin.value()), self.frame,
+                            self.nominal_check.isChecked())
+
+    def show_options(self, options: PointOptions) -> None:
+        for box, value in zip((self.x_spin, self.y_spin, self.z_spin), options.point):
+            box.setValue(value)
+        self.frame_combo.setCurrentIndex(FRAMES.index(options.frame))
+        self.nominal_check.setChecked(options.nominal)
+
+    def _choose_program(self) -> None:
+        path, _ = QFileDialog.getOpenFileName(self, "Program: targets (name,x,y,z…) or joints (pose,q1…)",
+                                              str(self._folder() or ""), "CSV files (*.csv);;All files (*)")
+        if path:
+            self.programChosen.emit(path)
+
+    def _choose_output(self) -> None:
+        folder = self._folder()
+        default = folder / PROGRAM_NAME if folder is not None else ""
+        path, _ = QFileDialog.getSaveFileName(self, "Corrected program", str(default or ""), "Joint files (*.csv)")
+        if path:
+            self.outputChosen.emit(path)
 
     def set_enabled(self, busy: bool, ready: bool, has_points: bool, can_move: bool) -> None:
         for b in (self.add_button, self.load_button):

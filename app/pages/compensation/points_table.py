@@ -27,8 +27,9 @@ class PointsTable(QTableWidget):
         header.setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
         header.setStretchLastSection(True)
 
-    def show_points(self, points, q_to_file) -> None:
-        """One row per app.jobs.compensation.CompensatedPoint (joints through `q_to_file`: deg / mm)."""
+    def show_points(self, points, q_to_file, select: int | None = None) -> None:
+        """One row per app.jobs.compensation.CompensatedPoint (joints through `q_to_file`: deg / mm);
+        row `select` selected (None: the one selected, or the first)."""
         self.setRowCount(len(points))
         for r, p in enumerate(points):
             measured = ["" if not np.isfinite(p.error_mm(n)) else f"{p.error_mm(n):.3f}" for n in (False, True)]
@@ -40,3 +41,5 @@ class PointsTable(QTableWidget):
                 self.setItem(r, c, QTableWidgetItem(text))
         if points and self.currentRow() < 0:
             self.selectRow(0)
+        if select is not None:
+            self.selectRow(select)

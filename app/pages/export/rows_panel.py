@@ -9,7 +9,8 @@ from PySide6.QtWidgets import QGridLayout, QGroupBox, QLabel, QVBoxLayout, QWidg
 
 from app.html import esc
 from app.pages import forms
-from app.pages.export.items import ExportItem
+from app.pages.export.items import ExportItem, REPORT
+from app.pages.export.model import row_status, target_text
 
 COLOURS = {True: "#188038", False: "#80868b", None: "#5f6368"}
 
@@ -50,6 +51,18 @@ class ExportRows(QGroupBox):
         grid.addLayout(text, r, 0)
         grid.addWidget(button, r, 1, Qt.AlignmentFlag.AlignTop)
         return {"title": title, "target": target, "status": status, "button": button}
+
+    def show_rows(self, items: list[ExportItem], folder, calibrated_source: str | None, exported: dict,
+                  *, writing: bool) -> None:
+        """Every row's target and status (the report's keeps "Writing…" while `writing`)."""
+        for item in items:
+            self.rows[item.key]["target"].setText(target_text(item, folder, calibrated_source))
+            if not (writing and item.key == REPORT):
+                self.set_status(item.key, *row_status(item, exported))
+
+    def set_enabled(self, items: list[ExportItem], busy: bool) -> None:
+        for item in items:
+            self.rows[item.key]["button"].setEnabled(not busy and item.missing() is None)
 
     def set_status(self, key: str, text: str, ok: bool | None) -> None:
         label = self.rows[key]["status"]

@@ -10,6 +10,7 @@ from PySide6.QtWidgets import (QCheckBox, QComboBox, QGroupBox, QHBoxLayout, QLa
                                QToolButton, QVBoxLayout)
 
 from app.pages.forms import button, double_spin, spin
+from app.pages.identification.model import IdentificationOptions
 from core.errors import RoboCalError
 from core.kinematics.jacobian import all_parameters, resolve_names
 from core.identification.prior import PriorOptions
@@ -23,8 +24,8 @@ DEFLECTION_CHOICES = (("Geometry only", "off"), ("Deflection if it helps", "auto
 
 
 class OptionsPanel(QGroupBox):
-    """`options()` gives identify()'s keyword arguments for the robot `robot()` returns;
-    `on_identify()` when Identify is clicked."""
+    """`options()` gives identify()'s options (IdentificationOptions) for the robot `robot()`
+    returns, `show_options(o)` shows them; `on_identify()` when Identify is clicked."""
 
     def __init__(self, progress: ProgressRow, *, robot: Callable, on_identify: Callable, parent=None):
         super().__init__("Options", parent)
@@ -103,17 +104,39 @@ class OptionsPanel(QGroupBox):
         self.fix_edit.textEdited.connect(self._sync_fix_menu)
         self._validation_changed()
 
-    def options(self) -> dict:
+    def options(self) -> IdentificationOptions:
         """identify()'s options chosen here (raises RoboCalError for unknown parameter names)."""
         mode = self.validation_combo.currentIndex()
-        return {"huber": float(self.huber_spin.value()) if self.huber_check.isChecked() else None,
-                "holdout": self.holdout_spin.value() / 100.0 if mode == VALIDATION_HOLDOUT else None,
-                "kfold": self.kfold_spin.value() if mode == VALIDATION_KFOLD else None,
-                "fixed": self.fixed_names(),
-                "prior": PriorOptions() if self.prior_check.isChecked() else None,
-                "orientation": self.orientation_check.isChecked(),
-                "compliance": self.compliance(),
-                "payload_kg": float(self.payload_spin.value()) if self.payload_check.isChecked() else None}
+        return IdentificationOptions(
+            huber=float(self.huber_spin.value()) if self.huber_check.isChecked() else None,
+            holdout=self.holdout_spin.value() / 100.0 if mode == VALIDATION_HOLDOUT else None,
+            kfold=self.kfold_spin.value() if mode == VALIDATION_KFOLD else None,
+            fixed=tuple(self.fixed_names()),
+            prior=PriorOptions() if self.prior_check.isChecked() else None,
+            orientation=self.orientation_check.isChecked(),
+            compliance=self.compliance(),
+            payload_kg=float(self.payload_spin.value()) if self.payload_check.isChecked() else None)
+
+    def show_options(self, o: IdentificationOptions) -> None:
+        """Show `o` (the spin boxes of what is off keep their values)."""
+        mode = VALIDATION_KFOLD if o.kfold is not None else VALIDATION_HOLDOUT if o.holdout is not None \
+            else VALIDATION_NONE
+        self.validation_combo.setCurrentIndex(mode)
+        if o.holdout is not None:
+            self.holdout_spin.setValue(round(o.holdout * 100))
+        if o.kfold is not None:
+            self.kfold_spin.setValue(o.kfold)
+        self.huber_check.setChecked(o.huber is not None)
+        if o.huber is not None:
+            self.huber_spin.setValue(o.huber)
+        self.prior_check.setChecked(o.prior is not None)
+        self.orientation_check.setChecked(o.orientation)
+        self.deflection_combo.setCurrentIndex([value for _, value in DEFLECTION_CHOICES].index(o.compliance))
+        self.payload_check.setChecked(o.payload_kg is not None)
+        if o.payload_kg is not None:
+            self.payload_spin.setValue(o.payload_kg)
+        self.fix_edit.setText(", ".join(o.fixed))
+        self._sync_fix_menu()
 
     def compliance(self) -> str:
         """identify()'s deflection choice: "off", "auto" or "on"."""

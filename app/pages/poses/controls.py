@@ -5,11 +5,9 @@ from PySide6.QtCore import Signal
 from PySide6.QtWidgets import QComboBox, QLabel, QWidget
 
 from app.pages import forms
+from app.pages.poses.model import DEMO_CANDIDATES, DEMO_COUNT, PoseOptions
 from app.pages.poses.texts import INDEX_CHOICES
 from widgets.flow_layout import FlowLayout
-
-DEMO_COUNT = 30
-DEMO_CANDIDATES = 1000
 
 
 class SelectionControls(QWidget):
@@ -55,19 +53,23 @@ class SelectionControls(QWidget):
     def set_index(self, key: str) -> None:
         self.index_combo.setCurrentIndex(self.index_combo.findData(key))
 
-    def count(self) -> int:
-        return self.count_spin.value()
+    def options(self) -> PoseOptions:
+        """The selection's settings chosen here."""
+        return PoseOptions(self.count_spin.value(), self.index(), self.candidates_spin.value(),
+                           self.margin_spin.value(), self.seed_spin.value())
 
-    def options(self) -> dict:
-        """Keyword arguments of app.jobs.poses.run_pose_selection (all but robot, count and lab)."""
-        return dict(index=self.index(), candidates=self.candidates_spin.value(), margin=self.margin_spin.value(),
-                    seed=self.seed_spin.value())
+    def show_options(self, options: PoseOptions) -> None:
+        self.count_spin.setValue(options.count)
+        self.set_index(options.index)
+        self.candidates_spin.setValue(options.candidates)
+        self.margin_spin.setValue(options.margin)
+        self.seed_spin.setValue(options.seed)
 
     def set_demo(self) -> None:
-        """The settings of the classroom demo (autopilot): 30 poses by κ from 1000 candidates."""
-        self.count_spin.setValue(DEMO_COUNT)
-        self.candidates_spin.setValue(DEMO_CANDIDATES)
-        self.set_index("cond")
+        """The settings of the classroom demo (autopilot): 30 poses by κ from 1000 candidates (the
+        margin and the seed kept)."""
+        shown = self.options()
+        self.show_options(PoseOptions(DEMO_COUNT, "cond", DEMO_CANDIDATES, shown.margin, shown.seed))
 
     def set_busy(self, busy: bool) -> None:
         """Settings and Select are locked while a selection runs."""

@@ -3,7 +3,8 @@
 The page runs app.jobs.poses.run_pose_selection on a worker thread (progress, Cancel) and
 draws what it returns (results.py). In the virtual lab the candidates are limited to poses
 where both cameras see the marker, above the table: the page asks the state for the lab
-(`request_lab`, built once on a worker) before it starts the selection. The result goes to
+(`request_lab`, built once on a worker) before it starts the selection. The selection (or the
+project's poses.csv) is the model's (model.py), the results drawn from it. The result goes to
 the Measurement step as ``state.poses`` (a PoseSelectionResult: ``.Q`` rad/mm, ``.q_file``
 deg/mm, ``.path``) and as the project's poses.csv.
 """
@@ -12,15 +13,14 @@ from __future__ import annotations
 from PySide6.QtWidgets import QVBoxLayout
 
 from app.jobs.poses import run_pose_selection
-from app.lab import VirtualLab
 from app.pages.base import WizardPage
 from app.pages.poses.controls import SelectionControls
+from app.pages.poses.model import PosesModel
 from app.pages.poses.results import SelectionResults
 from app.pages.poses.texts import SHORT
 from app.pages.steps import Step
 from core.errors import RoboCalError
 from core.locks import output_lock
-from core.poses.file import PoseList, read_poses
 from core.poses.selection import PoseSelectionResult, write_selection
 from core.project import Output
 from widgets.wrapping_box import hold_height_for_width
@@ -31,8 +31,7 @@ class PosesPage(WizardPage):
 
     def __init__(self, state, tasks, **kwargs):
         super().__init__(state, tasks, **kwargs)
-        self.result: PoseSelectionResult | None = None
-        self.loaded: PoseList | None = None      # a poses.csv found in the project (no selection run)
+        self.model = PosesModel()
 
         self.controls = hold_height_for_width(SelectionControls())     # its rows wrap on a small screen
         self.results = SelectionResults()
@@ -57,48 +56,46 @@ class PosesPage(WizardPage):
         state.projectChanged.connect(self._context_changed)
         state.robotChanged.connect(self._context_changed)
         state.labChanged.connect(lambda *_: self._draw())
+        self.model.on("result", lambda _result: self._show())
         self._show()
 
     # -- state -----------------------------------------------------------------------------
+    @property
+    def result(self) -> PoseSelectionResult | None:
+        """This session's selection (None: none, or only the project's poses.csv)."""
+        return self.model.result
+
     def index(self) -> str:
         return self.controls.index()
 
     def set_index(self, key: str) -> None:
         self.controls.set_index(key)
 
-    def _lab(self) -> VirtualLab | None:
-        return self.state.labs.current
-
     def _context_changed(self, *_):
         """Another project or robot: the selection no longer applies."""
         self.task.forget()
-        self.result = None
-        self.loaded = None
+        self.model.selected(None)
         self._load_existing()
         self._show()
         self.notify_complete()
 
     def _load_existing(self) -> None:
         """A poses.csv already in the project (an earlier session) counts as the selection."""
-        project, robot = self.state.project, self.state.robot
-        if self.result is not None or project is None or robot is None or not project.has(Output.POSES):
-            return
         try:
-            self.loaded = read_poses(project.path(Output.POSES), robot)
+            self.model.load_existing(self.state.project, self.state.robot)
         except RoboCalError as exc:
-            self.loaded = None
             self._set_status(f"The project's poses.csv cannot be used ({exc.message}); select the poses again.",
                              ok=False)
 
     # -- WizardPage ------------------------------------------------------------------------
     def on_enter(self) -> None:
-        if self.result is None and self.loaded is None:
+        if not self.model.complete:
             self._load_existing()
             self._show()
         self.notify_complete()
 
     def is_complete(self) -> bool:
-        return self.result is not None or self.loaded is not None
+        return self.model.complete
 
     def autopilot(self, done) -> None:
         if self.state.project is None or self.state.robot is None:
@@ -127,17 +124,14 @@ class PosesPage(WizardPage):
         if robot is None:
             self._set_status("Choose a robot model in the Setup step first.", ok=False)
             return False
-        count, options = self.controls.count(), self.controls.options()
-        status = f"Selecting {count} poses by {SHORT[options['index']]}…"
-        if not self.state.virtual:
-            return self.task.start(run_pose_selection, robot, count, on_done=self._selected, status=status,
-                              label="Selecting poses", **options)
-        return self.task.start_with_lab(run_pose_selection, robot, count, on_done=self._selected, status=status,
-                                   label="Selecting poses", **options)
+        self.model.set_options(self.controls.options())
+        options = self.model.options
+        status = f"Selecting {options.count} poses by {SHORT[options.index]}…"
+        start = self.task.start_with_lab if self.state.virtual else self.task.start
+        return start(run_pose_selection, robot, options.count, on_done=self._selected, status=status,
+                     label="Selecting poses", **options.keywords())
 
     def _selected(self, r: PoseSelectionResult) -> None:
-        self.result = r
-        self.loaded = None
         written = ""
         if self.state.project is not None:
             try:
@@ -148,7 +142,7 @@ class PosesPage(WizardPage):
                 self.show_error(exc.message)
                 written = " (poses.csv could not be written)"
         self.state.set_poses(r)
-        self._show()
+        self.model.selected(r)
         self._set_status(f"✓ {r.count} poses selected in {r.seconds:.1f} s.{written}", ok=True)
         self.notify_complete()
         if self._autopilot_done is not None:
@@ -157,19 +151,20 @@ class PosesPage(WizardPage):
 
     # -- drawing ---------------------------------------------------------------------------
     def _draw(self) -> None:
-        self.results.set_selection(self.result, self.loaded, lab=self._lab(), robot=self.state.robot,
-                                   index=self.index())
+        self.results.set_selection(self.model.result, self.model.loaded, lab=self.state.labs.current,
+                                   robot=self.state.robot, index=self.index())
 
     def _show(self) -> None:
         self._draw()
-        if self.result is None and self.loaded is None and not self.task.busy:
+        result, loaded = self.model.result, self.model.loaded
+        if result is None and loaded is None and not self.task.busy:
             if self.state.robot is None:
                 self._set_status("Choose a robot model in the Setup step first.", ok=False)
             else:
                 where = "the virtual lab's cameras" if self.state.virtual else "the robot (no camera constraint)"
                 self._set_status(f"Choose N and the index, then Select poses (candidates for {where}).", ok=None)
-        elif self.loaded is not None and self.result is None:
-            self._set_status(f"✓ {len(self.loaded)} poses from the project's poses.csv. Select again to see "
+        elif loaded is not None and result is None:
+            self._set_status(f"✓ {len(loaded)} poses from the project's poses.csv. Select again to see "
                              "their observability.", ok=True)
 
     def highlight(self, row: int) -> None:

@@ -9,20 +9,16 @@ from __future__ import annotations
 
 import numpy as np
 from PySide6.QtCore import Signal
-from PySide6.QtWidgets import (QButtonGroup, QComboBox, QFileDialog, QGridLayout, QGroupBox, QLabel, QLineEdit,
-                               QRadioButton, QVBoxLayout, QWidget)
+from PySide6.QtWidgets import QButtonGroup, QComboBox, QGroupBox, QLabel, QRadioButton, QVBoxLayout, QWidget
 
 from app.hardware import SERIAL, RobotChoice
 from app.html import esc
 from app.jobs.robot import Connected, connect_serial, move_and_read, read_joints
 from app.pages import forms
+from app.pages.setup.serial_form import SerialForm
 from app.pages.setup.simulator_row import SimulatorRow
 from app.safety import motion_refused
 from core.errors import RoboCalError
-from core.robot.profile import builtin_names
-from core.robot.serial_robot import DEFAULT_SPEED
-
-BAUD_RATES = ("9600", "57600", "115200", "230400", "250000", "1000000")
 
 
 class RobotPanel(QGroupBox):
@@ -47,7 +43,13 @@ class RobotPanel(QGroupBox):
         self.virtual_radio.setChecked(True)
         self.virtual_radio.toggled.connect(self._kind_toggled)
 
-        self.serial_form = self._build_serial_form()
+        self.serial_form = SerialForm()
+        form = self.serial_form       # its fields, as the protocol panel and the tests reach them
+        self.port_edit, self.profile_combo, self.baud_combo = form.port_edit, form.profile_combo, form.baud_combo
+        self.joint_map_edit, self.speed_spin = form.joint_map_edit, form.speed_spin
+        self.connect_button, self.disconnect_button = form.connect_button, form.disconnect_button
+        self.connect_button.clicked.connect(lambda *_: self.connect_robot())
+        self.disconnect_button.clicked.connect(lambda *_: self.disconnect_robot())
         test = self._build_test()
 
         layout = QVBoxLayout(self)
@@ -63,48 +65,6 @@ class RobotPanel(QGroupBox):
         self.state.projectChanged.connect(self.restore)
         self.state.hardware.stoppedChanged.connect(self.refresh)
         self._robot_changed()
-
-    def _build_serial_form(self) -> QWidget:
-        """Port, protocol, baud, joint map and speed, with Connect / Disconnect."""
-        self.port_edit = QLineEdit()
-        self.port_edit.setObjectName("portEdit")
-        self.port_edit.setPlaceholderText("/dev/ttyUSB0, /dev/ttyACM0, COM3 …")
-        self.port_edit.setMinimumWidth(120)
-        self.profile_combo = QComboBox()
-        self.profile_combo.setObjectName("profileCombo")
-        self.profile_combo.setEditable(True)
-        self.profile_combo.addItems(builtin_names())
-        self.profile_combo.setCurrentText("robocal_v1")
-        self.profile_combo.setToolTip("The controller's protocol: a built-in profile, or the path of a profile file")
-        self.joint_map_edit = QLineEdit()
-        self.joint_map_edit.setObjectName("jointMapEdit")
-        self.joint_map_edit.setPlaceholderText("optional: joint map file (units, sign, offset)")
-        self.joint_map_button = forms.button("…", on_click=self._browse_joint_map,
-                                             tooltip="Choose a joint map file (JSON)")
-        self.baud_combo = QComboBox()
-        self.baud_combo.setObjectName("baudCombo")
-        self.baud_combo.setEditable(True)
-        self.baud_combo.addItems(BAUD_RATES)
-        self.baud_combo.setCurrentText("115200")
-        self.speed_spin = forms.spin(int(DEFAULT_SPEED), 1, 100, name="speedSpin", suffix=" %",
-                                     tooltip="Motion speed, percent of the robot's maximum (25 % for a first test)")
-        self.connect_button = forms.button("Connect", "connectButton", on_click=self.connect_robot)
-        self.disconnect_button = forms.button("Disconnect", "disconnectButton", on_click=self.disconnect_robot)
-        form = QGridLayout()
-        form.setContentsMargins(18, 0, 0, 0)
-        form.addWidget(QLabel("Port:"), 0, 0)
-        form.addWidget(self.port_edit, 0, 1, 1, 3)
-        form.addWidget(QLabel("Protocol:"), 1, 0)
-        form.addWidget(self.profile_combo, 1, 1)
-        form.addWidget(QLabel("Baud:"), 1, 2)
-        form.addWidget(self.baud_combo, 1, 3)
-        form.addWidget(QLabel("Joint map:"), 2, 0)
-        form.addLayout(forms.row(self.joint_map_edit, self.joint_map_button, stretch=False), 2, 1, 1, 3)
-        form.addWidget(QLabel("Speed:"), 3, 0)
-        form.addLayout(forms.row(self.speed_spin, self.connect_button, self.disconnect_button), 3, 1, 1, 3)
-        widget = QWidget()
-        widget.setLayout(form)
-        return widget
 
     def _build_test(self) -> QVBoxLayout:
         """The controller's identity, joints read, a one-joint test move, Stop and Resume."""
@@ -140,27 +100,16 @@ class RobotPanel(QGroupBox):
 
     # -- choices -------------------------------------------------------------------------
     def choice(self) -> RobotChoice:
-        baud = self.baud_combo.currentText().strip()
-        return RobotChoice(SERIAL, self.port_edit.text().strip(), self.profile_combo.currentText().strip(),
-                           self.joint_map_edit.text().strip(), int(baud) if baud.isdigit() else None)
+        """The serial robot chosen in the form."""
+        return self.serial_form.options()
 
     def restore(self, project) -> None:
         """Fill the fields with the serial robot the project recorded (not connected yet)."""
         saved = project.robot_connection if project is not None else None
         if saved is None or saved.kind != SERIAL:
             return
-        self.port_edit.setText(saved.port or "")
-        self.profile_combo.setCurrentText(saved.profile or "robocal_v1")
-        self.joint_map_edit.setText(saved.joint_map or "")
-        self.baud_combo.setCurrentText(str(saved.baud or "115200"))
-        if saved.speed is not None:
-            self.speed_spin.setValue(int(round(saved.speed)))
+        self.serial_form.show_options(saved)
         self.serial_radio.setChecked(True)
-
-    def _browse_joint_map(self) -> None:
-        path, _ = QFileDialog.getOpenFileName(self, "Joint map", "", "Joint map (*.json);;All files (*)")
-        if path:
-            self.joint_map_edit.setText(path)
 
     def _kind_toggled(self, virtual: bool) -> None:
         if virtual and self.state.hardware.robot_choice.real:
@@ -176,7 +125,7 @@ class RobotPanel(QGroupBox):
         self.serial_radio.setChecked(True)
         choice = self.choice()
         self.connecting.emit()
-        return self.page.task.start(connect_serial, self.state.robot, choice, float(self.speed_spin.value()),
+        return self.page.task.start(connect_serial, self.state.robot, choice, self.serial_form.speed(),
                                on_done=lambda c: self._connected(c, choice), label="Connecting the robot",
                                status=f"Connecting to {choice.port or '(no port)'}…")
 

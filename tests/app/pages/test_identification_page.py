@@ -213,7 +213,7 @@ def test_deflection_choice_payload_and_verdict_on_the_page(hw_page, qtbot):
     assert "Payload during the measurements: 1.5 kg" in text
     assert any(row.name == "J3.sin_q23" and row.identifiable for row in result.parameters)
     page.options.deflection_combo.setCurrentIndex(0)
-    assert "J2.cos_q2" not in page.options.fix_actions and page.options.options()["compliance"] == "off"
+    assert "J2.cos_q2" not in page.options.fix_actions and page.options.options().compliance == "off"
 
 
 def test_fix_menu_and_text_agree(hw_page):
@@ -296,7 +296,7 @@ def test_prior_option_reaches_the_identification_and_is_reported(hw_page, qtbot)
     page = hw_page
     write_synthetic(page)
     page.on_enter()
-    assert page.options.options()["prior"] is None
+    assert page.options.options().prior is None
     page.options.prior_check.setChecked(True)
     identify(qtbot, page)
     prior = page.result.prior
@@ -312,7 +312,7 @@ def test_orientation_option_determines_the_last_joint_zero(hw_page, qtbot):
     meas = simulate_measurements(true, 30, sigma_mm=0.02, rng=4, with_sigma=True, orientation_sigma_deg=0.02)
     write_measurements(meas, page.measurements_path())
     page.on_enter()
-    assert page.options.options()["orientation"] is False and "marker.rz" not in page.options.fix_actions
+    assert page.options.options().orientation is False and "marker.rz" not in page.options.fix_actions
     page.options.orientation_check.setChecked(True)
     assert "marker.rz" in page.options.fix_actions                # the Choose menu offers the marker's turn
     page.options.fix_actions["marker.rz"].setChecked(True)
