@@ -125,7 +125,7 @@ def test_virtual_lab_pairs_calibrate_drop_outlier_and_export(page, qtbot, tmp_pa
     page.results.errors_chart.set_threshold((worst[order[-1]] + worst[order[-2]]) / 2)
     assert page.results.errors_chart.selected() == [int(order[-1])]
     dropped_pair = int(series["pairs"][order[-1]]) - 1
-    assert page.selected_pairs() == [dropped_pair]
+    assert page.results_actions.selected_pairs() == [dropped_pair]
     assert page.results.drop_button.isEnabled()
     qtbot.mouseClick(page.results.drop_button, Qt.MouseButton.LeftButton)
     wait(qtbot, page)
@@ -193,7 +193,7 @@ def test_one_folder_of_left_and_right_images_asks_once(page, qtbot, monkeypatch,
     assert page.items[0].detection.name == "left01.png | right01.png"
     (mixed / "right08.png").unlink()
     patch_dirs(monkeypatch, mixed)
-    assert not page.add_folders_dialog()
+    assert not page.sources.add_folders_dialog()
     assert "left08.png has no partner" in page.status.text()
 
 
@@ -237,8 +237,8 @@ def test_real_pairs_flagged_outlier_dropped(qtbot, tmp_path, monkeypatch):
         for a, b in real_pairs():
             shutil.copy(a, left / a.name)
             shutil.copy(b, right / b.name)
-        page.set_board(Board(9, 6, 24.0))
-        assert page.add_folders(left, right)
+        page.sources.set_board(Board(9, 6, 24.0))
+        assert page.sources.add_folders(left, right)
         wait(qtbot, page)
         assert len(page.usable_pairs()) == 25
         assert page.calibrate()
@@ -247,10 +247,10 @@ def test_real_pairs_flagged_outlier_dropped(qtbot, tmp_path, monkeypatch):
         assert r.outliers, "the real data set has a flagged pair"
         assert page.results.flagged_button.isEnabled()
         assert any(page.results.errors_chart.series()["flagged"])
-        page.select_flagged()
-        assert set(r.outliers) <= set(page.selected_pairs())
-        n = len(page.selected_pairs())
-        assert page.drop_selected()
+        page.results_actions.select_flagged()
+        assert set(r.outliers) <= set(page.results_actions.selected_pairs())
+        n = len(page.results_actions.selected_pairs())
+        assert page.results_actions.drop_selected()
         wait(qtbot, page)
         assert page.result.pairs_used == 25 - n
         assert abs(page.result.file.K1[0, 0] / 518.05 - 1) < 0.02
@@ -264,7 +264,7 @@ def test_bad_folders_give_a_clear_message(page, qtbot, tmp_path, rendered_folder
     shutil.copytree(rendered_folders / "left", left)
     shutil.copytree(rendered_folders / "right", right)
     (left / "img_08.png").write_bytes((left / "img_00.png").read_bytes())
-    assert not page.add_folders(left, right)                # unequal counts: nothing starts
+    assert not page.sources.add_folders(left, right)                # unequal counts: nothing starts
     assert not page.task.busy and page.items == []
     text = page.status.text()
     assert "9 left images" in text and "8 right images" in text and "img_08.png" in text
@@ -277,7 +277,7 @@ def test_bad_folders_give_a_clear_message(page, qtbot, tmp_path, rendered_folder
             (side / name).unlink()
     data = (right / "img_01.png").read_bytes()
     (right / "img_01.png").write_bytes(data[: len(data) // 2])
-    assert page.add_folders(left, right)
+    assert page.sources.add_folders(left, right)
     wait(qtbot, page)
     assert len(page.items) == 2
     assert "notes.txt" in page.status.text()
@@ -289,7 +289,7 @@ def test_bad_folders_give_a_clear_message(page, qtbot, tmp_path, rendered_folder
 
 # -- cancel -------------------------------------------------------------------------------------
 def test_cancel_rendering_keeps_finished_pairs_only(page, qtbot):
-    page.add_virtual_pairs(12)
+    page.sources.add_virtual_pairs(12)
     qtbot.waitUntil(lambda: len(page.items) >= 1 or not page.task.busy, timeout=WAIT_MS)
     page.task.cancel()
     wait(qtbot, page)
@@ -301,7 +301,7 @@ def test_cancel_rendering_keeps_finished_pairs_only(page, qtbot):
 
 
 def test_cancel_calibration(page, qtbot, monkeypatch, rendered_folders):
-    assert page.add_folders(rendered_folders / "left", rendered_folders / "right")
+    assert page.sources.add_folders(rendered_folders / "left", rendered_folders / "right")
     wait(qtbot, page)
     assert page.calibrate()
     page.task.cancel()
@@ -391,7 +391,7 @@ def test_swapping_pairs_saved_in_the_project_swaps_their_folders(qtbot, tmp_path
         wait(qtbot, page)
         assert page.result.cameras_look_swapped
         first_right = (saved / "right" / "img_00.png").read_bytes()
-        assert page.swap_cameras()
+        assert page.sources.swap_cameras()
         qtbot.waitUntil(lambda: page.result is not None and not page.task.busy, timeout=WAIT_MS)
         assert not page.result.cameras_look_swapped
         assert (saved / "left" / "img_00.png").read_bytes() == first_right
