@@ -5,9 +5,9 @@ lab (N pairs at well-spread board poses, rendered and saved as PNGs into the pro
 checkerboard/left|right), or from the cameras (the two opened on the Setup page: the pair the
 live preview shows, allowed while it sees the board in both, live_preview.py, saved into
 checkerboard/left|right, live_capture.py; without them in the virtual lab, one pair from the
-lab's cameras at a random board pose). Adding
-pairs is one worker job (app/jobs/stereo_pairs.py) that detects in small batches, so thumbnails
-and the ROS-style coverage bars fill while pairs are added (pair_sources.py). Calibration
+lab's cameras at a random board pose). Adding pairs is one worker job (app/jobs/stereo_pairs.py)
+that detects in small batches, so thumbnails and the ROS-style coverage bars fill while pairs
+are added (pair_sources.py). Calibration
 (core.stereo.calibration.calibrate_stereo) runs on the worker thread too; the page then draws
 what it returns (results_panel.py, result_actions.py).
 
@@ -26,7 +26,6 @@ from __future__ import annotations
 from PySide6.QtCore import Qt, QTimer
 from PySide6.QtWidgets import QVBoxLayout, QWidget
 
-from app.html import number
 from app.jobs.stereo import AddedPair
 from app.lab import DEFAULT_BOARD
 from app.pages.base import WizardPage
@@ -40,8 +39,6 @@ from app.pages.stereo.pair_sources import PairSources
 from app.pages.stereo.pairs_panel import VIRTUAL_PAIRS, PairsPanel
 from app.pages.stereo.result_actions import ResultActions
 from app.pages.stereo.results_panel import ResultsPanel
-from app.pages.stereo.texts import (CAMERA_TOOLTIP_HARDWARE, CAMERA_TOOLTIP_LIVE, CAMERA_TOOLTIP_NO_BOARD,
-                                    CAMERA_TOOLTIP_VIRTUAL, VIRTUAL_TOOLTIP)
 from core.stereo.board import Board
 from core.stereo.calibration import StereoCalibrationResult, calibrate_stereo
 from core.stereo.coverage import MIN_PAIRS_TO_CALIBRATE
@@ -247,20 +244,11 @@ class StereoPage(WizardPage):
 
     def on_busy_changed(self) -> None:
         busy, has_project, virtual = self.task.busy, self.state.project is not None, self.state.virtual
-        m, p, r = self.step_model, self.pairs, self.results
+        m = self.step_model
         self.task.progress_row().bar.setVisible(busy)
-        for w in (p.folders_button, p.cols_spin, p.rows_spin, p.square_spin):
-            w.setEnabled(not busy and has_project)
         live = self.state.hardware.cameras is not None
-        for w in (p.virtual_button, p.virtual_count):
-            w.setEnabled(not busy and has_project and virtual)
-        ready = live and self.live.ready_pair() is not None
-        p.capture_button.setEnabled(not busy and has_project and (ready if live else virtual))
-        p.virtual_button.setToolTip(VIRTUAL_TOOLTIP if virtual else "Only in a virtual-lab project")
-        p.capture_button.setToolTip((CAMERA_TOOLTIP_LIVE if ready else CAMERA_TOOLTIP_NO_BOARD) if live
-                                    else CAMERA_TOOLTIP_VIRTUAL if virtual else CAMERA_TOOLTIP_HARDWARE)
-        p.remove_button.setEnabled(not busy and bool(p.strip.selectedItems()))
-        p.clear_button.setEnabled(not busy and bool(m.items))
+        self.pairs.show_controls(busy, has_project, virtual, live, live and self.live.ready_pair() is not None,
+                                 bool(m.items))
         self.model.show_calibrate(busy, len(m.usable()), m.detections is not None and m.coverage().enough)
         has_result = m.result is not None
         self.model.set_enabled(not busy)
@@ -270,9 +258,7 @@ class StereoPage(WizardPage):
         self.json_button.setEnabled(not busy and has_result)
         self.swap_button.setVisible(m.current_result() is not None and m.result.cameras_look_swapped)
         self.swap_button.setEnabled(not busy)
-        r.drop_button.setEnabled(not busy and has_result and bool(r.errors_chart.selected()))
-        r.flagged_button.setEnabled(not busy and has_result and bool(m.result.outliers if has_result else []))
-        r.restore_button.setEnabled(not busy and any(a.excluded for a in m.items))
+        self.results.show_controls(busy, m.result, any(a.excluded for a in m.items))
 
     # -- calibration -----------------------------------------------------------------------------
     def calibrate(self, note: str = "") -> bool:

@@ -11,7 +11,8 @@ from app.html import esc
 from app.jobs.stereo import THUMB_WIDTH
 from app.pages.forms import button, double_spin, row, spin
 from app.pages.stereo.model import StereoModel
-from app.pages.stereo.texts import BAR_TIPS, short_reason
+from app.pages.stereo.texts import (BAR_TIPS, CAMERA_TOOLTIP_HARDWARE, CAMERA_TOOLTIP_LIVE, CAMERA_TOOLTIP_NO_BOARD,
+                                    CAMERA_TOOLTIP_VIRTUAL, VIRTUAL_TOOLTIP, short_reason)
 from core.stereo.board import Board
 from core.stereo.coverage import MIN_BAR, MIN_GOOD_PAIRS, MIN_PAIRS_TO_CALIBRATE
 from widgets.coverage_bars import CoverageBars
@@ -84,6 +85,22 @@ class PairsPanel(QGroupBox):
             w.blockSignals(True)
             w.setValue(v)
             w.blockSignals(False)
+
+    def show_controls(self, busy: bool, has_project: bool, virtual: bool, cameras: bool, ready: bool,
+                      has_pairs: bool) -> None:
+        """Enable what can be done now: nothing while a task runs; the virtual lab only in a
+        virtual-lab project; a capture from the `cameras` opened on the Setup page only while a
+        pair with the board in both images is `ready` (without them, from the virtual lab)."""
+        for w in (self.folders_button, self.cols_spin, self.rows_spin, self.square_spin):
+            w.setEnabled(not busy and has_project)
+        for w in (self.virtual_button, self.virtual_count):
+            w.setEnabled(not busy and has_project and virtual)
+        self.capture_button.setEnabled(not busy and has_project and (ready if cameras else virtual))
+        self.virtual_button.setToolTip(VIRTUAL_TOOLTIP if virtual else "Only in a virtual-lab project")
+        self.capture_button.setToolTip((CAMERA_TOOLTIP_LIVE if ready else CAMERA_TOOLTIP_NO_BOARD) if cameras
+                                       else CAMERA_TOOLTIP_VIRTUAL if virtual else CAMERA_TOOLTIP_HARDWARE)
+        self.remove_button.setEnabled(not busy and bool(self.strip.selectedItems()))
+        self.clear_button.setEnabled(not busy and has_pairs)
 
     def ask_folder(self, right: bool, start: str) -> str:
         """The folder of the left camera's images (or of mixed leftNN and rightNN images), or of

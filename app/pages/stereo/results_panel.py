@@ -156,6 +156,13 @@ class ResultsPanel(QTabWidget):
         self.preview_combo.blockSignals(False)
         self.preview_combo.setCurrentIndex(0)
 
+    def show_controls(self, busy: bool, result, any_dropped: bool) -> None:
+        """Drop (pairs above the line), Select flagged and Restore dropped, while no task runs."""
+        has_result = result is not None
+        self.drop_button.setEnabled(not busy and has_result and bool(self.errors_chart.selected()))
+        self.flagged_button.setEnabled(not busy and has_result and bool(result.outliers if has_result else []))
+        self.restore_button.setEnabled(not busy and any_dropped)
+
     def clear_preview(self) -> None:
         self.preview.set_image(None)
         for name in ("left_corners", "right_corners"):
