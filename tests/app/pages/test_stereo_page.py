@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import shutil
+import threading
 
 import cv2
 import numpy as np
@@ -12,6 +13,8 @@ import pytest
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QFileDialog
 
+from app.jobs import stereo_pairs
+from app.jobs.stereo_pairs import FILE_CHUNK
 from app.pages.stereo import page as stereo_page
 from app.pages.stereo.page import StereoPage
 from app.pages.stereo.results_panel import PREVIEW_GAP
@@ -225,6 +228,39 @@ def test_add_folders_then_change_the_board(page, qtbot, monkeypatch, rendered_fo
     assert page.result is not None and page.result.pairs_used == 8
     # 8 pairs are not enough views: calibrated, with the warning in the summary
     assert "not enough views" in page.results.summary_view.toPlainText()
+
+
+def test_adding_folders_is_one_job_whose_batches_fill_the_strip(page, qtbot, rendered_folders):
+    """8 pairs, detected FILE_CHUNK at a time in one worker job: each batch is on the page while
+    that job still runs (the same task handle), the last one before it ends."""
+    seen = []
+    page.step_model.on("added", lambda added: seen.append((len(added), len(page.items), page.task.handle)))
+    assert page.sources.add_folders(rendered_folders / "left", rendered_folders / "right")
+    handle = page.task.handle
+    wait(qtbot, page)
+    assert [(n, total) for n, total, _ in seen] == [(FILE_CHUNK, FILE_CHUNK), (8 - FILE_CHUNK, 8)]
+    assert handle is not None and all(h is handle for _, _, h in seen)
+    assert page.pairs.strip.count() == 8 and page.status.text() == "8 pairs on the page."
+
+
+def test_another_project_drops_the_batches_still_coming(page, qtbot, rendered_folders, tmp_path, monkeypatch):
+    """A batch handed over by the worker but not yet on the page when the project changes never
+    arrives there."""
+    first_handed_over, go_on = threading.Event(), threading.Event()
+    detect = stereo_pairs.detect_files
+
+    def detect_after_the_first_batch(*args, **kwargs):
+        if kwargs["first"] > 0:                  # the first batch went to the GUI thread (queued)
+            first_handed_over.set()
+            go_on.wait(WAIT_MS / 1000)
+        return detect(*args, **kwargs)
+    monkeypatch.setattr(stereo_pairs, "detect_files", detect_after_the_first_batch)
+    assert page.sources.add_folders(rendered_folders / "left", rendered_folders / "right")
+    assert first_handed_over.wait(WAIT_MS / 1000) and page.items == []
+    page.state.new_project(tmp_path / "other")
+    go_on.set()
+    assert page.task.runner.wait(WAIT_MS)
+    assert page.items == [] and page.pairs.strip.count() == 0 and page.step_model.detections is None
 
 
 @pytest.mark.skipif(not REAL_DATA.is_dir(), reason=f"real checkerboard pairs not found at {REAL_DATA}")
