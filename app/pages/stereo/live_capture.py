@@ -1,16 +1,17 @@
 """The Stereo page's "Capture from cameras" with the cameras opened on the Setup page: the pair
 the live preview showed and checked (live_preview.py), saved as checkerboard/left|right/
 pair_NNN.png in the project (numbered after the pairs already there), then detected like the
-other pairs. Nothing is grabbed again: the pair saved is the pair the technician saw."""
+other pairs, in one worker job (no Qt). Nothing is grabbed again: the pair saved is the pair
+the technician saw."""
 from __future__ import annotations
 
-from functools import partial
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from app.jobs.stereo import PNG_PARAMS, AddedPair, detect_files, next_free_number
+from app.jobs.stereo import PNG_PARAMS, detect_files, next_free_number
+from app.jobs.stereo_pairs import Shown
 from core.errors import RoboCalError
 from core.files import atomic_write_bytes
 from core.stereo.board import Board
@@ -18,9 +19,10 @@ from core.task import Monitor
 
 
 def save_checkerboard_pair(left: np.ndarray, right: np.ndarray, folder: Path, board: Board, *,
-                           progress=None, cancelled=None) -> list[AddedPair]:
+                           shown: Shown, progress=None, cancelled=None) -> int:
     """Write the camera images `left`, `right` into `folder`/left and `folder`/right as the next
-    pair_NNN.png (lossless), detect the board in them."""
+    pair_NNN.png (lossless), detect the board in them and hand the pair to `shown` (on the
+    worker thread, as app/jobs/stereo_pairs.py's runs do). Returns 1, the pairs added."""
     monitor = Monitor(progress, cancelled)
     monitor.step(0.0, "saving the pair")
     n = next_free_number(folder)
@@ -30,17 +32,5 @@ def save_checkerboard_pair(left: np.ndarray, right: np.ndarray, folder: Path, bo
         if not ok:
             raise RoboCalError("could not encode the camera image as PNG", source=path)
         atomic_write_bytes(path, buf.tobytes())
-    return detect_files([paths], board, "cameras", progress=monitor.sub(0.3, 1.0), cancelled=cancelled)
-
-
-def capture_live_pair(page, left: np.ndarray, right: np.ndarray) -> bool:
-    """Start saving the pair (`left`, `right`: full camera frames) on the Stereo page's job
-    queue (the page's `_need_project`, `_board`, `_run_queue`, `_add`, `_adding_finished`)."""
-    if not page._need_project():
-        return False
-    folder = page.state.project.folder / "checkerboard"
-    page._after_adding_note = ""
-    page._set_status("Saving the pair from the cameras…")
-    page._run_queue([(partial(save_checkerboard_pair, left, right, folder, page._board),
-                      "Saving a checkerboard pair", page._add)], then=lambda: page._adding_finished(None))
-    return True
+    shown(detect_files([paths], board, "cameras", progress=monitor.sub(0.3, 1.0), cancelled=cancelled))
+    return 1

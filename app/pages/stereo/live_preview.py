@@ -120,11 +120,11 @@ class LivePreviewPanel(QGroupBox):
         self.preview.set_caption("")
         self.setVisible(cams is not None)
         if cams is not None and self.isVisible():
-            self.task.start()
+            self.start()
 
     def showEvent(self, event) -> None:
         super().showEvent(event)
-        self.task.start()
+        self.start()
 
     def hideEvent(self, event) -> None:
         super().hideEvent(event)

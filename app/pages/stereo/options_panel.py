@@ -1,10 +1,12 @@
 """The Stereo page's camera model row: radial and tangential coefficients, fixed aspect ratio
-and principal point, the Calibrate button and the page's progress row."""
+and principal point (`options()`, `show_options(o)`: the step model's options), the Calibrate
+button and the page's progress row."""
 from __future__ import annotations
 
 from PySide6.QtWidgets import QCheckBox, QComboBox, QLabel, QVBoxLayout, QWidget
 
 from app.pages.forms import button
+from core.stereo.coverage import MIN_PAIRS_TO_CALIBRATE
 from core.stereo.fit import CalibrationOptions
 from widgets.flow_layout import FlowLayout
 
@@ -48,10 +50,26 @@ class OptionsPanel(QWidget):
                                   fix_aspect=self.aspect_check.isChecked(),
                                   fix_principal=self.principal_check.isChecked())
 
+    def show_options(self, options: CalibrationOptions) -> None:
+        """Show the camera model `options` (the choices this row has; the others are the core's)."""
+        self.radial_combo.setCurrentIndex(max(0, self.radial_combo.findData(options.radial)))
+        self.tangential_check.setChecked(options.tangential)
+        self.aspect_check.setChecked(options.fix_aspect)
+        self.principal_check.setChecked(options.fix_principal)
+
     def set_enabled(self, enabled: bool) -> None:
         """The model can be changed only while no task runs."""
         for w in (self.radial_combo, self.tangential_check, self.aspect_check, self.principal_check):
             w.setEnabled(enabled)
+
+    def show_calibrate(self, busy: bool, usable: int, enough: bool) -> None:
+        """The Calibrate button for `usable` accepted pairs whose coverage is `enough` (or not)."""
+        b = self.calibrate_button
+        b.setEnabled(not busy and usable >= MIN_PAIRS_TO_CALIBRATE)
+        b.setText("Calibrate" if enough or usable < MIN_PAIRS_TO_CALIBRATE else "Calibrate (low coverage)")
+        b.setToolTip(f"Needs at least {MIN_PAIRS_TO_CALIBRATE} accepted pairs" if usable < MIN_PAIRS_TO_CALIBRATE
+                     else ("Enough views: calibrate" if enough else
+                           "Possible, but coverage is not enough yet: the result may be poorly determined"))
 
 
 def _check(text: str, tooltip: str) -> QCheckBox:

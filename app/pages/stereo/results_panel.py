@@ -1,7 +1,7 @@
 """The Stereo page's results: errors per pair (with the draggable threshold to drop pairs),
 the summary, the parameter table ± σ, the rectified preview and the residual scatter.
-`ResultsPanel` draws a `StereoCalibrationResult`; `ResultsActions` (part of the page) drops
-and restores pairs from it and rectifies the previewed pair on a worker."""
+`ResultsPanel` draws a `StereoCalibrationResult`; the page's ResultActions (result_actions.py)
+drops and restores pairs from it and rectifies the previewed pair on a worker."""
 from __future__ import annotations
 
 import numpy as np
@@ -156,6 +156,13 @@ class ResultsPanel(QTabWidget):
         self.preview_combo.blockSignals(False)
         self.preview_combo.setCurrentIndex(0)
 
+    def show_controls(self, busy: bool, result, any_dropped: bool) -> None:
+        """Drop (pairs above the line), Select flagged and Restore dropped, while no task runs."""
+        has_result = result is not None
+        self.drop_button.setEnabled(not busy and has_result and bool(self.errors_chart.selected()))
+        self.flagged_button.setEnabled(not busy and has_result and bool(result.outliers if has_result else []))
+        self.restore_button.setEnabled(not busy and any_dropped)
+
     def clear_preview(self) -> None:
         self.preview.set_image(None)
         for name in ("left_corners", "right_corners"):
@@ -203,90 +210,3 @@ def _hint(text: str = "") -> QLabel:
     label.setObjectName("hint")
     label.setWordWrap(True)
     return label
-
-
-class ResultsActions:
-    """The page's work on its calibration result (a part of StereoPage: uses its `result`,
-    `items`, `results` panel, `calibrate` and `_preview_task`, the rectified preview's task)."""
-
-    def _threshold_selection(self, rows: list) -> None:
-        if self.result is None:
-            return
-        pairs = [self.result.view_indices[r] + 1 for r in rows]
-        label = self.results.outlier_label
-        if pairs:
-            label.setText(f"Above the line: pair{'s' if len(pairs) > 1 else ''} {', '.join(map(str, pairs))} — "
-                          f"Drop selected & recalibrate removes {'them' if len(pairs) > 1 else 'it'}.")
-        else:
-            label.setText(outlier_text(self.result))
-        self.on_busy_changed()
-
-    def selected_pairs(self) -> list[int]:
-        """Pair indices (0-based) above the threshold line."""
-        if self.result is None:
-            return []
-        return [self.result.view_indices[r] for r in self.results.errors_chart.selected()]
-
-    def select_flagged(self) -> None:
-        r = self.result
-        if r is None or not r.outliers:
-            return
-        pos = [r.view_position(i) for i in r.outliers]
-        lowest = min(max(r.per_view_rms_left[p], r.per_view_rms_right[p]) for p in pos)
-        self.results.errors_chart.set_threshold(lowest * 0.98)
-
-    def drop_selected(self) -> bool:
-        r = self.result
-        chosen = self.selected_pairs()
-        if r is None or not chosen:
-            self._set_status("Drag the threshold line below the bars of the pairs to drop.", ok=False)
-            return False
-        if self.task.busy:
-            return False
-        # by identity: pairs added or removed since the calibration renumber the others
-        objects = {id(r.detections.pairs[i]) for i in chosen}
-        for a in self.items:
-            if id(a.detection) in objects:
-                a.excluded = True
-        self._changed()
-        return self.calibrate()
-
-    def restore_excluded(self) -> None:
-        for a in self.items:
-            a.excluded = False
-        self._changed()
-        self._report_pairs()
-
-    # -- drawing the result ------------------------------------------------------------------------
-    def _show_result(self) -> None:
-        if self.result is None:
-            self.results.clear()
-        else:
-            self.results.show_result(self.result)
-            self._preview_changed()
-        self.on_busy_changed()
-
-    def _preview_changed(self, *_) -> None:
-        """Rectify the chosen pair on a worker (beside the page's task: a display only)."""
-        r = self.result
-        index = self.results.preview_combo.currentData()
-        if r is None or index is None:
-            return
-        v = r.view_position(int(index))
-        self.results.scatter.set_highlight(r.fit.residuals_left[v], r.fit.residuals_right[v], f"pair {int(index) + 1}")
-        # the pairs as they were at the calibration (pairs added or removed since renumber the page's)
-        pair = r.detections.pairs[int(index)] if r.detections is not None else None
-        if pair is None:
-            return
-
-        def shown(images):
-            if self.result is r:
-                self.results.draw_preview(r, v, *images)
-
-        def failed(message):
-            self.results.preview.set_image(None)
-            self.results.preview_caption.setText(message)
-
-        self.results.preview_caption.setText("Rectifying this pair…")
-        self._preview_task.start(r.rectification.rectify_files, pair.left_path, pair.right_path, on_result=shown,
-                                 on_error=failed, label="Rectifying the preview")

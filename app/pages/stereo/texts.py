@@ -137,3 +137,19 @@ PARAM_NAMES = {"fx": "fx (focal length)", "fy": "fy (focal length)", "cx": "cx (
                "baseline": "baseline |T|"}
 GROUP_NAMES = {"left": "Left camera", "right": "Right camera", "stereo": "Right from left"}
 UNIT_NAMES = {"deg": "°"}
+
+
+def pairs_status(items, result_stale: bool, note: str = "") -> tuple[str, bool | None]:
+    """The status line after pairs were added or removed: how many, which were rejected and why
+    (the first three), `note`, and whether a calibration must be made again; with its colour
+    (None: neutral, False: some rejected)."""
+    total = len(items)
+    rejected = [a.detection for a in items if not a.detection.accepted]
+    text = f"{total} pair{'s' if total != 1 else ''} on the page"
+    if rejected:
+        shown = "; ".join(f"pair {d.index + 1}: {d.reason}" for d in rejected[:3])
+        text += f"; {len(rejected)} rejected ({shown}{'; …' if len(rejected) > 3 else ''})"
+    text += "." + note
+    if result_stale:
+        text += " Pairs changed since the calibration: calibrate again."
+    return text, None if not rejected else False

@@ -58,10 +58,10 @@ def test_import_button_makes_a_ros_pair_the_projects_calibration(page, qtbot, tm
 
 
 def test_import_refusal_is_one_message_and_keeps_the_previous_file(page, tmp_path, rig):
-    assert page.import_stereo([str(ff.opencv_file(rig, tmp_path / "good.yml"))]) is not None
+    assert page.files.import_stereo([str(ff.opencv_file(rig, tmp_path / "good.yml"))]) is not None
     before = page.state.project.path("stereo").read_bytes()
     bad = ff.kalibr_camchain(rig, tmp_path / "camchain.yaml", model="equidistant")
-    assert page.import_stereo([str(bad)]) is None
+    assert page.files.import_stereo([str(bad)]) is None
     text = page.status.text()
     assert text.startswith("Not imported: ") and "cam0.distortion_model" in text and "\n" not in text
     assert page.state.project.path("stereo").read_bytes() == before

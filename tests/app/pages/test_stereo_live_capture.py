@@ -109,7 +109,7 @@ def test_capture_only_while_the_pair_shown_has_the_board_in_both(page, qtbot, ca
     qtbot.waitUntil(lambda: live.seen == (False, False), timeout=WAIT_MS)
     assert live.left_label.text() == NOT_SEEN and live.right_label.text() == NOT_SEEN
     assert live.ready_pair() is None and not button.isEnabled() and "both cameras" in button.toolTip()
-    assert not page.capture_pair() and not page.task.busy and page.items == []
+    assert not page.sources.capture_pair() and not page.task.busy and page.items == []
     assert not (page.state.project.folder / "checkerboard" / "left").exists()
     # a board frame is the one shown: Capture is allowed
     qtbot.waitUntil(lambda: live.seen == (True, True), timeout=WAIT_MS)
@@ -123,7 +123,7 @@ def test_board_in_one_camera_only_no_capture(page, qtbot, one_sided_folders):
     qtbot.waitUntil(lambda: page.live.seen == (True, False), timeout=WAIT_MS)
     assert page.live.left_label.text() == SEEN and page.live.right_label.text() == NOT_SEEN
     assert not page.pairs.capture_button.isEnabled()
-    assert not page.capture_pair() and page.items == []
+    assert not page.sources.capture_pair() and page.items == []
 
 
 def test_the_pair_saved_is_the_pair_checked(page, qtbot, camera_folders, rendered):
@@ -132,7 +132,7 @@ def test_the_pair_saved_is_the_pair_checked(page, qtbot, camera_folders, rendere
     qtbot.waitUntil(lambda: live.ready_pair() is not None, timeout=WAIT_MS)
     pair = live.ready_pair()
     assert pair.answer == (True, True) and frame_index(pair, rendered) is not None
-    assert page.capture_pair()
+    assert page.sources.capture_pair()
     assert live.ready_pair() is None              # this pair cannot be saved twice
     qtbot.waitUntil(lambda: not page.task.busy and len(page.items) == 1, timeout=WAIT_MS)
     left, right = saved_pair(page, 0)

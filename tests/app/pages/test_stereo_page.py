@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import shutil
+import threading
 
 import cv2
 import numpy as np
@@ -12,6 +13,8 @@ import pytest
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QFileDialog
 
+from app.jobs import stereo_pairs
+from app.jobs.stereo_pairs import FILE_CHUNK
 from app.pages.stereo import page as stereo_page
 from app.pages.stereo.page import StereoPage
 from app.pages.stereo.results_panel import PREVIEW_GAP
@@ -125,7 +128,7 @@ def test_virtual_lab_pairs_calibrate_drop_outlier_and_export(page, qtbot, tmp_pa
     page.results.errors_chart.set_threshold((worst[order[-1]] + worst[order[-2]]) / 2)
     assert page.results.errors_chart.selected() == [int(order[-1])]
     dropped_pair = int(series["pairs"][order[-1]]) - 1
-    assert page.selected_pairs() == [dropped_pair]
+    assert page.results_actions.selected_pairs() == [dropped_pair]
     assert page.results.drop_button.isEnabled()
     qtbot.mouseClick(page.results.drop_button, Qt.MouseButton.LeftButton)
     wait(qtbot, page)
@@ -193,7 +196,7 @@ def test_one_folder_of_left_and_right_images_asks_once(page, qtbot, monkeypatch,
     assert page.items[0].detection.name == "left01.png | right01.png"
     (mixed / "right08.png").unlink()
     patch_dirs(monkeypatch, mixed)
-    assert not page.add_folders_dialog()
+    assert not page.sources.add_folders_dialog()
     assert "left08.png has no partner" in page.status.text()
 
 
@@ -227,6 +230,39 @@ def test_add_folders_then_change_the_board(page, qtbot, monkeypatch, rendered_fo
     assert "not enough views" in page.results.summary_view.toPlainText()
 
 
+def test_adding_folders_is_one_job_whose_batches_fill_the_strip(page, qtbot, rendered_folders):
+    """8 pairs, detected FILE_CHUNK at a time in one worker job: each batch is on the page while
+    that job still runs (the same task handle), the last one before it ends."""
+    seen = []
+    page.step_model.on("added", lambda added: seen.append((len(added), len(page.items), page.task.handle)))
+    assert page.sources.add_folders(rendered_folders / "left", rendered_folders / "right")
+    handle = page.task.handle
+    wait(qtbot, page)
+    assert [(n, total) for n, total, _ in seen] == [(FILE_CHUNK, FILE_CHUNK), (8 - FILE_CHUNK, 8)]
+    assert handle is not None and all(h is handle for _, _, h in seen)
+    assert page.pairs.strip.count() == 8 and page.status.text() == "8 pairs on the page."
+
+
+def test_another_project_drops_the_batches_still_coming(page, qtbot, rendered_folders, tmp_path, monkeypatch):
+    """A batch handed over by the worker but not yet on the page when the project changes never
+    arrives there."""
+    first_handed_over, go_on = threading.Event(), threading.Event()
+    detect = stereo_pairs.detect_files
+
+    def detect_after_the_first_batch(*args, **kwargs):
+        if kwargs["first"] > 0:                  # the first batch went to the GUI thread (queued)
+            first_handed_over.set()
+            go_on.wait(WAIT_MS / 1000)
+        return detect(*args, **kwargs)
+    monkeypatch.setattr(stereo_pairs, "detect_files", detect_after_the_first_batch)
+    assert page.sources.add_folders(rendered_folders / "left", rendered_folders / "right")
+    assert first_handed_over.wait(WAIT_MS / 1000) and page.items == []
+    page.state.new_project(tmp_path / "other")
+    go_on.set()
+    assert page.task.runner.wait(WAIT_MS)
+    assert page.items == [] and page.pairs.strip.count() == 0 and page.step_model.detections is None
+
+
 @pytest.mark.skipif(not REAL_DATA.is_dir(), reason=f"real checkerboard pairs not found at {REAL_DATA}")
 def test_real_pairs_flagged_outlier_dropped(qtbot, tmp_path, monkeypatch):
     page = make_page(qtbot, tmp_path, mode=HARDWARE)
@@ -237,8 +273,8 @@ def test_real_pairs_flagged_outlier_dropped(qtbot, tmp_path, monkeypatch):
         for a, b in real_pairs():
             shutil.copy(a, left / a.name)
             shutil.copy(b, right / b.name)
-        page.set_board(Board(9, 6, 24.0))
-        assert page.add_folders(left, right)
+        page.sources.set_board(Board(9, 6, 24.0))
+        assert page.sources.add_folders(left, right)
         wait(qtbot, page)
         assert len(page.usable_pairs()) == 25
         assert page.calibrate()
@@ -247,10 +283,10 @@ def test_real_pairs_flagged_outlier_dropped(qtbot, tmp_path, monkeypatch):
         assert r.outliers, "the real data set has a flagged pair"
         assert page.results.flagged_button.isEnabled()
         assert any(page.results.errors_chart.series()["flagged"])
-        page.select_flagged()
-        assert set(r.outliers) <= set(page.selected_pairs())
-        n = len(page.selected_pairs())
-        assert page.drop_selected()
+        page.results_actions.select_flagged()
+        assert set(r.outliers) <= set(page.results_actions.selected_pairs())
+        n = len(page.results_actions.selected_pairs())
+        assert page.results_actions.drop_selected()
         wait(qtbot, page)
         assert page.result.pairs_used == 25 - n
         assert abs(page.result.file.K1[0, 0] / 518.05 - 1) < 0.02
@@ -264,7 +300,7 @@ def test_bad_folders_give_a_clear_message(page, qtbot, tmp_path, rendered_folder
     shutil.copytree(rendered_folders / "left", left)
     shutil.copytree(rendered_folders / "right", right)
     (left / "img_08.png").write_bytes((left / "img_00.png").read_bytes())
-    assert not page.add_folders(left, right)                # unequal counts: nothing starts
+    assert not page.sources.add_folders(left, right)                # unequal counts: nothing starts
     assert not page.task.busy and page.items == []
     text = page.status.text()
     assert "9 left images" in text and "8 right images" in text and "img_08.png" in text
@@ -277,7 +313,7 @@ def test_bad_folders_give_a_clear_message(page, qtbot, tmp_path, rendered_folder
             (side / name).unlink()
     data = (right / "img_01.png").read_bytes()
     (right / "img_01.png").write_bytes(data[: len(data) // 2])
-    assert page.add_folders(left, right)
+    assert page.sources.add_folders(left, right)
     wait(qtbot, page)
     assert len(page.items) == 2
     assert "notes.txt" in page.status.text()
@@ -289,7 +325,7 @@ def test_bad_folders_give_a_clear_message(page, qtbot, tmp_path, rendered_folder
 
 # -- cancel -------------------------------------------------------------------------------------
 def test_cancel_rendering_keeps_finished_pairs_only(page, qtbot):
-    page.add_virtual_pairs(12)
+    page.sources.add_virtual_pairs(12)
     qtbot.waitUntil(lambda: len(page.items) >= 1 or not page.task.busy, timeout=WAIT_MS)
     page.task.cancel()
     wait(qtbot, page)
@@ -301,7 +337,7 @@ def test_cancel_rendering_keeps_finished_pairs_only(page, qtbot):
 
 
 def test_cancel_calibration(page, qtbot, monkeypatch, rendered_folders):
-    assert page.add_folders(rendered_folders / "left", rendered_folders / "right")
+    assert page.sources.add_folders(rendered_folders / "left", rendered_folders / "right")
     wait(qtbot, page)
     assert page.calibrate()
     page.task.cancel()
@@ -391,7 +427,7 @@ def test_swapping_pairs_saved_in_the_project_swaps_their_folders(qtbot, tmp_path
         wait(qtbot, page)
         assert page.result.cameras_look_swapped
         first_right = (saved / "right" / "img_00.png").read_bytes()
-        assert page.swap_cameras()
+        assert page.sources.swap_cameras()
         qtbot.waitUntil(lambda: page.result is not None and not page.task.busy, timeout=WAIT_MS)
         assert not page.result.cameras_look_swapped
         assert (saved / "left" / "img_00.png").read_bytes() == first_right
