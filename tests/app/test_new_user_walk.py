@@ -132,7 +132,7 @@ def test_a_new_user_reaches_a_calibrated_stereo_rig_on_a_small_screen(window, qt
     qtbot.mouseClick(stereo.pairs.folders_button, Qt.MouseButton.LeftButton)
     qtbot.waitUntil(lambda: not stereo.task.busy, timeout=WAIT_MS)
     assert len(stereo.items) == 25 and len(stereo.usable_pairs()) == 25
-    qtbot.mouseClick(stereo.model.calibrate_button, Qt.MouseButton.LeftButton)
+    qtbot.mouseClick(stereo.options_panel.calibrate_button, Qt.MouseButton.LeftButton)
     qtbot.waitUntil(lambda: stereo.result is not None and not stereo.task.busy, timeout=WAIT_MS)
     assert stereo.result.cameras_look_swapped and stereo.swap_button.isVisible()
     assert "Swap left and right" in stereo.status.text()

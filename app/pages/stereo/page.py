@@ -60,20 +60,20 @@ class StereoPage(WizardPage):
 
     def __init__(self, state, tasks, **kwargs):
         super().__init__(state, tasks, **kwargs)
-        self.step_model = StereoModel(lab_board(state))
+        self.model = StereoModel(lab_board(state))
         self._build()
         state.projectChanged.connect(self._context_changed)
         state.hardware.camerasChanged.connect(lambda *_: self.on_busy_changed())
         self._context_changed()
 
     def _build(self) -> None:
-        m = self.step_model
+        m = self.model
         self.pairs = PairsPanel()
         self.pairs.set_board(m.board)
         self.live = LivePreviewPanel(self.state, lambda: m.board)
         self.live.readyChanged.connect(lambda *_: self.on_busy_changed())
-        self.model = OptionsPanel(self.task.progress_row())       # the camera model row
-        self.model.show_options(m.options)
+        self.options_panel = OptionsPanel(self.task.progress_row())       # the camera model row
+        self.options_panel.show_options(m.options)
         self.results = ResultsPanel()
         self.sources = PairSources(self.state, m, self.pairs, self.live, self.task, set_status=self._set_status,
                                    on_failed=self.on_failed, calibrate=self.calibrate, parent=self)
@@ -93,7 +93,7 @@ class StereoPage(WizardPage):
         p.remove_button.clicked.connect(lambda: src.remove_pairs(p.strip.selected_keys()))
         p.clear_button.clicked.connect(lambda: src.clear_pairs())
         p.strip.itemSelectionChanged.connect(self.on_busy_changed)
-        self.model.calibrate_button.clicked.connect(lambda: self.calibrate())
+        self.options_panel.calibrate_button.clicked.connect(lambda: self.calibrate())
         self.save_button = button("Save stereo.yaml", "saveButton", on_click=self.files.save_stereo,
                                   tooltip="Accept this calibration: write stereo.yaml into the project folder "
                                           "(atomically: a failure leaves the previous file as it was)")
@@ -114,7 +114,7 @@ class StereoPage(WizardPage):
         tl.setSpacing(6)
         tl.addWidget(self.live)
         tl.addWidget(self.pairs)
-        tl.addWidget(self.model)
+        tl.addWidget(self.options_panel)
         self.results.setMinimumHeight(RESULTS_MIN_HEIGHT)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
@@ -132,25 +132,25 @@ class StereoPage(WizardPage):
     # -- the model, as the wizard and scripts read it -------------------------------------------
     @property
     def board(self) -> Board:
-        return self.step_model.board
+        return self.model.board
 
     @property
     def items(self) -> list[AddedPair]:
         """The pairs on the page, in the order added."""
-        return self.step_model.items
+        return self.model.items
 
     @property
     def result(self) -> StereoCalibrationResult | None:
         """The calibration the page saves and exports."""
-        return self.step_model.result
+        return self.model.result
 
     @result.setter
     def result(self, result) -> None:
         """Hold `result` for Save and the exports without drawing it (the model's set_result draws)."""
-        self.step_model.result = result
+        self.model.result = result
 
     def usable_pairs(self) -> list[AddedPair]:
-        return self.step_model.usable()
+        return self.model.usable()
 
     def apply_board(self) -> None:
         """Apply the board the spin boxes show now (see PairSources.apply_board)."""
@@ -169,9 +169,9 @@ class StereoPage(WizardPage):
         """Another project: pairs and result no longer apply."""
         self.task.forget()
         self.sources.forget()
-        self.step_model.reset(lab_board(self.state))
+        self.model.reset(lab_board(self.state))
         message, ok = self.files.read_saved()
-        self.step_model.set_result(None)
+        self.model.set_result(None)
         self._set_status(message, ok=ok)
         self.notify_complete()
         project = self.state.project
@@ -191,7 +191,7 @@ class StereoPage(WizardPage):
             self.sources.apply_board()
 
     def is_complete(self) -> bool:
-        saved = self.step_model.saved_path
+        saved = self.model.saved_path
         return saved is not None and saved.is_file()
 
     def autopilot(self, done) -> None:
@@ -202,7 +202,7 @@ class StereoPage(WizardPage):
             done(False, "the page is busy")
             return
         self._autopilot_done = done
-        m = self.step_model
+        m = self.model
         if m.current_result() is not None:
             self._autopilot_save()
             return
@@ -223,7 +223,7 @@ class StereoPage(WizardPage):
     def _autopilot_calibrate(self) -> None:
         if self._autopilot_done is None:
             return
-        if len(self.step_model.usable()) < MIN_PAIRS_TO_CALIBRATE or not self.calibrate():
+        if len(self.model.usable()) < MIN_PAIRS_TO_CALIBRATE or not self.calibrate():
             self._finish_autopilot(False, self.status.text() or "too few usable pairs")
 
     def _autopilot_save(self) -> None:
@@ -233,25 +233,25 @@ class StereoPage(WizardPage):
         if path is None:
             self._finish_autopilot(False, self.status.text() or "stereo.yaml could not be written")
         else:
-            r = self.step_model.result
+            r = self.model.result
             self._finish_autopilot(True, f"{r.pairs_used} pairs, stereo RMS {r.file.rms_stereo:.3f} px, "
                                          f"baseline {r.baseline_mm:.1f} mm")
 
     def on_cancelled(self) -> None:
-        kept = len(self.step_model.items)
+        kept = len(self.model.items)
         self._set_status(f"Cancelled. {kept} pair{'s' if kept != 1 else ''} on the page.", ok=False)
         self._finish_autopilot(False, "cancelled")
 
     def on_busy_changed(self) -> None:
         busy, has_project, virtual = self.task.busy, self.state.project is not None, self.state.virtual
-        m = self.step_model
+        m = self.model
         self.task.progress_row().bar.setVisible(busy)
         live = self.state.hardware.cameras is not None
         self.pairs.show_controls(busy, has_project, virtual, live, live and self.live.ready_pair() is not None,
                                  bool(m.items))
-        self.model.show_calibrate(busy, len(m.usable()), m.detections is not None and m.coverage().enough)
+        self.options_panel.show_calibrate(busy, len(m.usable()), m.detections is not None and m.coverage().enough)
         has_result = m.result is not None
-        self.model.set_enabled(not busy)
+        self.options_panel.set_enabled(not busy)
         self.save_button.setEnabled(not busy and has_result and has_project)
         self.import_button.setEnabled(not busy and has_project)
         self.ros_button.setEnabled(not busy and has_result)
@@ -269,7 +269,7 @@ class StereoPage(WizardPage):
         if self.task.busy:
             self._set_status("Busy: wait for the running task or cancel it.", ok=False)
             return False
-        m = self.step_model
+        m = self.model
         usable = m.usable()
         if len(usable) < MIN_PAIRS_TO_CALIBRATE or m.detections is None:
             self._set_status(f"Calibration needs at least {MIN_PAIRS_TO_CALIBRATE} accepted pairs "
@@ -277,13 +277,13 @@ class StereoPage(WizardPage):
             return False
         detections = m.screened()
         exclude = [a.detection.index for a in m.items if a.excluded]
-        m.set_options(self.model.options())
+        m.set_options(self.options_panel.options())
         self._set_status(f"Calibrating from {len(m.usable())} pairs ({m.options.describe()})…")
         return self.task.start(calibrate_stereo, detections, m.options, exclude=exclude, label="Calibrating",
                                on_done=lambda result: self._calibrated(result, note))
 
     def _calibrated(self, result: StereoCalibrationResult, note: str) -> None:
-        self.step_model.set_result(result)
+        self.model.set_result(result)
         cv = result.cross_validation
         text = (f"Calibrated: {result.pairs_used} pairs, stereo RMS {result.file.rms_stereo:.3f} px, epipolar "
                 f"{result.epipolar_rms:.3f} px" + (f", cross-validation {cv.rms_observed_px:.3f} px" if cv else "")

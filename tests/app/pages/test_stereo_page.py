@@ -89,7 +89,7 @@ def patch_dirs(monkeypatch, *answers):
 # -- the whole walk ------------------------------------------------------------------------
 def test_virtual_lab_pairs_calibrate_drop_outlier_and_export(page, qtbot, tmp_path, monkeypatch):
     assert page.board == Board(9, 6, 25.0)                      # prefilled from the lab
-    assert not page.model.calibrate_button.isEnabled() and not page.save_button.isEnabled()
+    assert not page.options_panel.calibrate_button.isEnabled() and not page.save_button.isEnabled()
     page.pairs.virtual_count.setValue(12)
     qtbot.mouseClick(page.pairs.virtual_button, Qt.MouseButton.LeftButton)
     assert page.task.busy and page.task.progress_row().cancel_button.isEnabled()
@@ -102,9 +102,9 @@ def test_virtual_lab_pairs_calibrate_drop_outlier_and_export(page, qtbot, tmp_pa
     assert accepted >= 10
     assert all(v > 0 for v in page.pairs.coverage_bars.values().values())
     assert "12 pairs" in page.pairs.count_label.text()
-    assert page.model.calibrate_button.isEnabled()
+    assert page.options_panel.calibrate_button.isEnabled()
 
-    qtbot.mouseClick(page.model.calibrate_button, Qt.MouseButton.LeftButton)
+    qtbot.mouseClick(page.options_panel.calibrate_button, Qt.MouseButton.LeftButton)
     wait(qtbot, page)
     r = page.result
     assert r is not None and r.pairs_used == accepted and r.file.rms_stereo < 0.2
@@ -206,7 +206,7 @@ def test_add_folders_then_change_the_board(page, qtbot, monkeypatch, rendered_fo
     wait(qtbot, page)
     assert len(page.items) == 8 and len(page.usable_pairs()) == 8
     assert page.items[0].detection.name == "img_00.png | img_00.png"
-    assert page.model.calibrate_button.isEnabled()
+    assert page.options_panel.calibrate_button.isEnabled()
 
     # a wrong board size: every pair is detected again and rejected with the reason shown
     page.pairs.cols_spin.setValue(8)
@@ -215,7 +215,7 @@ def test_add_folders_then_change_the_board(page, qtbot, monkeypatch, rendered_fo
     assert len(page.items) == 8 and page.usable_pairs() == []
     assert page.pairs.strip.badge(page.items[0].key) == "board not found"
     assert "8x6" in page.pairs.strip.tooltip(page.items[0].key)
-    assert not page.model.calibrate_button.isEnabled()
+    assert not page.options_panel.calibrate_button.isEnabled()
     assert "rejected" in page.status.text()
 
     page.pairs.cols_spin.setValue(9)
@@ -234,7 +234,7 @@ def test_adding_folders_is_one_job_whose_batches_fill_the_strip(page, qtbot, ren
     """8 pairs, detected FILE_CHUNK at a time in one worker job: each batch is on the page while
     that job still runs (the same task handle), the last one before it ends."""
     seen = []
-    page.step_model.on("added", lambda added: seen.append((len(added), len(page.items), page.task.handle)))
+    page.model.on("added", lambda added: seen.append((len(added), len(page.items), page.task.handle)))
     assert page.sources.add_folders(rendered_folders / "left", rendered_folders / "right")
     handle = page.task.handle
     wait(qtbot, page)
@@ -260,7 +260,7 @@ def test_another_project_drops_the_batches_still_coming(page, qtbot, rendered_fo
     page.state.new_project(tmp_path / "other")
     go_on.set()
     assert page.task.runner.wait(WAIT_MS)
-    assert page.items == [] and page.pairs.strip.count() == 0 and page.step_model.detections is None
+    assert page.items == [] and page.pairs.strip.count() == 0 and page.model.detections is None
 
 
 @pytest.mark.skipif(not REAL_DATA.is_dir(), reason=f"real checkerboard pairs not found at {REAL_DATA}")
@@ -343,7 +343,7 @@ def test_cancel_calibration(page, qtbot, monkeypatch, rendered_folders):
     page.task.cancel()
     wait(qtbot, page)
     assert page.result is None and "Cancelled" in page.status.text()
-    assert page.model.calibrate_button.isEnabled() and not page.save_button.isEnabled()
+    assert page.options_panel.calibrate_button.isEnabled() and not page.save_button.isEnabled()
 
 
 # -- autopilot and a project that has a calibration -------------------------------------------------
