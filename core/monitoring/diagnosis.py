@@ -19,7 +19,8 @@ explains the check (the geometry changed in another way, e.g. a bent link) and t
 full calibration. Image location errors have heavy tails (a few points at 3–5 σ), which fail a
 plain χ²/F test of RSS_F after a simple change; so this absolute test first sets aside up to k
 outlying points (k = TRIMMED_POINTS = 2, fewer when fewer than MIN_TRIMMED_DOF degrees of freedom
-would be left) by a forward search, then judges the rest:
+would be left or more than MAX_TRIMMED_SETS sets searched) by a forward search, then judges
+the rest:
 - with P = S⁻¹ − S⁻¹Φ(ΦᵀS⁻¹Φ)⁺ΦᵀS⁻¹ (Φ the Jacobian of "several", rank p_F), RSS_F = eᵀPe and
   u = P·e, leaving out the rows D of a set of points is exactly fitting "several" to the other
   points alone (their own block of S): RSS_D = RSS_F − u_Dᵀ·P_DD⁺·u_D, with
@@ -60,7 +61,7 @@ from core.robot.model import RobotModel
 NONE, TOOL, BASE, JOINT, SEVERAL = "none", "tool", "base", "joint", "several"
 TRIMMED_POINTS = 2          # check points the absolute test may set aside at most (the outlying ones)
 MIN_TRIMMED_DOF = 3         # degrees of freedom left at least once they are set aside (else fewer)
-MAX_TRIMMED_SETS = 2000     # sets of points searched at most (else fewer set aside)
+MAX_TRIMMED_SETS = 500      # sets of points searched at most (else fewer set aside)
 FLAG_RATE = 0.05            # probability under the null that a step of the search sets a point aside
 NULL_DRAWS = 4000           # draws of the trimmed statistic's null distribution
 NULL_SEED = 0
