@@ -374,6 +374,8 @@ def _reidentification_through_images(report, lab, locator, calibrated, tmp) -> N
         e = np.array(errors)
         report.info(f"  image error at {where} (located − true), RMS 3D", float(np.sqrt(np.mean(np.sum(e ** 2, 1)))),
                     "mm")
+    report.info("  changes the diagnosis left unexplained (full calibration advised)",
+                f"{sum(n.endswith(': unexplained') for n in notes)} of {sum(len(c) for c in REID_CHAINS)}")
     if notes:
         report.info("  not re-identified", "; ".join(notes))
 

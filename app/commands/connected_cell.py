@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from core.errors import RoboCalError, UsageError
 
@@ -32,12 +33,34 @@ def camera_pair(text: str) -> tuple[str, str]:
 camera_pair.__name__ = "camera pair"
 
 
+def protocol_profile(text: str) -> str:
+    """The controller's protocol profile as typed, checked before anything connects: a built-in
+    name (resources/robots/profiles) or a profile file that reads as one."""
+    from core.robot.profile import builtin_names, read_profile
+
+    name = str(text).strip()
+    if name in builtin_names():
+        return name
+    builtins = ", ".join(builtin_names())
+    if not Path(name).is_file():
+        raise argparse.ArgumentTypeError(f"no protocol profile {text!r}: give a built-in one ({builtins}) or the path "
+                                         "of a protocol profile file (JSON)")
+    try:
+        read_profile(name)
+    except RoboCalError as exc:
+        raise argparse.ArgumentTypeError(f"the profile file cannot be used: {exc.message}") from None
+    return name
+
+
+protocol_profile.__name__ = "protocol profile"
+
+
 def add_arguments(parser, *, port_help: str, title: str = "the connected cell") -> None:
     """The connected cell's arguments in their own group; `port_help` says what the command does
     with the robot on that port."""
     cell = parser.add_argument_group(title)
     cell.add_argument("--port", metavar="PORT", help=port_help)
-    cell.add_argument("--profile", metavar="NAME", default="robocal_v1",
+    cell.add_argument("--profile", metavar="NAME", default="robocal_v1", type=protocol_profile,
                       help="the controller's protocol profile (default robocal_v1; grbl_joint_arm, mecademic_meca500, "
                            "or a profile file)")
     cell.add_argument("--cameras", type=camera_pair, metavar="LEFT,RIGHT",

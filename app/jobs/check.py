@@ -136,7 +136,9 @@ def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: D
     check completed, not stopped or cut short by a fault) and its overall RMS is within its
     limit: keep the file at `out` in history/ (`archive`) and write `out` atomically. A failure, or an updated model still out of limits as a whole
     (RoboCalError advising a full calibration), leaves no file behind; one point beyond its own
-    limit alone does not refuse it (the next check shows it)."""
+    limit alone does not refuse it (the next check shows it). A connected cell's `measure`
+    (app.jobs.cell_measure.CellMeasure: it has `follow`) moves on to the next proposed pose, and
+    then to the next check pose, while the marker is located, as during the check."""
     monitor = Monitor(progress, cancelled)
     opts = {k: v for k, v in (lab_options or {}).items() if k != "robot"}
     opts["target"] = cell.target
@@ -144,6 +146,9 @@ def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: D
                              seed=seed, measured_scale=diagnosis.chosen.noise_scale, progress=monitor.sub(0.0, 0.3),
                              cancelled=cancelled, **opts)
     Qs, xyz = [], []
+    follow = getattr(measure, "follow", None)       # a connected cell moves on while the marker is located
+    if follow is not None:
+        follow(proposal.Q)
     for k, q in enumerate(proposal.Q):
         monitor.step(0.3 + 0.3 * k / len(proposal.Q), f"measuring proposed pose {k + 1} of {len(proposal.Q)}")
         p = measure(q)
@@ -164,6 +169,8 @@ def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: D
     unc = updated_uncertainty(re, cell.unc, out)
     updated = replace(cell, model=re.model, unc=unc, source=str(out),
                       limits=check_limits(re.model, unc, cell.Q, [cell.target] * len(cell.Q), cell.limits.alpha))
+    if follow is not None:
+        follow(cell.Q)
     after, _ = check(updated, measure, log=log, progress=monitor.sub(0.7, 1.0), cancelled=cancelled)
     if after.cancelled:
         raise RoboCalError(f"the check of the updated robot stopped after {len(after.points)} of {len(cell.Q)} "

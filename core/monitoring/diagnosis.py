@@ -12,15 +12,40 @@ number the check poses determine). Each simple set K is nested in "several", so 
 F-test  F = ((RSS_K − RSS_F)/(p_F − p_K)) / (RSS_F/(3N − p_F))  against F(p_F − p_K, 3N − p_F)
 says whether K explains the errors as well as everything together (the ratio does not depend on
 σ). The diagnosis is "no change" when that passes at `alpha`, else among the sets that pass the
-one with the smallest Akaike criterion AIC = RSS_K + 2·p_K; "several" when no simple set passes. When even "several" leaves a residual beyond its limit
-(RSS_F/(3N − p_F) against F(3N − p_F, m − p), m − p the calibration's degrees of freedom, as S
-scales with its σ̂²), no candidate explains the check (the geometry changed in another way,
-e.g. a bent link) and the advice is a full calibration.
+one with the smallest Akaike criterion AIC = RSS_K + 2·p_K; "several" when no simple set passes.
+
+When even "several" leaves a residual beyond what the calibration predicts, no candidate
+explains the check (the geometry changed in another way, e.g. a bent link) and the advice is a
+full calibration. Image location errors have heavy tails (a few points at 3–5 σ), which fail a
+plain χ²/F test of RSS_F after a simple change; so this absolute test first sets aside up to k
+outlying points (k = TRIMMED_POINTS = 2, fewer when fewer than MIN_TRIMMED_DOF degrees of freedom
+would be left or more than MAX_TRIMMED_SETS sets searched) by a forward search, then judges
+the rest:
+- with P = S⁻¹ − S⁻¹Φ(ΦᵀS⁻¹Φ)⁺ΦᵀS⁻¹ (Φ the Jacobian of "several", rank p_F), RSS_F = eᵀPe and
+  u = P·e, leaving out the rows D of a set of points is exactly fitting "several" to the other
+  points alone (their own block of S): RSS_D = RSS_F − u_Dᵀ·P_DD⁺·u_D, with
+  ν_D = 3N − p_F − rank(P_DD) degrees of freedom;
+- step s + 1 of the search leaves out, besides the s points already set aside, the one whose
+  removal lowers RSS most, if that drop exceeds the step's limit c_(s+1): the drop that the null
+  draws reaching that step exceed with probability FLAG_RATE (5 %; with no outlier a point is set
+  aside in about 5 % of checks);
+- the statistic is T = RSS_D / ν_D for the set D the search ended with (D empty: RSS_F/(3N − p_F)).
+Its null distribution (Gaussian errors with covariance S, nothing but "several" changed) is that
+of T(s·L·z), z ~ N(0, I_3N), S = L·Lᵀ, s² = ν/χ²_ν the scatter of the calibration's σ̂ (S scales
+with σ̂², ν = m − p its degrees of freedom; s = 1 when σ is known), the same search and limits
+applied to each draw: NULL_DRAWS draws (fixed seed: a diagnosis is repeatable), p-value
+(1 + #{T_null ≥ T})/(1 + NULL_DRAWS) (with k = 0: F(3N − p_F, ν), χ² when σ is known).
+"Unexplained" when it is below alpha: false alarms at the rate alpha under Gaussian errors (up
+to the Monte Carlo error ±√(α/NULL_DRAWS)); up to k outlying points, set aside, do not decide it,
+while a change of the geometry (a bent link) leaves large residuals at the points kept. An
+outlier not large enough to be set aside weighs more than in the plain test (a large RSS with
+no point standing out is what a systematic change gives).
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from itertools import combinations
 
 import numpy as np
 from scipy.linalg import cho_factor, solve_triangular
@@ -34,6 +59,12 @@ from core.monitoring.uncertainty import CalibrationUncertainty, prediction_covar
 from core.robot.model import RobotModel
 
 NONE, TOOL, BASE, JOINT, SEVERAL = "none", "tool", "base", "joint", "several"
+TRIMMED_POINTS = 2          # check points the absolute test may set aside at most (the outlying ones)
+MIN_TRIMMED_DOF = 3         # degrees of freedom left at least once they are set aside (else fewer)
+MAX_TRIMMED_SETS = 500      # sets of points searched at most (else fewer set aside)
+FLAG_RATE = 0.05            # probability under the null that a step of the search sets a point aside
+NULL_DRAWS = 4000           # draws of the trimmed statistic's null distribution
+NULL_SEED = 0
 
 
 @dataclass
@@ -56,20 +87,6 @@ class CandidateFit:
     def aic(self) -> float:
         """Akaike's criterion with σ known: RSS + 2·p."""
         return self.rss + 2.0 * self.p
-
-    sigma_dof: float = math.inf   # degrees of freedom of the calibration's σ̂
-
-    @property
-    def fit_probability(self) -> float:
-        """Probability of a residual this large if this candidate were the whole change: the
-        weighted residual per degree of freedom against F(3N − p, calibration's m − p), as S
-        scales with the calibration's estimated σ̂² (χ² when σ is known)."""
-        dof = self.n - self.p
-        if dof <= 0:
-            return 1.0
-        if math.isinf(self.sigma_dof):
-            return float(chi2.sf(self.rss, dof))
-        return float(f_dist.sf(self.rss / dof, dof, self.sigma_dof))
 
     @property
     def noise_scale(self) -> float:
@@ -94,11 +111,12 @@ class Diagnosis:
 
     fits: list[CandidateFit]
     chosen: CandidateFit
-    explained: bool           # the chosen set fits the check within its χ² limit
+    explained: bool           # "several" fits the check within its limit (the absolute test, see the module)
     text: str
     alpha: float
     full_calibration: bool = False
     notes: list[str] = field(default_factory=list)
+    absolute: "AbsoluteTest | None" = None
 
     @property
     def kind(self) -> str:
@@ -112,9 +130,140 @@ class Diagnosis:
     def summary(self) -> dict:
         return {"kind": self.kind, "text": self.text, "explained": self.explained,
                 "full_calibration": self.full_calibration, "changed": self.chosen.names,
+                "fit_probability": self.absolute.probability if self.absolute else None,
+                "set_aside": self.absolute.set_aside if self.absolute else [],
                 "change": self.chosen.change(),
                 "candidates": [{"kind": f.kind, "label": f.label, "rss": f.rss, "p": f.p,
                                 "nested_probability": f.nested_probability} for f in self.fits]}
+
+
+@dataclass
+class AbsoluteTest:
+    """Whether "several" explains the check, its worst-fitting points set aside (see the module)."""
+
+    probability: float        # p-value of the trimmed statistic under the null
+    statistic: float          # T: weighted residual per degree of freedom with the points set aside
+    set_aside: list[int]      # the points set aside (indices in the check's points), the worst fitting
+    trimmed: int              # k: how many points are set aside
+    dof: int                  # 3N − p_F − 3k: degrees of freedom of the trimmed fit (at full rank)
+
+
+def residual_maker(L: np.ndarray, Jw: np.ndarray) -> np.ndarray:
+    """P = L⁻ᵀ(I − UUᵀ)L⁻¹ (3N × 3N, mm⁻²), U an orthonormal basis of the whitened Jacobian Jw's
+    columns (rank as the fits take it): eᵀPe is the weighted residual sum of the fit of Jw."""
+    A = solve_triangular(L, np.eye(len(L)), lower=True)
+    if Jw.shape[1]:
+        scale = np.linalg.norm(Jw, axis=0)
+        U, sv, _ = np.linalg.svd(Jw / np.where(scale > 0, scale, 1.0), full_matrices=False)
+        U = U[:, sv > 1e-8 * sv[0]] if sv.size and sv[0] > 0 else U[:, :0]
+        return A.T @ (A - U @ (U.T @ A))
+    return A.T @ A
+
+
+def absolute_test(e: np.ndarray, L: np.ndarray, Jw: np.ndarray, p: int, sigma_dof: float, *,
+                  most: int = TRIMMED_POINTS) -> AbsoluteTest:
+    """The test of the fit of Jw (the whitened Jacobian of "several", rank p) to the errors e (3N,
+    mm), S = L·Lᵀ, the calibration's σ̂ with `sigma_dof` degrees of freedom, up to `most`
+    outlying points set aside (see the module)."""
+    n = len(e)
+    dof = n - p
+    if dof <= 0:
+        return AbsoluteTest(1.0, 0.0, [], 0, max(dof, 0))
+    k = max(0, min(most, n // 3 - 1, (dof - MIN_TRIMMED_DOF) // 3))
+    while k > 0 and math.comb(n // 3, k) > MAX_TRIMMED_SETS:
+        k -= 1
+    if k == 0:
+        stat = float(e @ residual_maker(L, Jw) @ e) / dof
+        prob = chi2.sf(stat * dof, dof) if math.isinf(sigma_dof) else f_dist.sf(stat, dof, sigma_dof)
+        return AbsoluteTest(float(prob), stat, [], 0, dof)
+    sets = _PointSets(residual_maker(L, Jw), n // 3, k, dof)
+    rng = np.random.default_rng(NULL_SEED)
+    null = L @ rng.standard_normal((n, NULL_DRAWS))
+    if not math.isinf(sigma_dof):
+        null *= np.sqrt(sigma_dof / rng.chisquare(sigma_dof, NULL_DRAWS))
+    limits = sets.flag_limits(null)
+    null_stat, _ = sets.statistic(null, limits)
+    (stat,), (aside,) = sets.statistic(e[:, None], limits)
+    prob = (1 + int(np.count_nonzero(null_stat >= stat))) / (1 + NULL_DRAWS)
+    return AbsoluteTest(prob, float(stat), list(aside), len(aside), dof - 3 * len(aside))
+
+
+class _PointSets:
+    """The forward search of the absolute test over every set of up to k of N points: for errors E
+    (3N, B columns) the drop of the weighted residual sum when a set D is left out, u_Dᵀ·P_DD⁺·u_D
+    (u = P·E), and its degrees of freedom rank(P_DD)."""
+
+    def __init__(self, P: np.ndarray, points: int, k: int, dof: int):
+        self.P, self.points, self.k, self.dof = P, points, k, dof
+        tol = 1e-9 * float(np.abs(np.diag(P)).max())
+        self.sets = [[()]]                  # sets[s]: every set of s points, in order
+        self.blocks = [[]]                  # blocks[s]: (rows, P_DD⁺) per set
+        self.rank = [np.zeros(1, int)]      # rank[s]: rank(P_DD) per set
+        self.grown = []                     # grown[s][i, j]: the index in sets[s+1] of sets[s][i] ∪ {j} (-1: j in it)
+        for s in range(1, k + 1):
+            sets = list(combinations(range(points), s))
+            index = {d: i for i, d in enumerate(sets)}
+            blocks, rank = [], []
+            for d in sets:
+                rows = np.array([3 * i + a for i in d for a in range(3)])
+                w, V = np.linalg.eigh(P[np.ix_(rows, rows)])
+                keep = w > tol
+                blocks.append((rows, (V[:, keep] / w[keep]) @ V[:, keep].T))
+                rank.append(int(keep.sum()))
+            self.grown.append(np.array([[index.get(tuple(sorted(d + (j,))), -1) if j not in d else -1
+                                         for j in range(points)] for d in self.sets[-1]]))
+            self.sets.append(sets)
+            self.blocks.append(blocks)
+            self.rank.append(np.array(rank))
+
+    def _drops(self, E: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+        U = self.P @ E
+        rss = np.einsum("ij,ij->j", E, U)
+        drops = [np.zeros((1, E.shape[1]))]
+        for blocks in self.blocks[1:]:
+            drops.append(np.array([np.einsum("ij,ij->j", U[rows], G @ U[rows]) for rows, G in blocks]))
+        return rss, drops
+
+    def _search(self, E: np.ndarray, drops: list[np.ndarray], limits: list[float]):
+        """Per column of E: the gain of each step of the search, the set it reached (its index and
+        size). A step leaves out the point whose removal lowers the residual most, while that drop
+        is above the step's limit."""
+        cols = np.arange(E.shape[1])
+        at = np.zeros(E.shape[1], int)           # index in sets[size] of each column's set
+        size = np.zeros(E.shape[1], int)
+        going = np.ones(E.shape[1], bool)
+        gains = []
+        for s in range(self.k):
+            nxt = self.grown[s][at]                                          # (B, N)
+            extra = np.where(nxt >= 0, drops[s + 1][np.maximum(nxt, 0), cols[:, None]], -np.inf)
+            best = np.argmax(extra, axis=1)
+            gain = extra[cols, best] - drops[s][at, cols]
+            gains.append(np.where(going, gain, np.nan))
+            going &= gain > limits[s]
+            at = np.where(going, nxt[cols, best], at)
+            size += going
+        return gains, at, size
+
+    def flag_limits(self, null: np.ndarray) -> list[float]:
+        """The drop above which each step of the search leaves a point out: exceeded with
+        probability FLAG_RATE under the null by the draws that reached that step."""
+        _, drops = self._drops(null)
+        limits: list[float] = []
+        for s in range(self.k):
+            gains, _, _ = self._search(null, drops, limits + [-np.inf] * (self.k - s))
+            reached = gains[s][~np.isnan(gains[s])]
+            limits.append(float(np.quantile(reached, 1.0 - FLAG_RATE)) if reached.size else np.inf)
+        return limits
+
+    def statistic(self, E: np.ndarray, limits: list[float]) -> tuple[np.ndarray, list[tuple[int, ...]]]:
+        """T per column of E: the weighted residual per degree of freedom once the points the
+        search flagged are left out; and those points."""
+        rss, drops = self._drops(E)
+        _, at, size = self._search(E, drops, limits)
+        cols = np.arange(E.shape[1])
+        drop = np.array([drops[z][a, c] for z, a, c in zip(size, at, cols)])
+        nu = np.array([self.dof - self.rank[z][a] for z, a in zip(size, at)], dtype=float)
+        return np.maximum(rss - drop, 0.0) / np.maximum(nu, 1.0), [self.sets[z][a] for z, a in zip(size, at)]
 
 
 def tool_words(model: RobotModel, target: str) -> str:
@@ -165,7 +314,9 @@ def diagnose(model: RobotModel, unc: CalibrationUncertainty, check: CheckResult,
         Jw = solve_triangular(L, J, lower=True) if params else J
         delta, rss, rank = _fit(rw, Jw)
         explained = float(np.sqrt(np.mean(np.sum((J @ delta).reshape(-1, 3) ** 2, axis=1)))) if params else 0.0
-        fits.append(CandidateFit(kind, label, list(params), delta, rss, rank, len(e), joint, explained, unc.dof))
+        fits.append(CandidateFit(kind, label, list(params), delta, rss, rank, len(e), joint, explained))
+        if kind == SEVERAL:
+            absolute = absolute_test(e, L, Jw, rank, unc.dof)
     full = next(f for f in fits if f.kind == SEVERAL)
     dof_full = full.n - full.p
     for f in fits:
@@ -174,9 +325,9 @@ def diagnose(model: RobotModel, unc: CalibrationUncertainty, check: CheckResult,
             f.nested_probability = float(f_dist.sf(stat, full.p - f.p, dof_full))
     fits.sort(key=lambda f: (f.nested_probability < alpha, f.kind != NONE, f.kind == SEVERAL, f.aic, f.p))
     chosen = fits[0]
-    explained = full.fit_probability >= alpha
+    explained = absolute.probability >= alpha
     text, full_calibration = describe(chosen, explained, model)
-    return Diagnosis(fits, chosen, explained, text, alpha, full_calibration=full_calibration)
+    return Diagnosis(fits, chosen, explained, text, alpha, full_calibration=full_calibration, absolute=absolute)
 
 
 def _unchanged(kind: str, joint: int = -1) -> str:

@@ -167,13 +167,24 @@ def test_on_a_terminal_the_first_motion_is_asked_once(cell, tmp_path, answer, co
         assert len(read_check_log(tmp_path / "c.csv").checks[0].points) == 8
 
 
-def test_a_tool_change_is_reidentified_by_driving_the_proposed_poses(cell, tmp_path, capsys):
+def test_a_tool_change_is_reidentified_by_driving_the_proposed_poses(cell, tmp_path, capsys, monkeypatch):
     """`--out`: the check (out of limits after a 1.5 mm tool change only the cameras see) names the
     tool, the proposed poses are driven, the tool re-identified and the updated robot checked
-    within limits at the check poses; exit 3 (the check itself was out of limits)."""
+    within limits at the check poses; exit 3 (the check itself was out of limits). In each of the
+    three runs (the check, the proposed poses, the check of the update) every move but the first
+    is started ahead, while the marker is located in the pair of the pose before."""
     import copy
+    from app.jobs.cell_measure import CellMeasure
     from app.sim_cameras import SimulatedCellCameras
 
+    ahead = []
+    start_next = CellMeasure._start_next
+
+    def counted(measure):
+        start_next(measure)
+        if measure._ahead is not None:
+            ahead.append(measure._next)
+    monkeypatch.setattr(CellMeasure, "_start_next", counted)
     root, lab = cell
     changed = copy.copy(lab)
     apply_change(changed, "tool:1.5", seed=0)
@@ -186,7 +197,75 @@ def test_a_tool_change_is_reidentified_by_driving_the_proposed_poses(cell, tmp_p
     assert data["change"] == "tool" and data["after"]["rms_mm"] <= data["after"]["rms_limit_mm"], data
     re = data["reidentification"]
     assert moves - 2 * 8 >= 1                     # the check, the proposed poses, the check of the update
+    assert len(ahead) == moves - 3, (moves, ahead)
     assert re["rms_after_mm"] < 0.1 * re["rms_before_mm"], re
     assert (tmp_path / "updated.json").is_file()
     logged = read_check_log(tmp_path / "c.csv").checks
     assert len(logged) == 2 and all(c.finished and len(c.points) == 8 for c in logged)
+
+
+@pytest.mark.parametrize("profile, words", [
+    ("robocal_v9", "no protocol profile 'robocal_v9': give a built-in one (grbl_joint_arm, mecademic_meca500, "
+                   "robocal_v1) or the path of a protocol profile file (JSON)"),
+    ("BAD", "the profile file cannot be used: "),
+])
+def test_an_unusable_profile_is_refused_before_anything_connects(cell, tmp_path, capsys, profile, words):
+    """--profile is read when the command line is: an unknown name or a profile file that does not
+    read as one ends the command (exit 2) in one line naming --profile; the robot never moves."""
+    root, lab = cell
+    if profile == "BAD":
+        profile = str(tmp_path / "profile.json")
+        (tmp_path / "profile.json").write_text('{"format": "robocal.protocol/1", "name": "x"}')
+    cams = cameras(lab, root, tmp_path / "cams")
+    with ControllerSim(lab.true_robot, time_scale=0.01) as sim:
+        argv = check_argv(root, sim.port, cams, tmp_path / "c.csv")
+        argv[argv.index("--profile") + 1] = profile
+        code = main(argv + ["--cell-clear"])
+        moves = sim.moves
+    err = capsys.readouterr().err
+    assert code == 2 and moves == 0 and not (tmp_path / "c.csv").exists()
+    assert len(err.strip().splitlines()) == 1 and err.startswith("robocal check: error: argument --profile: " + words), err
+
+
+def test_no_move_is_made_ahead_after_a_fault(cell, tmp_path, capsys):
+    """The fourth move (one made ahead, while the third pair is located) faults: the check stops
+    there (exit 1) and no move follows it, ahead or not."""
+    root, lab = cell
+    cams = cameras(lab, root, tmp_path / "cams")
+    with ControllerSim(lab.true_robot, time_scale=0.01, faults="fault@4") as sim:
+        code, data, err = check(root, sim.port, cams, tmp_path / "c.csv", capsys)
+        moves = sim.moves
+    assert code == 1 and "FAULT" in err and moves == 4
+    assert len(read_check_log(tmp_path / "c.csv").checks[0].points) == 3
+
+
+def test_ctrl_c_stops_the_robot_and_makes_no_move_ahead(cell, tmp_path):
+    """Ctrl-C (SIGINT) once the robot rested at the third pose: the command ends (exit 130,
+    "interrupted"); at most the move already started ahead follows it, and that one is stopped
+    where the robot is, not finished at the next pose."""
+    import signal
+    import threading
+    root, lab = cell
+    cams = cameras(lab, root, tmp_path / "cams")
+    Q = read_poses(root / "poses.csv", lab.nominal_robot).Q
+    running, signalled = [], threading.Event()
+    at_signal = []
+
+    def on_rest(q):
+        if len(running) == 1 and not signalled.is_set() and sim.moves == 3:
+            at_signal.append(sim.moves)
+            signalled.set()
+            threading.Timer(0.05, running[0].send_signal, (signal.SIGINT,)).start()
+
+    with ControllerSim(lab.true_robot, time_scale=0.5, on_rest=on_rest) as sim:
+        proc = subprocess.Popen([sys.executable, "-m", "app.cli", *check_argv(root, sim.port, cams, tmp_path / "c.csv"),
+                                 "--cell-clear"], stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True, env=dict(os.environ, PYTHONPATH=str(ROOT)))
+        running.append(proc)
+        _, err = proc.communicate(timeout=600)
+        moves, joints = sim.moves, sim.joints()
+    assert signalled.is_set() and proc.returncode == 130, err
+    assert err.strip().endswith("robocal check: interrupted")
+    assert moves - at_signal[0] <= 1
+    if moves == 4:                   # the move made ahead was stopped on the way
+        assert np.abs(joints - lab.nominal_robot.q_to_file(Q[3:4])[0]).max() > 1e-3

@@ -132,3 +132,69 @@ def test_change_moves_only_what_it_says():
     assert np.rad2deg(changed.joints[1].theta - c.true.joints[1].theta) == pytest.approx(0.5)
     assert changed.joints[2].theta == c.true.joints[2].theta
     np.testing.assert_array_equal(changed.base, c.true.base)
+
+
+# -- the absolute test: "several" fits, its outlying points set aside ---------------------------
+def several_fit(c, result):
+    """(e, L, whitened Jacobian of "several", its rank, σ̂'s degrees of freedom) of a check."""
+    from scipy.linalg import cholesky, solve_triangular
+    from core.kinematics.jacobian import calibration_jacobian
+    from core.monitoring.diagnosis import candidate_sets
+    from core.monitoring.uncertainty import prediction_covariance
+    S = prediction_covariance(c.model, c.unc, result.Q, result.targets)
+    L = cholesky(S, lower=True)
+    (params,) = [p for kind, _, p, _ in candidate_sets(c.model, "marker") if kind == SEVERAL]
+    Jw = solve_triangular(L, calibration_jacobian(c.model, result.Q, result.targets, params), lower=True)
+    return result.residuals, L, Jw, int(np.linalg.matrix_rank(Jw / np.linalg.norm(Jw, axis=0))), c.unc.dof
+
+
+def test_the_absolute_test_raises_false_alarms_at_alpha_under_gaussian_errors():
+    """400 checks whose errors are exactly what the calibration predicts (e = s·L·z: Gaussian with
+    covariance S, s² = ν/χ²_ν the scatter of its σ̂): unexplained at each α in about α of them."""
+    from scipy.stats import binom
+    from core.monitoring.diagnosis import absolute_test
+    c, result, _ = checked(None)
+    _, L, Jw, p, dof = several_fit(c, result)
+    assert len(result.residuals) - p - 6 >= 3          # two points can be set aside: the robust form is tested
+    rng = np.random.default_rng(2026)
+    draws = 400
+    probabilities = np.array([absolute_test(np.sqrt(dof / rng.chisquare(dof)) * L @ rng.standard_normal(len(L)),
+                                            L, Jw, p, dof).probability for _ in range(draws)])
+    for alpha in (0.01, 0.05, 0.2):
+        low, high = binom.interval(0.998, draws, alpha)
+        assert low <= np.count_nonzero(probabilities < alpha) <= high, (alpha, np.mean(probabilities < alpha))
+
+
+def outlying(result, points, sizes):
+    """The check with `points` measured `sizes` × the 3D σ (σ·√3) off, each in its own direction."""
+    from dataclasses import replace
+    directions = np.array([[1.0, 0.0, 0.0], [0.0, 0.6, 0.8], [0.0, -0.8, 0.6], [0.6, 0.0, -0.8]])
+    for k, (i, size) in enumerate(zip(points, sizes)):
+        point = result.points[i]
+        result.points[i] = replace(point, measured=point.measured + size * SIGMA * np.sqrt(3) * directions[k])
+    return result
+
+
+@pytest.mark.parametrize("change, seed, kind", [("tool:1.5", 0, TOOL), ("tool:1.5", 3, TOOL), ("joint5:0.3", 0, JOINT)])
+def test_two_outlying_points_do_not_make_a_simple_change_unexplained(change, seed, kind):
+    """A simple change with two check points measured 4 and 5 × 3D σ off (image errors have heavy
+    tails): "several" with every point fails the χ²/F test, but with its outlying points set aside
+    it fits, so the change is named."""
+    from scipy.stats import f as f_dist
+    c, result, _ = checked(change, seed)
+    c.reset()
+    diag = diagnose(c.model, c.unc, outlying(result, [1, 5], [4.0, 5.0]))
+    full = next(f for f in diag.fits if f.kind == SEVERAL)
+    dof = full.n - full.p
+    assert f_dist.sf(full.rss / dof, dof, c.unc.dof) < 1e-4           # every point counted: "unexplained"
+    assert diag.explained and diag.kind == kind and not diag.full_calibration, diag.text
+    assert diag.absolute.probability >= 0.05 and len(diag.absolute.set_aside) == 2
+    assert diag.summary()["set_aside"] == diag.absolute.set_aside
+
+
+@pytest.mark.parametrize("change", ["link3:1.0", "link2:1"])
+def test_a_bent_link_stays_unexplained_with_points_set_aside(change):
+    c, result, diag = checked(change)
+    c.reset()
+    assert not diag.explained and diag.full_calibration and len(diag.absolute.set_aside) == 2
+    assert diag.absolute.probability < diag.alpha
