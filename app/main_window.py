@@ -51,9 +51,9 @@ def app_icon() -> QIcon:
 
 
 class MainWindow(QMainWindow):
-    """`pageChanged(int)` is emitted after a page became current (its Step value). The widgets
-    tests and the autopilot reach (`step_list`, `stack`, `next_button`, `stop_button`,
-    `progress_bar`, `explain_dock`, `action_stop`...) are the parts' own, named here too."""
+    """`pageChanged(int)` is emitted after a page became current (its Step value). The parts'
+    widgets and actions are reachable on the window by name too (`step_list`, `stack`,
+    `next_button`, `stop_button`, `progress_bar`, `explain_dock`, `action_stop`...)."""
 
     pageChanged = Signal(int)
 

@@ -19,8 +19,9 @@ class KeyPressOnce:
     event filter sees every step. A step is recognised by what it is, not by the time since the
     last one (a slow robot stop or a busy computer would make it look like a new press): the same
     event (object, timestamp, key, modifiers) going on from a window to a widget or from a widget
-    to one of its ancestors. A new press starts again at a window (from the window system) or at
-    the focus widget (a synthesised press), never at an ancestor of the last step."""
+    to one of its ancestors. A new press from the window system has a timestamp of its own and
+    starts at a window; a synthesised one (timestamp 0, often at the same address) starts again at
+    the focus widget, not above the widget where the last press ended."""
 
     def __init__(self):
         self._last: tuple[tuple, QObject] | None = None    # (press identity, receiver) of the last step seen
