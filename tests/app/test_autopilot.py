@@ -88,16 +88,12 @@ def quiet_window(qtbot):
     messages.set_non_interactive(False)
 
 
-def test_autopilot_in_process_finishes_with_zero(quiet_window, qtbot, tmp_path):
-    import io
-    from app.autopilot import Autopilot
-    pilot = Autopilot(quiet_window, tmp_path, out=io.StringIO())
-    # the whole classroom run (render, calibrate, train, measure, identify, check, compensate): ~1 min alone
-    with qtbot.waitSignal(pilot.finished, timeout=400000) as blocker:
-        pilot.start()
-    assert blocker.args == [0]
-    assert len(pilot.saved) == 9 and quiet_window.current_step is Step.COMPENSATION
-    assert quiet_window.state.project is not None and quiet_window.state.robot is not None
+def test_autopilot_in_process_finishes_with_zero(demo_walk):
+    # the whole classroom run (render, calibrate, train, measure, identify, check, compensate) from a
+    # fresh window, with a screenshot folder: the session's demo walk (tests/app/demo_walk.py)
+    assert demo_walk.exit_code == 0, demo_walk.output
+    assert len(demo_walk.saved) == 9 and demo_walk.finished_step is Step.COMPENSATION
+    assert demo_walk.had_project and demo_walk.had_robot
 
 
 def test_autopilot_fails_when_a_page_fails(quiet_window, qtbot, tmp_path):
