@@ -30,6 +30,7 @@ def demo_run(tmp_path_factory):
     return run_gui("--demo", "--autopilot", "--screenshots", str(shots), TMPDIR=str(temp)), shots, temp
 
 
+@pytest.mark.slow
 def test_autopilot_runs_every_page_and_writes_screenshots(demo_run):
     proc, shots, _ = demo_run
     assert proc.returncode == 0, proc.stdout + proc.stderr
@@ -46,12 +47,14 @@ def test_autopilot_runs_every_page_and_writes_screenshots(demo_run):
     assert "Traceback" not in proc.stderr
 
 
+@pytest.mark.slow
 def test_demo_temp_project_is_removed_at_exit(demo_run):
     proc, _, temp = demo_run
     assert proc.returncode == 0, proc.stderr
     assert not list(temp.glob("robocal-demo-*"))
 
 
+@pytest.mark.slow
 def test_autopilot_on_a_project_folder(tmp_path):
     proc = run_gui("--demo", "--autopilot", str(tmp_path / "classroom"))
     assert proc.returncode == 0, proc.stderr
@@ -88,6 +91,7 @@ def quiet_window(qtbot):
     messages.set_non_interactive(False)
 
 
+@pytest.mark.slow
 def test_autopilot_in_process_finishes_with_zero(demo_walk):
     # the whole classroom run (render, calibrate, train, measure, identify, check, compensate) from a
     # fresh window, with a screenshot folder: the session's demo walk (tests/app/demo_walk.py)

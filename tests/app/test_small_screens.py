@@ -19,6 +19,8 @@ from PySide6.QtWidgets import (QAbstractButton, QAbstractSpinBox, QApplication, 
 
 from app.pages.steps import Step
 
+pytestmark = pytest.mark.slow               # the demo walk first
+
 SIZES = [(1280, 720), (1920, 1080)]
 #: where the 1280×720 screenshots go besides pytest's folder (docs/screenshots/small-screen when
 #: they are made for the documentation)
