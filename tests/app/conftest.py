@@ -28,4 +28,4 @@ def boxes(monkeypatch):
 def demo_walk(qapp, tmp_path_factory):
     """The classroom demo walked once by the autopilot, in-process (tests/app/demo_walk.py): a
     DemoWalk with the window (hidden; a test shows it and hides it again) and how the walk ended."""
-    yield from walk_the_demo(tmp_path_factory.mktemp("demo-walk"))
+    yield from walk_the_demo(tmp_path_factory.mktemp("demo"))
