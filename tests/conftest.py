@@ -137,6 +137,8 @@ class WorkerExitStatus:
 
 
 def pytest_configure(config):
+    config.addinivalue_line("markers", "slow: over ~20 s alone (a whole demo walk, a fuzzed command line, a chain of "
+                                       "commands on rendered images); `make test-quick` leaves them out")
     if config.pluginmanager.hasplugin("xdist") and not hasattr(config, "workerinput"):
         config.pluginmanager.register(WorkerExitStatus(), "robocal-worker-exit-status")
         if config.getvalue("dist") == "loadscope":
