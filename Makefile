@@ -7,7 +7,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test bench check-libs clean package package-check install-desktop
+.PHONY: demo test test-quick bench check-libs clean package package-check install-desktop
 
 $(STAMP): pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV) || { \
@@ -23,12 +23,17 @@ demo: $(STAMP) check-libs
 	$(BIN)/robocal gui --demo
 
 # The suite runs on every core (pytest-xdist), each test module on one worker so its module-scoped
-# fixtures are built once; `make test PYTEST_ARGS="tests/core -x"` runs a part in one process.
+# fixtures are built once, the longest modules first (tests/scheduling.py);
+# `make test PYTEST_ARGS="tests/core -x"` runs a part in one process. `make test-quick` leaves out
+# the tests marked slow (over ~20 s each: demo walks, fuzzing, command chains on rendered images).
 PYTEST_ARGS ?= -n auto --dist loadscope
 
 test: $(STAMP)
 	@QT_QPA_PLATFORM=offscreen $(BIN)/python packaging/check_qt_libs.py --platform offscreen
 	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest $(PYTEST_ARGS)
+
+test-quick: $(STAMP)
+	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest $(PYTEST_ARGS) -m "not slow"
 
 bench: $(STAMP)
 	QT_QPA_PLATFORM=offscreen $(BIN)/python -m bench $(BENCH_ARGS)

@@ -13,7 +13,10 @@
 - What collection loaded (modules, classes, test functions: ~130 000 objects that live as long
   as the session) is frozen out of the garbage collector's view, so the full collection after
   each GUI test, and Python's own, scan only what tests make (0.1 s less per collection).
-- With pytest-xdist (`make test` runs `-n auto`), a worker process that ends abnormally after its
+- With pytest-xdist (`make test` runs `-n auto --dist loadscope`), the longest modules are
+  handed out first (their seconds in the last run, from pytest's cache) and the modules that
+  share the in-process demo walk run on one worker (tests/scheduling.py).
+- With pytest-xdist, a worker process that ends abnormally after its
   tests (a crash while Qt tears down at interpreter exit) fails the run, as it would without
   workers: pytest's exit status stays the one CI must see.
 
@@ -30,6 +33,7 @@ import tempfile
 import pytest
 from hypothesis import settings
 
+from tests import scheduling
 from tests.session_cache import lab_copy
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
@@ -133,8 +137,18 @@ class WorkerExitStatus:
 
 
 def pytest_configure(config):
+    config.addinivalue_line("markers", "slow: over ~20 s alone (a whole demo walk, a fuzzed command line, a chain of "
+                                       "commands on rendered images); `make test-quick` leaves them out")
     if config.pluginmanager.hasplugin("xdist") and not hasattr(config, "workerinput"):
         config.pluginmanager.register(WorkerExitStatus(), "robocal-worker-exit-status")
+        if config.getvalue("dist") == "loadscope":
+            config.pluginmanager.register(scheduling.ModuleSeconds(config), "robocal-module-seconds")
+
+
+@pytest.hookimpl(tryfirst=True, optionalhook=True)
+def pytest_xdist_make_scheduler(config, log):
+    """`--dist loadscope`: the longest modules first (tests/scheduling.py)."""
+    return scheduling.make_scheduler(config, log)
 
 
 @pytest.fixture(scope="session")

@@ -162,16 +162,16 @@ def prediction_covariance(model: RobotModel, unc: CalibrationUncertainty, Q,
 def weighted_chi2_sf(x: float, lam: np.ndarray) -> float:
     """P(Σ λ_i·z_i² > x) for independent standard normal z_i (Imhof's integral; the
     oscillating tail beyond u = 1 with quad's Fourier-integral rule, QAWF)."""
-    lam = np.asarray(lam, dtype=float)
+    lam = [float(v) for v in np.ravel(lam)]     # plain floats: quad calls these ~10⁴ times a value
     w = 0.5 * x
 
     def angle(u):
-        return 0.5 * np.sum(np.arctan(lam * u))
+        return 0.5 * math.fsum(math.atan(v * u) for v in lam)
 
     def rho(u):
-        return u * np.prod((1.0 + (lam * u) ** 2) ** 0.25)
+        return u * math.prod((1.0 + (v * u) ** 2) ** 0.25 for v in lam)
 
-    head = quad(lambda u: math.sin(angle(u) - w * u) / rho(u) if u > 0 else 0.5 * float(lam.sum()) - w,
+    head = quad(lambda u: math.sin(angle(u) - w * u) / rho(u) if u > 0 else 0.5 * math.fsum(lam) - w,
                 0.0, 1.0, limit=200)[0]
     tail = (quad(lambda u: math.sin(angle(u)) / rho(u), 1.0, np.inf, weight="cos", wvar=w)[0]
             - quad(lambda u: math.cos(angle(u)) / rho(u), 1.0, np.inf, weight="sin", wvar=w)[0])

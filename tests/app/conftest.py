@@ -2,6 +2,7 @@
 import pytest
 from PySide6.QtWidgets import QMessageBox
 
+from tests.app.demo_walk import walk_the_demo
 from tests.session_cache import create_labs_once
 
 
@@ -21,3 +22,10 @@ def boxes(monkeypatch):
         monkeypatch.setattr(QMessageBox, kind,
                             lambda parent, title, text, *a, _k=kind, **kw: shown.append((_k, title, text)))
     return shown
+
+
+@pytest.fixture(scope="session")
+def demo_walk(qapp, tmp_path_factory):
+    """The classroom demo walked once by the autopilot, in-process (tests/app/demo_walk.py): a
+    DemoWalk with the window (hidden; a test shows it and hides it again) and how the walk ended."""
+    yield from walk_the_demo(tmp_path_factory.mktemp("demo"))

@@ -68,6 +68,7 @@ def run_json(capsys, argv):
     return code, (json.loads(out) if out.strip() else None), err
 
 
+@pytest.mark.slow
 def test_the_readme_chain_writes_a_weighted_calibration_that_can_be_checked(cell, tmp_path, capsys):
     root, ds, calibrated, lab = cell
     stats = read_robot(calibrated).calibration["statistics"]
@@ -89,6 +90,7 @@ def test_the_readme_chain_writes_a_weighted_calibration_that_can_be_checked(cell
     assert len(read_check_log(tmp_path / "c.csv").checks[0].points) == 8
 
 
+@pytest.mark.slow
 def test_a_tool_change_is_found_in_captured_pairs_and_reidentified_from_the_proposed_poses(cell, tmp_path, capsys):
     root, ds, calibrated, lab = cell
     poses, log, reid = tmp_path / "check_poses.csv", tmp_path / "c.csv", tmp_path / "reid.csv"

@@ -3,23 +3,23 @@ has filled them with results: the window stays the screen's size, the page fits 
 list and the explain panel without scrolling sideways, and no visible control is cut (its size at
 least its minimum size hint, a wrapped label as tall as its text needs, no step title elided).
 
-The demo runs once for the module (the autopilot through every page); each test shows the
-window and hides it again."""
+The demo runs once for the session (the autopilot through every page, the `demo_walk` fixture of
+tests/app/conftest.py); each test shows the window and hides it again."""
 from __future__ import annotations
 
-import io
 import os
 from pathlib import Path
 
 import pytest
-from PySide6.QtCore import QEventLoop, Qt, QTimer
+from PySide6.QtCore import Qt
 from PySide6.QtGui import QFontMetrics
 from PySide6.QtTest import QTest
 from PySide6.QtWidgets import (QAbstractButton, QAbstractSpinBox, QApplication, QComboBox, QGroupBox, QLabel,
                                QScrollArea, QSplitter, QSplitterHandle, QTabWidget, QWidget)
 
 from app.pages.steps import Step
-from tests.app.windows import close_window
+
+pytestmark = pytest.mark.slow               # the demo walk first
 
 SIZES = [(1280, 720), (1920, 1080)]
 #: where the 1280×720 screenshots go besides pytest's folder (docs/screenshots/small-screen when
@@ -28,38 +28,11 @@ SHOTS_ENV = "ROBOCAL_SMALL_SCREEN_SHOTS"
 
 
 @pytest.fixture(scope="module")
-def demo_window(qapp, tmp_path_factory):
-    """The main window after the classroom demo ran through every page (in a project folder
-    under pytest's temporary folder), hidden."""
-    from app import messages
-    from app.autopilot import Autopilot
-    from app.main_window import MainWindow
-    from app.state import WizardState
-
-    with pytest.MonkeyPatch.context() as mp:
-        import tempfile
-        mp.setattr(tempfile, "tempdir", str(tmp_path_factory.mktemp("tempfile")))
-        messages.set_non_interactive(True)
-        state = WizardState()
-        win = MainWindow(state)
-        win.show()
-        state.new_project(tmp_path_factory.mktemp("demo") / "project")
-        state.choose_preset("educational_6r")
-        out = io.StringIO()
-        pilot = Autopilot(win, out=out)
-        loop = QEventLoop()
-        pilot.finished.connect(loop.quit)
-        QTimer.singleShot(600_000, loop.quit)
-        pilot.start()
-        loop.exec()
-        messages.set_non_interactive(False)
-        win.hide()
-        assert pilot.exit_code == 0, out.getvalue()
-        yield win
-        win.show()
-        close_window(win)
-        win.deleteLater()
-        QApplication.processEvents()
+def demo_window(demo_walk):
+    """The main window after the classroom demo ran through every page (the session's demo walk,
+    tests/app/demo_walk.py), hidden."""
+    assert demo_walk.exit_code == 0, demo_walk.output
+    return demo_walk.window
 
 
 @pytest.fixture

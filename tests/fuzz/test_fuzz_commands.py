@@ -79,6 +79,7 @@ def robot_paths(data, prefix=()):
 ROBOT_FIELDS = list(robot_paths(json.loads(Path(ROBOT).read_text())))
 
 
+@pytest.mark.slow
 @FUZZ
 @given(where=st.sampled_from(ROBOT_FIELDS), value=JUNK)
 def test_malformed_robot_files(files, tmp_path_factory, where, value):

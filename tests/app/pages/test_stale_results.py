@@ -181,6 +181,7 @@ def test_the_step_list_marks_an_out_of_date_step(qtbot, tmp_path):
         window.close()
 
 
+@pytest.mark.slow
 def test_measurements_are_out_of_date_after_a_new_stereo_calibration(qtbot, lab, tmp_path, made):
     state = lab_state(lab)
     lab_marker(lab).save(state.project.folder / "marker.npz")
