@@ -39,7 +39,8 @@ def _passes_on(previous: QObject, receiver: QObject) -> bool:
     if not isinstance(receiver, QWidget) or not shiboken6.isValid(previous):
         return False
     if isinstance(previous, QWindow):
-        return True
+        handle = receiver.window().windowHandle()
+        return handle is not None and shiboken6.getCppPointer(handle) == shiboken6.getCppPointer(previous)
     return isinstance(previous, QWidget) and receiver is not previous and receiver.isAncestorOf(previous)
 
 

@@ -5,7 +5,7 @@ random robot poses, the comparison of candidate markers; and the step's files in
 crops of the last located live pair: what the report draws).
 
 Points are in mm in the left camera frame; image coordinates in px. The virtual lab is an
-argument (the page asks `WizardState.request_lab` for it first).
+argument (the page asks `state.labs.when_ready` for it first).
 """
 from __future__ import annotations
 

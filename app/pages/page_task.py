@@ -25,6 +25,10 @@ from core.errors import RoboCalError
 from widgets.progress_row import ProgressRow
 
 
+#: the words when work is asked for while a task runs
+BUSY = "Busy: wait for the running task or cancel it."
+
+
 def _nothing(*_args) -> None:
     return None
 
@@ -47,7 +51,7 @@ class PageTask:
     def __init__(self, runner: TaskRunner, request_lab: Callable, hooks: PageHooks, *, label: str = "Working"):
         self._task = CurrentTask(runner)
         self._lab_wait = CurrentTask()
-        self._request_lab = request_lab        # WizardState.request_lab(on_ready, on_error=) -> cancellable
+        self._request_lab = request_lab        # state.labs.when_ready(on_ready, on_error=) -> a cancellable wait
         self._hooks = hooks
         self._label = label
         self._row: ProgressRow | None = None
@@ -89,7 +93,7 @@ class PageTask:
               on_cancelled: Callable[[], None] | None = None, **kwargs) -> bool:
         """Run `fn` on a worker unless a task is running (then say so and return False)."""
         if self.busy:
-            self._hooks.set_status("Busy: wait for the running task or cancel it.", False)
+            self._hooks.set_status(BUSY, False)
             return False
         failed = on_failed or self._hooks.on_failed
         cancelled_ = on_cancelled or self._hooks.on_cancelled
@@ -135,7 +139,7 @@ class PageTask:
         build goes to `on_failed`. Returns `go`'s answer (None counts as True) when the lab
         exists, True while it is being built, False (nothing done) while a task is running."""
         if self.busy:
-            self._hooks.set_status("Busy: wait for the running task or cancel it.", False)
+            self._hooks.set_status(BUSY, False)
             return False
         answers = []
         self.follow_lab(lambda lab: answers.append(go(lab) is not False), on_failed or self._hooks.on_failed)

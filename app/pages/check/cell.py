@@ -13,7 +13,7 @@ from typing import Callable
 from app.hardware import is_real
 from app.jobs.cell_measure import CellMeasure, locator
 from app.pages.check.inputs import CheckInputs
-from app.pages.check.texts import BUSY
+from app.pages.page_task import BUSY
 from app.pages.page_task import PageTask
 from app.safety import motion_refused
 

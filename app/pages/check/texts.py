@@ -4,7 +4,6 @@ from __future__ import annotations
 
 MISSING = "No calibrated robot in the project (calibrated.json). Run the Identification step first."
 NO_PROJECT = "No project: choose one in the Setup step."
-BUSY = "Busy: wait for the running task or cancel it."
 
 
 def short_verdict(result) -> str:

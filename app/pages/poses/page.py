@@ -3,7 +3,7 @@
 The page runs app.jobs.poses.run_pose_selection on a worker thread (progress, Cancel) and
 draws what it returns (results.py). In the virtual lab the candidates are limited to poses
 where both cameras see the marker, above the table: the page asks the state for the lab
-(`request_lab`, built once on a worker) before it starts the selection. The selection (or the
+(`state.labs.when_ready`, built once on a worker) before it starts the selection. The selection (or the
 project's poses.csv) is the model's (model.py), the results drawn from it. The result goes to
 the Measurement step as ``state.poses`` (a PoseSelectionResult: ``.Q`` rad/mm, ``.q_file``
 deg/mm, ``.path``) and as the project's poses.csv.

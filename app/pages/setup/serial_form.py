@@ -6,6 +6,7 @@ from PySide6.QtWidgets import QComboBox, QFileDialog, QGridLayout, QLabel, QLine
 
 from app.hardware import SERIAL, RobotChoice
 from app.pages import forms
+from core.project import RobotConnection
 from core.robot.profile import builtin_names
 from core.robot.serial_robot import DEFAULT_SPEED
 
@@ -64,7 +65,8 @@ class SerialForm(QWidget):
         """Motion speed, percent of the robot's maximum."""
         return float(self.speed_spin.value())
 
-    def show_options(self, saved: RobotChoice) -> None:
+    def show_options(self, saved: RobotConnection) -> None:
+        """Show the serial robot a project recorded (core.project.RobotConnection, with its speed)."""
         self.port_edit.setText(saved.port or "")
         self.profile_combo.setCurrentText(saved.profile or "robocal_v1")
         self.joint_map_edit.setText(saved.joint_map or "")

@@ -10,7 +10,7 @@ from typing import Callable
 from PySide6.QtWidgets import QFileDialog, QWidget
 
 from app.html import number
-from app.pages.page_task import PageTask
+from app.pages.page_task import BUSY, PageTask
 from app.pages.stereo.model import StereoModel
 from core.errors import RoboCalError
 from core.locks import output_lock, output_locks
@@ -78,7 +78,7 @@ class StereoFiles:
         project = self.state.project
         if project is None or self.task.busy:
             self._set_status("No project: create or open one in the Setup step (1)." if project is None
-                             else "Busy: wait for the running task or cancel it.", False)
+                             else BUSY, False)
             return None
         if paths is None:
             paths, _ = QFileDialog.getOpenFileNames(

@@ -7,9 +7,8 @@ live preview shows, allowed while it sees the board in both, live_preview.py, sa
 checkerboard/left|right, live_capture.py; without them in the virtual lab, one pair from the
 lab's cameras at a random board pose). Adding pairs is one worker job (app/jobs/stereo_pairs.py)
 that detects in small batches, so thumbnails and the ROS-style coverage bars fill while pairs
-are added (pair_sources.py). Calibration
-(core.stereo.calibration.calibrate_stereo) runs on the worker thread too; the page then draws
-what it returns (results_panel.py, result_actions.py).
+are added (pair_sources.py). Calibration (core.stereo.calibration.calibrate_stereo) runs on the
+worker thread too; the page then draws what it returns (results_panel.py, result_actions.py).
 
 The page is a small controller: the step's model (model.py: the pairs, the board, the camera
 model chosen and the calibration) -> a job on the page's task -> the model, whose events the
@@ -30,6 +29,7 @@ from app.jobs.stereo import AddedPair
 from app.lab import DEFAULT_BOARD
 from app.pages.base import WizardPage
 from app.pages.forms import button, row, scrolling
+from app.pages.page_task import BUSY
 from app.pages.steps import Step
 from app.pages.stereo.file_actions import StereoFiles
 from app.pages.stereo.live_preview import LivePreviewPanel
@@ -267,7 +267,7 @@ class StereoPage(WizardPage):
         if self.sources.board_timer.isActive():
             self.sources.apply_board()             # a board edit not applied yet
         if self.task.busy:
-            self._set_status("Busy: wait for the running task or cancel it.", ok=False)
+            self._set_status(BUSY, ok=False)
             return False
         m = self.model
         usable = m.usable()

@@ -13,7 +13,7 @@ from PySide6.QtCore import QObject, QTimer, Signal, Slot
 
 from app.jobs.stereo import next_free_number
 from app.jobs.stereo_pairs import detect_in_batches, render_virtual_pairs
-from app.pages.page_task import PageTask
+from app.pages.page_task import BUSY, PageTask
 from app.pages.stereo.live_capture import save_checkerboard_pair
 from app.pages.stereo.live_preview import LivePreviewPanel
 from app.pages.stereo.model import StereoModel
@@ -54,7 +54,7 @@ class PairSources(QObject):
             self.set_status("No project yet: create or open one in the Setup step (1).", False)
             return False
         if self.task.busy:
-            self.set_status("Busy: wait for the running task or cancel it.", False)
+            self.set_status(BUSY, False)
             return False
         return True
 
@@ -213,9 +213,12 @@ class PairSources(QObject):
         """Run the adding job `fn(*args, shown=…, **kwargs)` as the page's task; its batches go to
         the model as they come, `done(count)` after the last."""
         run = object()
-        self._run = run
+        previous, self._run = self._run, run
         emit = self._arrived.emit
-        return self.task.start(fn, *args, shown=lambda pairs: emit(run, pairs), on_done=done, label=label, **kwargs)
+        if self.task.start(fn, *args, shown=lambda pairs: emit(run, pairs), on_done=done, label=label, **kwargs):
+            return True
+        self._run = previous                    # refused (busy): the running job's batches are still wanted
+        return False
 
     @Slot(object, object)
     def _add_batch(self, run: object, pairs: list) -> None:
