@@ -12,6 +12,7 @@ from app.pages import registry
 from app.pages.base import WizardPage
 from app.pages.steps import STEP_INFO, Step
 from app.state import WizardState
+from tests.app.windows import modal_dialog
 from widgets.step_list import StepState
 
 HELP_PHRASES = {
@@ -260,22 +261,6 @@ def test_window_title_follows_the_project(window, tmp_path):
     assert window.windowTitle() == "RoboCal — no project"
     window.state.new_project(tmp_path / "Cell 7")
     assert window.windowTitle() == "RoboCal — Cell 7"
-
-
-def modal_dialog(window, qtbot):
-    """A modal dialog over `window` with a text field that has the keyboard: (dialog, field)."""
-    from PySide6.QtWidgets import QDialog, QLineEdit, QVBoxLayout
-    dialog = QDialog(window)
-    field = QLineEdit(dialog)
-    QVBoxLayout(dialog).addWidget(field)
-    dialog.setModal(True)
-    qtbot.addWidget(dialog)
-    dialog.show()
-    qtbot.waitExposed(dialog)
-    dialog.activateWindow()
-    field.setFocus()
-    qtbot.waitUntil(lambda: QApplication.activeModalWidget() is dialog, timeout=5000)
-    return dialog, field
 
 
 def test_stop_key_works_while_a_modal_dialog_is_open(ready_window, qtbot):

@@ -8,22 +8,15 @@ from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QApplication
 
 from app.hardware import RobotChoice, open_serial_robot
-from app.main_window import MainWindow
 from app.pages.steps import Step
-from app.state import WizardState
 from core.errors import RoboCalError
 from core.robot.controller_sim import ControllerSim
+from tests.app.windows import window_on_project
 
 
 @pytest.fixture
 def window(qtbot, tmp_path):
-    win = MainWindow(WizardState())
-    qtbot.addWidget(win)
-    win.resize(1400, 900)
-    win.show()
-    qtbot.waitExposed(win)
-    win.state.new_project(tmp_path / "project")
-    win.state.choose_preset("educational_6r")
+    win = window_on_project(qtbot, tmp_path / "project")
     yield win
     win.close()
 

@@ -9,10 +9,9 @@ import time
 import pytest
 from PySide6.QtCore import Qt
 from PySide6.QtTest import QTest
-from PySide6.QtWidgets import QApplication, QDialog, QLineEdit, QVBoxLayout
+from PySide6.QtWidgets import QApplication, QLineEdit
 
-from app.main_window import MainWindow
-from app.state import WizardState
+from tests.app.windows import modal_dialog, window_on_project
 
 CTRL = Qt.KeyboardModifier.ControlModifier
 
@@ -32,29 +31,14 @@ class BusyField(QLineEdit):
 
 @pytest.fixture
 def window(qtbot, tmp_path):
-    win = MainWindow(WizardState())
-    qtbot.addWidget(win)
-    win.resize(1400, 900)
-    win.show()
-    qtbot.waitExposed(win)
-    win.state.new_project(tmp_path / "project")
-    win.state.choose_preset("educational_6r")
+    win = window_on_project(qtbot, tmp_path / "project")
     yield win
     win.close()
 
 
 @pytest.fixture
 def busy_dialog(window, qtbot):
-    dialog = QDialog(window)
-    field = BusyField(dialog)
-    QVBoxLayout(dialog).addWidget(field)
-    dialog.setModal(True)
-    qtbot.addWidget(dialog)
-    dialog.show()
-    qtbot.waitExposed(dialog)
-    dialog.activateWindow()
-    field.setFocus()
-    qtbot.waitUntil(lambda: QApplication.activeModalWidget() is dialog, timeout=5000)
+    dialog, field = modal_dialog(window, qtbot, BusyField)
     yield dialog, field
     dialog.close()
 
