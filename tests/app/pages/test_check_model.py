@@ -10,14 +10,7 @@ import pytest
 from app.pages.check.controls_panel import CheckControls
 from app.pages.check.model import CheckModel, CheckOptions
 from core.monitoring.log import CheckLog, LoggedCheck
-
-
-def heard(model: CheckModel, *events: str) -> list:
-    """(event, value) pairs as the model emits them."""
-    got = []
-    for event in events:
-        model.on(event, lambda value, event=event: got.append((event, value)))
-    return got
+from tests.app.pages.model_events import heard
 
 
 def test_options_are_heard_only_when_they_change():

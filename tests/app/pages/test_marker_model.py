@@ -12,19 +12,13 @@ from app.pages.marker.model import (ComparisonOptions, ConditionsOptions, Marker
                                     TrainingOptions, VerificationOptions)
 from app.pages.measurement_inputs import StereoSource
 from core.marker.location import MarkerLocator
+from tests.app.pages.model_events import heard
 from tests.app.virtual_inputs import lab_marker, make_lab
 
 
 @pytest.fixture(scope="module")
 def lab():
     return make_lab()
-
-
-def heard(model: MarkerModel, *events: str) -> list:
-    said = []
-    for event in events:
-        model.on(event, lambda value, e=event: said.append((e, value)))
-    return said
 
 
 def test_options_are_heard_only_when_they_change():

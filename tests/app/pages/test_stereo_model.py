@@ -15,6 +15,7 @@ from app.pages.stereo.model import StereoModel
 from app.pages.stereo.texts import pairs_status
 from core.stereo.board import Board
 from core.stereo.fit import CalibrationOptions
+from tests.app.pages.model_events import heard as listen
 
 
 @pytest.fixture(scope="module")
@@ -30,13 +31,6 @@ def added(built_lab, tmp_path_factory):
             assert cv2.imwrite(str(path), image)
         paths.append(pair)
     return lab.board, detect_files(paths[:3], lab.board), detect_files(paths[3:], lab.board)
-
-
-def listen(model, *events):
-    heard = []
-    for event in events:
-        model.on(event, lambda value, event=event: heard.append((event, value)))
-    return heard
 
 
 def test_the_model_and_the_adding_jobs_load_no_qt():
