@@ -1,11 +1,12 @@
-"""Windows the main-window tests open: the wizard on a new project with the 6R arm chosen, and a
-modal dialog over it whose text field has the keyboard."""
+"""Windows the tests open and close: the wizard on a new project with the 6R arm chosen, a modal
+dialog over it whose text field has the keyboard, and closing a window as the autopilot does."""
 from __future__ import annotations
 
 from pathlib import Path
 
 from PySide6.QtWidgets import QApplication, QDialog, QLineEdit, QVBoxLayout
 
+from app import messages
 from app.main_window import MainWindow
 from app.state import WizardState
 
@@ -37,3 +38,13 @@ def modal_dialog(window, qtbot, field_type: type[QLineEdit] = QLineEdit) -> tupl
     field.setFocus()
     qtbot.waitUntil(lambda: QApplication.activeModalWidget() is dialog, timeout=5000)
     return dialog, field
+
+
+def close_window(win) -> bool:
+    """Close `win`; a demo (temporary) project with results would ask whether to keep them in a
+    modal box, and the test answers as the autopilot does (quit without saving)."""
+    messages.set_non_interactive(True)
+    try:
+        return win.close()
+    finally:
+        messages.set_non_interactive(False)
