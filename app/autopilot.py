@@ -18,16 +18,15 @@ def screenshot_name(step) -> str:
 
 
 class Autopilot(QObject):
-    """`start()` it once the window is shown; `finished(exit_code)` is emitted at the end.
-    `last`: the step to stop after (default: every page)."""
+    """`start()` it once the window is shown; `finished(exit_code)` is emitted at the end."""
 
     finished = Signal(int)
 
     def __init__(self, window, screenshots: str | Path | None = None, *,
-                 page_timeout_s: float = 900.0, out=None, last: int | None = None):
+                 page_timeout_s: float = 900.0, out=None):
         super().__init__(window)
         self.window = window
-        self.count = len(window.pages) if last is None else int(last) + 1
+        self.count = len(window.pages)
         self.screenshots = Path(screenshots) if screenshots else None
         self.page_timeout_ms = int(page_timeout_s * 1000)
         self.out = out or sys.stdout

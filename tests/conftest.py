@@ -11,8 +11,11 @@
   running, a busy TaskRunner, or a visible top-level window behind. Leftovers are cleaned up
   before failing, so one leak does not cascade into the following tests.
 - What collection loaded (modules, classes, test functions: ~130 000 objects that live as long
-  as the session) is frozen out of the garbage collector's view, so the full collection after
-  each GUI test, and Python's own, scan only what tests make (0.1 s less per collection).
+  as the session), and what survives the full collection after each GUI test, is frozen out of
+  the garbage collector's view, so the next collections scan only what the following tests make.
+- SIFT features and checkerboard corners are computed once per session for each distinct image
+  (the virtual lab renders the same images in many tests) and handed out as copies
+  (tests/session_cache.py).
 - With pytest-xdist (`make test` runs `-n auto --dist loadscope`), the longest modules are
   handed out first (their seconds in the last run, from pytest's cache) and the modules that
   share the in-process demo walk run on one worker (tests/scheduling.py).
@@ -34,7 +37,7 @@ import pytest
 from hypothesis import settings
 
 from tests import scheduling
-from tests.session_cache import lab_copy
+from tests.session_cache import computed_once_per_image, lab_copy
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 # Linear algebra on one thread per test process (numpy is loaded after this file): `make test` runs
@@ -165,6 +168,13 @@ def _temporary_files_under_pytest(tmp_path_factory, monkeypatch):
 
 
 @pytest.fixture(autouse=True)
+def _pixels_analysed_once(monkeypatch):
+    """SIFT features and checkerboard corners of an image seen before in the session are a copy
+    of the first result (tests/session_cache.py)."""
+    computed_once_per_image(monkeypatch)
+
+
+@pytest.fixture(autouse=True)
 def _no_qt_leftovers(request, monkeypatch):
     if not GUI_FIXTURES & set(request.fixturenames):
         yield
@@ -182,6 +192,7 @@ def _no_qt_leftovers(request, monkeypatch):
     # otherwise free on whatever thread runs it (a worker), or while the windows are listed below.
     QApplication.sendPostedEvents(None, QEvent.Type.DeferredDelete)
     gc.collect()
+    gc.freeze()               # what survived is the session's: the next collection scans only what comes
     QApplication.processEvents()
     problems = []
     runners = busy_runners()

@@ -72,3 +72,41 @@ def trained_marker_copy(lab):
 
     key = ("marker", int(lab.seed), float(lab.noise), hashlib.sha1(pickle.dumps(lab.marker)).hexdigest())
     return shared_copy(key, lambda: train_marker(lab.render_training_image(), outer_size=lab.marker.outer_size))
+
+
+_pixel_results: dict = {}
+_pixel_originals: dict = {}
+PIXEL_RESULTS_KEPT = 4000      # about 1 GB of SIFT features and corners at most per process
+
+
+def _pixel_key(name: str, image, args, kwargs) -> tuple:
+    import numpy as np
+
+    image = np.ascontiguousarray(image)
+    return (name, image.shape, image.dtype.str, hashlib.sha1(image).hexdigest(), repr(args),
+            repr(sorted(kwargs.items())))
+
+
+def computed_once_per_image(monkeypatch) -> None:
+    """For the duration of a test, SIFT features (core.marker.detection.sift_features) and
+    checkerboard corners (core.stereo.detection.detect_corners), both functions of the pixels and
+    their options only, are computed once per session for each distinct image and option (the
+    rendered images of the virtual lab repeat from test to test), and handed out as copies."""
+    from core.marker import detection as marker_detection
+    from core.stereo import detection as board_detection
+    from core.stereo import screening
+
+    for module, name, users in ((marker_detection, "sift_features", (marker_detection,)),
+                                (board_detection, "detect_corners", (board_detection, screening))):
+        original = _pixel_originals.setdefault(name, getattr(module, name))
+
+        def cached(image, *args, _name=name, _original=original, **kwargs):
+            key = _pixel_key(_name, image, args, kwargs)
+            if key not in _pixel_results:
+                if len(_pixel_results) >= PIXEL_RESULTS_KEPT:
+                    _pixel_results.pop(next(iter(_pixel_results)))
+                _pixel_results[key] = _original(image, *args, **kwargs)
+            return copy.deepcopy(_pixel_results[key])
+
+        for user in users:
+            monkeypatch.setattr(user, name, cached)

@@ -33,7 +33,8 @@ def add_arguments(parser) -> None:
                         help="save DIR/NN-<step>.png of the window for every page shown")
 
 
-def _prepare_state(state, args) -> None:
+def prepare_state(state, args) -> None:
+    """Open or create the project `args` names (PROJECT, --demo) in `state`, the demo arm chosen for --demo."""
     from app.pages.setup.page import DEMO_PRESET
     from core.project import PROJECT_FILE
 
@@ -85,7 +86,7 @@ def run(args) -> CommandResult:
     messages.set_non_interactive(args.autopilot)
     state = WizardState()
     try:
-        _prepare_state(state, args)
+        prepare_state(state, args)
     except RoboCalError:
         state.close()
         messages.set_non_interactive(False)

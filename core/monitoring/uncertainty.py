@@ -13,6 +13,7 @@ found by root finding, starting from the Satterthwaite–Welch approximation |e|
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -182,6 +183,14 @@ def norm_limit(S: np.ndarray, probability: float) -> float:
     """The length (mm) that a zero-mean Gaussian vector with covariance S stays below with
     `probability` (see the module)."""
     lam = np.clip(np.linalg.eigvalsh(np.atleast_2d(S)), 0.0, None)
+    return _norm_limit_of(tuple(lam.tolist()), float(probability))
+
+
+@functools.lru_cache(maxsize=4096)
+def _norm_limit_of(eigenvalues: tuple, probability: float) -> float:
+    """norm_limit for a covariance of these eigenvalues (mm²); a check series or a diagnosis
+    asks again for the limits of the same poses and calibration, answered from the cache."""
+    lam = np.array(eigenvalues)
     total, square = float(lam.sum()), float(np.sum(lam ** 2))
     if total <= 0.0:
         return 0.0

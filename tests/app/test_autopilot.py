@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from app.pages.steps import Step
+from core.measurement.file import read_measurements
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -57,11 +58,12 @@ def test_demo_temp_project_is_removed_at_exit(demo_run):
 
 
 @pytest.mark.slow
-def test_autopilot_on_a_project_folder(tmp_path):
-    proc = run_gui("--demo", "--autopilot", str(tmp_path / "classroom"))
-    assert proc.returncode == 0, proc.stderr
-    assert (tmp_path / "classroom" / "project.json").is_file()
-    assert (tmp_path / "classroom" / "robot.json").is_file()
+def test_autopilot_on_a_project_folder(demo_walk):
+    # `gui --demo --autopilot --screenshots DIR PROJECT` in-process: the demo is kept in PROJECT
+    assert demo_walk.exit_code == 0, demo_walk.output
+    assert (demo_walk.project / "project.json").is_file()
+    assert (demo_walk.project / "robot.json").is_file()
+    assert demo_walk.window.state.project.folder == demo_walk.project
 
 
 def test_opening_a_missing_project_is_a_usage_error(tmp_path):
@@ -103,14 +105,31 @@ def test_autopilot_in_process_finishes_with_zero(demo_walk):
     assert state.project is not None and state.robot is not None
 
 
+@pytest.mark.slow
+def test_demo_autopilot_identifies_from_the_measured_points(demo_walk):
+    """The Identification step of the classroom demo uses the points the Measurement step
+    measured, not the synthetic ideal ones."""
+    n = len(Step)
+    assert f"[3/{n}] Marker: done" in demo_walk.output
+    assert f"[5/{n}] Measurement: done (30 poses measured" in demo_walk.output
+    assert f"[6/{n}] Identification: done" in demo_walk.output
+    path = demo_walk.window.state.project.path("measurements")
+    meas = read_measurements(path)
+    assert len(meas.pose) >= 28 and meas.sigma is not None
+    run = demo_walk.window.page(Step.IDENTIFICATION).run_result
+    assert run.synthetic is None and run.source == path          # the measured points, not ideal ones
+    assert 0.005 < run.result.after.rms_mm < 0.1 and run.result.before.rms_mm > 1.0
+
+
 def test_autopilot_fails_when_a_page_fails(quiet_window, qtbot, tmp_path):
     import io
     from app.autopilot import Autopilot
+    quiet_window.page(Step.STEREO).autopilot = lambda done: done(True, "calibrated")
     marker = quiet_window.page(Step.MARKER)
     marker.autopilot = lambda done: done(False, "no marker in view")
     out = io.StringIO()
     pilot = Autopilot(quiet_window, tmp_path, out=out)
-    with qtbot.waitSignal(pilot.finished, timeout=300000) as blocker:      # Setup and Stereo run first
+    with qtbot.waitSignal(pilot.finished, timeout=60000) as blocker:      # Setup and Stereo run first
         pilot.start()
     assert blocker.args == [1]
     assert f"[3/{len(Step)}] Marker: FAILED (no marker in view)" in out.getvalue()
