@@ -27,6 +27,7 @@ Qt is imported only for GUI tests: tests/core never loads it.
 """
 from __future__ import annotations
 
+import faulthandler
 import gc
 import os
 import signal
@@ -139,6 +140,38 @@ class WorkerExitStatus:
         return result
 
 
+@pytest.hookimpl(trylast=True)
+def pytest_sessionfinish(session):
+    """Every process's Qt work ends here, on its main thread, after the session's fixtures are
+    torn down: tasks cancelled and every worker pool's threads ended (an idle pool thread lives
+    on for 30 s and would otherwise end during the interpreter's exit), the last deferred
+    deletions done and the frozen objects collected, so nothing of Qt is left to the exit."""
+    if "PySide6.QtWidgets" not in sys.modules:
+        return
+    from PySide6.QtCore import QEvent, QThreadPool
+    from PySide6.QtWidgets import QApplication
+
+    if "app.worker" in sys.modules:
+        for runner in sys.modules["app.worker"].live_runners():
+            try:
+                runner.shutdown(5000)
+            except RuntimeError:          # its Qt object went with its window: no threads left
+                pass
+    QThreadPool.globalInstance().waitForDone(5000)
+    if QApplication.instance() is not None:
+        QApplication.sendPostedEvents(None, QEvent.Type.DeferredDelete)
+        QApplication.processEvents()
+    gc.unfreeze()
+    gc.collect()
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_unconfigure(config):
+    """A crash while the interpreter exits still prints every thread's Python stack (pytest's
+    own fault handler is switched off by then)."""
+    faulthandler.enable(file=sys.__stderr__, all_threads=True)
+
+
 def pytest_configure(config):
     config.addinivalue_line("markers", "slow: over ~20 s alone (a whole demo walk, a fuzzed command line, a chain of "
                                        "commands on rendered images); `make test-quick` leaves them out")
@@ -168,7 +201,7 @@ def _temporary_files_under_pytest(tmp_path_factory, monkeypatch):
 
 
 @pytest.fixture(autouse=True)
-def _pixels_analysed_once(monkeypatch):
+def _images_analysed_once(monkeypatch):
     """SIFT features and checkerboard corners of an image seen before in the session are a copy
     of the first result (tests/session_cache.py)."""
     computed_once_per_image(monkeypatch)

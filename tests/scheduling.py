@@ -24,16 +24,24 @@ SAME_WORKER = {
     "tests/app/test_small_screens.py": "demo walk",
 }
 
-#: CPU seconds of the long modules on an idle 2-core machine, for a run without a cache
+#: seconds of the long modules in a full run on this 2-core machine, for a run without a cache (CI)
 SECONDS = {
-    "demo walk": 260.0,
-    "tests/app/pages/test_measurement_page.py": 120.0,
-    "tests/app/pages/test_stale_results.py": 60.0,
-    "tests/fuzz/test_fuzz_commands.py": 70.0,
-    "tests/app/test_cli_check_files.py": 80.0,
-    "tests/fuzz/test_fuzz_files.py": 40.0,
-    "tests/test_docs_commands.py": 100.0,
-    "tests/core/identification/test_solver.py": 40.0,
+    "demo walk": 150.0,
+    "tests/app/test_cli_check_port.py": 69.0,
+    "tests/app/test_main_window.py": 52.0,
+    "tests/app/pages/test_stereo_page.py": 42.0,
+    "tests/app/test_cli_check_files.py": 41.0,
+    "tests/app/pages/test_measurement_page.py": 35.0,
+    "tests/app/pages/test_measurement_page_hardware.py": 35.0,
+    "tests/fuzz/test_fuzz_commands.py": 34.0,
+    "tests/app/pages/test_check_real_cell.py": 24.0,
+    "tests/app/report/test_render.py": 24.0,
+    "tests/app/test_calibration_over_serial.py": 22.0,
+    "tests/app/pages/test_stale_results.py": 20.0,
+    "tests/app/pages/test_export_page.py": 19.0,
+    "tests/core/virtual_lab/test_robustness.py": 19.0,
+    "tests/core/fixtures/test_virtual_fixture.py": 18.0,
+    "tests/app/pages/test_compensation_page.py": 18.0,
 }
 
 

@@ -1,10 +1,12 @@
-"""Expensive, deterministic test inputs (a virtual lab: ~2 s, a trained marker: ~0.6 s) built
-once per test session (with pytest-xdist: once per worker process) and handed out as deep copies.
+"""Expensive, deterministic test inputs and results built once per test session (with
+pytest-xdist: once per worker process) and handed out as deep copies: virtual labs (~2 s), trained
+markers (~0.6 s), and the SIFT features and checkerboard corners of an image (~0.1 s each).
 
 A test gets the same object a fresh build would give it, and cannot change what another test
 gets: labs are changed in place by tests (`apply_change` moves the true robot, `lab.target`, a
 rig replaced), so the built original is never handed out. tests/conftest.py exposes labs as the
-session fixture `built_lab`; tests/app/virtual_inputs.lab_marker hands out trained markers.
+session fixture `built_lab` and installs the image caches for every test;
+tests/app/virtual_inputs.lab_marker hands out trained markers.
 """
 from __future__ import annotations
 
@@ -110,3 +112,4 @@ def computed_once_per_image(monkeypatch) -> None:
 
         for user in users:
             monkeypatch.setattr(user, name, cached)
+
