@@ -14,6 +14,7 @@ import copy
 import hashlib
 import os
 import pickle
+import threading
 
 _built: dict = {}
 _original_create: list = []          # VirtualLab.create before `create_labs_once` replaced it
@@ -78,6 +79,7 @@ def trained_marker_copy(lab):
 
 _pixel_results: dict = {}
 _pixel_originals: dict = {}
+_pixel_lock = threading.Lock()
 PIXEL_RESULTS_KEPT = 4000      # about 1 GB of SIFT features and corners at most per process
 
 
@@ -104,11 +106,15 @@ def computed_once_per_image(monkeypatch) -> None:
 
         def cached(image, *args, _name=name, _original=original, **kwargs):
             key = _pixel_key(_name, image, args, kwargs)
-            if key not in _pixel_results:
-                if len(_pixel_results) >= PIXEL_RESULTS_KEPT:
-                    _pixel_results.pop(next(iter(_pixel_results)))
-                _pixel_results[key] = _original(image, *args, **kwargs)
-            return copy.deepcopy(_pixel_results[key])
+            with _pixel_lock:                # worker threads detect in parallel
+                result = _pixel_results.get(key)
+            if result is None:
+                result = _original(image, *args, **kwargs)
+                with _pixel_lock:
+                    if len(_pixel_results) >= PIXEL_RESULTS_KEPT:
+                        _pixel_results.pop(next(iter(_pixel_results)))
+                    _pixel_results[key] = result
+            return copy.deepcopy(result)
 
         for user in users:
             monkeypatch.setattr(user, name, cached)
