@@ -19,6 +19,9 @@
 - With pytest-xdist (`make test` runs `-n auto --dist loadscope`), the longest modules are
   handed out first (their seconds in the last run, from pytest's cache) and the modules that
   share the in-process demo walk run on one worker (tests/scheduling.py).
+- At the end of the session each process deletes what its tests left of Qt (windows, menus,
+  graphics items outside a scene, parentless objects) in order, with every module still
+  loaded, so PySide has only the application left to delete at the interpreter's exit.
 - With pytest-xdist, a worker process that ends abnormally after its
   tests (a crash while Qt tears down at interpreter exit) fails the run, as it would without
   workers: pytest's exit status stays the one CI must see.
@@ -158,10 +161,45 @@ def pytest_sessionfinish(session):
             except RuntimeError:          # its Qt object went with its window: no threads left
                 pass
     QThreadPool.globalInstance().waitForDone(5000)
-    if QApplication.instance() is not None:
+    app = QApplication.instance()
+    if app is not None:
         QApplication.sendPostedEvents(None, QEvent.Type.DeferredDelete)
         QApplication.processEvents()
     gc.unfreeze()
+    gc.collect()
+    if app is not None:
+        _delete_what_qt_has_left(app)
+
+
+def _delete_what_qt_has_left(app) -> None:
+    """Delete, in order, what the session's tests left of Qt: every top-level widget (the
+    windows, the plots' parentless context menus) with its children, then the graphics items
+    outside any scene, then the objects without a parent that Python owns. Otherwise PySide
+    deletes them at the interpreter's exit in no set order, and a process that made hundreds of
+    windows can crash there (SIGSEGV with no Python frame) after all its tests passed."""
+    import shiboken6
+    from PySide6.QtCore import QObject, QThreadPool
+    from PySide6.QtWidgets import QGraphicsItem
+
+    # a menu's submenus are top-level windows too, and go with it: only windows without a parent
+    # are deleted, asked for again after each deletion
+    while windows := [w for w in app.topLevelWidgets() if w.parentWidget() is None]:
+        shiboken6.delete(windows[0])
+    gc.collect()
+    # what to delete is chosen before anything is deleted: a deletion takes its children with it
+    kept = {id(app), id(app.style()), id(QThreadPool.globalInstance())}
+    items, objects = [], []
+    for o in gc.get_objects():
+        if id(o) in kept or not isinstance(o, (QObject, QGraphicsItem)) or not shiboken6.isValid(o):
+            continue
+        if isinstance(o, QGraphicsItem) and o.scene() is None and o.parentItem() is None:
+            items.append(o)
+        elif isinstance(o, QObject) and o.parent() is None and shiboken6.ownedByPython(o):
+            objects.append(o)
+    for obj in items + objects:
+        if shiboken6.isValid(obj):
+            shiboken6.delete(obj)
+    del items, objects
     gc.collect()
 
 

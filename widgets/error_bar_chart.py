@@ -54,8 +54,10 @@ class ErrorBarChart(pg.GraphicsLayoutWidget):
         self.left_bars = pg.BarGraphItem(x=[], height=[], width=WIDTH, pen=pen, brush=colour(LEFT))
         self.right_bars = pg.BarGraphItem(x=[], height=[], width=WIDTH, pen=pen, brush=colour(RIGHT))
         self.flags = pg.ScatterPlotItem(symbol="t", size=11, pen=pg.mkPen(FLAG), brush=colour(FLAG))
-        # a legend entry for the selection colour (never drawn with data)
+        # a legend entry for the selection colour (never drawn with data; inside the legend, so it
+        # lives and ends with the plot's scene)
         self._selected_key = pg.BarGraphItem(x=[], height=[], width=WIDTH, pen=pen, brush=colour(SELECTED_LEFT))
+        self._selected_key.setParentItem(self.legend)
         self.auto_line = pg.InfiniteLine(angle=0, movable=False,
                                          pen=pg.mkPen(AXIS, width=1, style=pg.QtCore.Qt.PenStyle.DashLine),
                                          label="automatic outlier threshold {value:.3f} px",

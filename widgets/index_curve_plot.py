@@ -38,8 +38,10 @@ class IndexCurvePlot(pg.PlotWidget):
                      self.chosen_point):
             self.addItem(item)
         self.addItem(self.chosen_line)
-        # the legend cannot draw a FillBetweenItem: a wide translucent line stands for the band
+        # the legend cannot draw a FillBetweenItem: a wide translucent line stands for the band (an
+        # empty line inside the legend, so it lives and ends with the plot's scene)
         self._band_proxy = pg.PlotDataItem(pen=pg.mkPen(colour(BEFORE, 70), width=9))
+        self._band_proxy.setParentItem(self.legend)
         self.legend.addItem(self._band_proxy, "random: 25–75 %")
         self.legend.addItem(self.chosen_point, "the selection")
         self.chosen_line.hide()
