@@ -8,6 +8,9 @@ from app.pages import forms
 from app.pages.compensation.model import MeasuredMap
 from widgets.accuracy_map_plot import AccuracyMapPlot
 
+NO_MAP = ("No accuracy map yet: it moves the robot to a grid of targets twice (nominal and calibrated model) "
+          "and measures each landing with the cameras.")
+
 
 class MapPanel(QGroupBox):
     def __init__(self, parent=None):
@@ -19,8 +22,7 @@ class MapPanel(QGroupBox):
                                                    "model and measure where the marker lands with the cameras")
         self.plot = AccuracyMapPlot()
         self.plot.setMinimumHeight(260)
-        self.summary = forms.WrappedLabel("No accuracy map yet: it moves the robot to a grid of targets twice (nominal and "
-                              "calibrated model) and measures each landing with the cameras.")
+        self.summary = forms.WrappedLabel(NO_MAP)
         self.summary.setObjectName("mapSummary")
         self.summary.setWordWrap(True)
         layout = QVBoxLayout(self)
@@ -39,6 +41,7 @@ class MapPanel(QGroupBox):
         """Draw the model's result (None: no map, the plot cleared)."""
         self.plot.set_map(measured.amap if measured is not None else None)
         if measured is None:
+            self.summary.setText(NO_MAP)
             return
         path = measured.path
         self.summary.setText(measured.amap.summary() + (f" Written to {path.name}." if path is not None else ""))

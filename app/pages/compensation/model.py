@@ -77,10 +77,9 @@ class CompensationModel(StepModel[CompensationOptions, MeasuredMap]):
         return self.cell
 
     def forget(self) -> None:
-        """Another project or robot: no cell, no points, no map (the plot keeps the last map drawn
-        until another is measured or read)."""
+        """Another project or robot: no cell, no points, no map (listeners hear the map cleared)."""
         self.cell = self._cell_key = None
-        self.result = None
+        self.set_result(None)
         self.clear_points()
 
     def q_file(self, q) -> np.ndarray:

@@ -155,7 +155,7 @@ def test_typed_point_go_to_point_and_program(state, lab, tasks, qtbot, tmp_path)
     assert out.read_bytes() == before
 
 
-def test_accuracy_map_measured_saved_and_drawn(state, lab, tasks, qtbot):
+def test_accuracy_map_measured_saved_and_drawn(state, lab, tasks, qtbot, tmp_path):
     calibrate(state, lab)
     page = open_page(qtbot, state, tasks)
     page.map_panel.count_spin.setValue(6)
@@ -176,6 +176,9 @@ def test_accuracy_map_measured_saved_and_drawn(state, lab, tasks, qtbot):
     assert page.map_panel.plot.magnification > 1 and "more accurate" in page.map_panel.summary.text()
     again = open_page(qtbot, state, tasks)            # a new session reads the saved map
     assert again.amap is not None and again.is_complete()
+    state.new_project(tmp_path / "other")             # another project: no map drawn, none said
+    assert page.amap is None and not page.is_complete()
+    assert len(page.map_panel.plot.targets.data) == 0 and "No accuracy map yet" in page.map_panel.summary.text()
 
 
 @pytest.fixture
