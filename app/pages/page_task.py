@@ -144,12 +144,12 @@ class PageTask:
         answers = []
         self.follow_lab(lambda lab: answers.append(go(lab) is not False), on_failed or self._hooks.on_failed)
         if self._lab_wait.busy:                           # still waiting: the lab is being built
-            self.progress_row().set_progress(0.0, "building the virtual lab")
             self._hooks.set_status(status or "Building the virtual lab…", None)
         return answers[0] if answers else True
 
     def follow_lab(self, go: Callable[[Any], Any], on_failed: Callable[[str], None]) -> None:
-        """Wait (busy) for the state's virtual lab, then `go(lab)`; a failed build: `on_failed`."""
+        """Wait (busy) for the state's virtual lab, then `go(lab)`; a failed build: `on_failed`.
+        While the lab is being built the progress row says so."""
         wait = self._lab_wait.follow()
 
         def ready(lab) -> None:
@@ -162,6 +162,8 @@ class PageTask:
 
         self._busy_changed()
         wait.cancel_work = self._request_lab(wait.final(ready), on_error=wait.final(failed)).cancel
+        if self._lab_wait.busy:                           # still waiting: the lab is being built
+            self.progress_row().set_progress(0.0, "building the virtual lab")
 
     def cancel(self) -> None:
         """Ask the running task to stop, or stop waiting for the lab (`on_cancelled` follows)."""

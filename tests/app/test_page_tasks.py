@@ -113,6 +113,19 @@ def test_start_with_lab_waits_for_the_one_lab_build(page, qtbot, monkeypatch):
     assert page.busy_seen[0] is True and page.busy_seen[-1] is False
 
 
+def test_following_the_lab_says_it_is_being_built(page, qtbot, monkeypatch):
+    """A page that waits for the lab before its own job (the Stereo page's virtual pairs) shows the
+    build in its progress row, then hands over to the job."""
+    gate = threading.Event()
+    monkeypatch.setattr("app.lab_provider.build_lab", lambda robot, seed, noise: gate.wait(5) and "lab")
+    got = []
+    page.task.follow_lab(lambda lab: page.task.start(lambda: f"pairs of the {lab}", on_done=got.append,
+                                                     label="Rendering virtual-lab pairs"), page.on_failed)
+    assert page.task.busy and page.task.progress_row().bar.format().startswith("building the virtual lab")
+    gate.set()
+    qtbot.waitUntil(lambda: got == ["pairs of the lab"] and not page.task.busy, timeout=5000)
+
+
 def test_cancel_and_forget_while_waiting_for_the_lab(page, qtbot, monkeypatch):
     gate = threading.Event()
     monkeypatch.setattr("app.lab_provider.build_lab", lambda robot, seed, noise: gate.wait(5) and "lab")
