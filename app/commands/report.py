@@ -37,8 +37,6 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> CommandResult:
-    from core.project import open_project
-
     if not Path(args.project).is_dir():
         raise UsageError(f"no such project folder: {args.project}")
     for out in args.out:

@@ -177,7 +177,7 @@ def _levenberg_marquardt(prob: IKProblem, Q0: np.ndarray, idx: np.ndarray, *, to
                          tol_rad: float, max_iterations: int, max_step: float,
                          bounds: tuple[np.ndarray, np.ndarray] | None = None):
     """Solve the points `idx` from Q0 (M, n): returns Q, converged (M,), pos err, rot err, iterations."""
-    model, L = prob.model, prob.length
+    L = prob.length
     Q = np.array(Q0, dtype=float)
     if bounds is not None:
         Q = np.clip(Q, *bounds)

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from app.cli import main
-from app.lab import build_lab, ideal_lab_measurements
+from app.lab import ideal_lab_measurements
 from core.identification.file import write_calibrated_model
 from core.identification.solver import identify
 from core.monitoring.log import read_check_log

@@ -98,7 +98,6 @@ def test_cut_and_rewritten_urdf_files(tmp_path_factory, cut, action):
 def tracker_csv(tmp_path_factory):
     """A laser tracker's CSV: pose id, joints in degrees, positions in mm, semicolons."""
     from core.measurement.file import read_measurements
-    from tests.fuzz.conftest import ROBOT as _ROBOT  # noqa: F401  (the fuzz measurements' robot)
 
     folder = tmp_path_factory.mktemp("tracker")
     meas = read_measurements(_valid_measurements(folder))

@@ -7,7 +7,7 @@ import re
 import pytest
 
 from app.jobs import check as job
-from app.lab import build_lab, ideal_lab_measurements, lab_options
+from app.lab import ideal_lab_measurements, lab_options
 from core.identification.file import write_calibrated_model
 from core.identification.solver import identify
 from core.robot.file import read_robot

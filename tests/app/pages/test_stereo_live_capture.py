@@ -21,7 +21,6 @@ from app.state import WizardState
 from app.worker import TaskRunner
 from core.project import HARDWARE
 from core.stereo.coverage import coverage
-from core.virtual_lab.lab import VirtualLab
 
 N_PAIRS = 8
 WAIT_MS = 30000
