@@ -2,6 +2,7 @@
 hidden with F1, taking its share of the window's width."""
 from __future__ import annotations
 
+import shiboken6
 from PySide6.QtCore import QObject, Qt
 from PySide6.QtGui import QAction, QKeySequence
 from PySide6.QtWidgets import QDockWidget, QMainWindow, QStyle
@@ -64,8 +65,11 @@ class ExplainDock(QObject):
             self.take_share()
 
     def _follow_visibility(self, visible: bool) -> None:
-        # a minimised window hides the dock too: only follow an explicit close
+        # a minimised window hides the dock too: only follow an explicit close; a window being
+        # deleted hides it too (nothing to follow)
         window = self.window
+        if not shiboken6.isValid(window):
+            return
         if not visible and window.isVisible() and not window.isMinimized() and self.dock.isHidden():
             self.action.setChecked(False)
         elif visible:

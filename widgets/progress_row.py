@@ -1,14 +1,15 @@
 """A progress bar with its Cancel button: the row a page shows while work runs on a worker."""
 from __future__ import annotations
 
-from PySide6.QtCore import Signal
-from PySide6.QtWidgets import QHBoxLayout, QProgressBar, QPushButton, QWidget
+from PySide6.QtCore import QTimer, Signal
+from PySide6.QtWidgets import QHBoxLayout, QProgressBar, QPushButton, QScrollArea, QWidget
 
 
 class ProgressRow(QWidget):
     """Progress bar (0–100 %, with the worker's message) and a Cancel button.
 
-    `set_progress(fraction, message)` updates the bar; `set_busy(busy)` enables Cancel;
+    `set_progress(fraction, message)` updates the bar; `set_busy(busy)` enables Cancel (and scrolls
+    the row into sight when it becomes busy inside scrolling boxes);
     `reset()` empties the bar. Signal: `cancelRequested()` when Cancel is clicked.
     """
 
@@ -35,7 +36,18 @@ class ProgressRow(QWidget):
         self.bar.setFormat(f"{message.replace('%', '%%')}  %p%" if message else "%p%")
 
     def set_busy(self, busy: bool) -> None:
+        """Enable Cancel while busy; a row that becomes busy inside scrolling boxes scrolls into sight."""
+        became_busy = busy and not self.cancel_button.isEnabled()
         self.cancel_button.setEnabled(busy)
+        if became_busy:                 # once the page has laid out what it shows while busy
+            QTimer.singleShot(0, self._scroll_into_sight)
+
+    def _scroll_into_sight(self) -> None:
+        box = self.parentWidget()
+        while box is not None:
+            if isinstance(box, QScrollArea):
+                box.ensureWidgetVisible(self)
+            box = box.parentWidget()
 
     def reset(self) -> None:
         self.bar.setValue(0)
