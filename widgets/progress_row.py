@@ -40,7 +40,7 @@ class ProgressRow(QWidget):
         became_busy = busy and not self.cancel_button.isEnabled()
         self.cancel_button.setEnabled(busy)
         if became_busy:                 # once the page has laid out what it shows while busy
-            QTimer.singleShot(0, self._scroll_into_sight)
+            QTimer.singleShot(0, self, self._scroll_into_sight)
 
     def _scroll_into_sight(self) -> None:
         box = self.parentWidget()
