@@ -182,9 +182,16 @@ def _delete_what_qt_has_left(app) -> None:
     from PySide6.QtWidgets import QGraphicsItem
 
     # a menu's submenus are top-level windows too, and go with it: only windows without a parent
-    # are deleted, asked for again after each deletion
-    while windows := [w for w in app.topLevelWidgets() if w.parentWidget() is None]:
-        shiboken6.delete(windows[0])
+    # are deleted, each unless another's deletion took it already (shiboken may not know of a
+    # window Qt made: Qt's destroyed signal says)
+    windows = [w for w in app.topLevelWidgets() if w.parentWidget() is None]
+    gone: set[int] = set()
+    for w in windows:
+        w.destroyed.connect(lambda *_, key=id(w): gone.add(key))
+    for w in windows:
+        if id(w) not in gone:
+            shiboken6.delete(w)
+    del windows
     gc.collect()
     # what to delete is chosen before anything is deleted: a deletion takes its children with it
     kept = {id(app), id(app.style()), id(QThreadPool.globalInstance())}
