@@ -11,7 +11,10 @@ Faults (`FaultPlan.parse`, comma separated; N counts the accepted moves from 1):
   slow@N:S      the move's replies come S seconds late (default 1 s)
   fault@N       half way the robot halts with ERR FAULT (GRBL: ALARM:1), no done reply
   disconnect@N  move N completes; the connection drops when the next move is sent (before
-                any reply); a new one opens 0.2 s later (same `link` path when one is given)
+                any reply); a new one opens 0.2 s later (same `link` path when one is given;
+                the link is gone meanwhile, as a USB adapter's /dev/serial/by-id link is
+                while it is unplugged, so nobody opens the old pty's name, which the system
+                may already have given to another program)
   short@N:D     the robot stops D (default 1) deg / mm short on every moving joint, and
                 reports done as usual
 `KIND~P[:value]` instead of `@N` applies the fault to each move with probability P
@@ -141,6 +144,7 @@ class ControllerSim:
         self._closing.set()
         if self._thread is not None:
             self._thread.join(timeout=2.0)
+        self._remove_link()
         self._close_fds()
 
     def __enter__(self) -> "ControllerSim":
@@ -163,6 +167,15 @@ class ControllerSim:
             tmp.unlink(missing_ok=True)
             os.symlink(self._tty_name, tmp)
             os.replace(tmp, self.link)
+
+    def _remove_link(self) -> None:
+        """Remove the stable link while it still points at this simulator's pty."""
+        if self.link and self._tty_name:
+            try:
+                if os.readlink(self.link) == self._tty_name:
+                    self.link.unlink()
+            except OSError:
+                pass
 
     def _close_fds(self) -> None:
         for fd in (self._master, self._slave):
@@ -207,8 +220,8 @@ class ControllerSim:
             self._flush(now)
             if self._drop_now:
                 self._drop_now = False
+                self._remove_link()
                 self._close_fds()
-                reopen_at = time.monotonic() + RECONNECT_DELAY
                 reopen_at = time.monotonic() + RECONNECT_DELAY
 
     def _send(self, text: bytes | str, at: float) -> None:

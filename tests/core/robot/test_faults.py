@@ -2,6 +2,7 @@
 (docs/robot-protocol.md, "Faults"), over real pseudo-terminals."""
 from __future__ import annotations
 
+import os
 import time
 
 import numpy as np
@@ -97,9 +98,13 @@ def test_disconnect_after_n_moves_then_reconnect_on_the_same_link(model, tmp_pat
     try:
         driver.move_to(model.q_from_file(Q_DEG))                       # move 1 completes
         np.testing.assert_allclose(model.q_to_file(driver.current_joints()), Q_DEG, atol=1e-3)
+        old_pty = os.readlink(link)
         with pytest.raises(RobotFault, match="the connection is lost"):   # the line drops at move 2
             driver.move_to(np.zeros(6))
         assert driver.lost
+        # while the line is down the link never names the old pty: once the driver lets it go
+        # the system may give that name to another program's pty (a parallel test's, in CI)
+        assert not os.path.lexists(link) or os.readlink(link) != old_pty
         deadline = time.monotonic() + 10
         while True:
             try:
@@ -115,6 +120,7 @@ def test_disconnect_after_n_moves_then_reconnect_on_the_same_link(model, tmp_pat
     finally:
         driver.disconnect()
         sim.close()
+    assert not os.path.lexists(link)
 
 
 def test_a_robot_that_stops_short_fails_the_read_back_check(model):
