@@ -20,7 +20,7 @@ from app.pages.setup.cell_dialog import CellDialog
 from app.pages.setup.urdf_dialog import UrdfDialog
 from app.pages.steps import Step
 from core.stereo.file import read_stereo_yaml
-from tests.app.test_small_screens import SHOTS_ENV, cut_controls, overlapping
+from tests.app.test_small_screens import SHOTS_ENV, cut_controls, overlapping, settle
 from tests.core.stereo_synth import REAL_DATA
 
 UR5 = Path(__file__).resolve().parents[1] / "data" / "real" / "ur5_robot.urdf"
@@ -65,7 +65,7 @@ def test_a_new_user_reaches_a_calibrated_stereo_rig_on_a_small_screen(window, qt
 
     def stage(name: str) -> None:
         """The window still the screen's size, nothing cut on the page, and its picture."""
-        qtbot.wait(200)                    # the layouts settle (a wrapped row's new height travels up)
+        settle(win, 1280, 720)             # the layouts settle (a wrapped row's new height travels up)
         assert (win.width(), win.height()) == (1280, 720), name
         assert cut_controls(win) == [], name
         assert overlapping(win.current_page()) == [], name

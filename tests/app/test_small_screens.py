@@ -8,6 +8,7 @@ tests/app/conftest.py); each test shows the window and hides it again."""
 from __future__ import annotations
 
 import os
+import time
 from pathlib import Path
 
 import pytest
@@ -53,10 +54,31 @@ def shots(tmp_path_factory) -> list[Path]:
     return folders
 
 
+SETTLED_ROUNDS = 2          # rounds of 50 ms after which the layout is still the same: settled
+SETTLE_TIMEOUT_S = 5.0
+
+
+def layout_signature(win) -> tuple:
+    """The window's size and every visible scroll area's viewport, content and scroll bars."""
+    areas = [a for a in [win.stack.currentWidget()] + win.stack.currentWidget().findChildren(QScrollArea)
+             if a.isVisibleTo(win)]
+    return (win.size().toTuple(), tuple((a.viewport().size().toTuple(), a.widget().size().toTuple(),
+                                         a.horizontalScrollBar().isVisible(), a.verticalScrollBar().isVisible())
+                                        for a in areas if a.widget() is not None))
+
+
 def settle(win, width: int, height: int) -> None:
-    """Resize the window and let the layouts settle (a wrapped row's new height travels up)."""
+    """Resize the window and let the layouts settle (a wrapped row's new height travels up, and a
+    scroll bar shown meanwhile goes again): until nothing moved for SETTLED_ROUNDS rounds of
+    50 ms (150 ms at least), however long a busy machine takes."""
     win.resize(width, height)
-    QTest.qWait(150)
+    last, same = None, 0
+    deadline = time.monotonic() + SETTLE_TIMEOUT_S
+    while same < SETTLED_ROUNDS and time.monotonic() < deadline:
+        QTest.qWait(50)
+        now = layout_signature(win)
+        same = same + 1 if now == last else 0
+        last = now
 
 
 def cut_controls(win) -> list[str]:
