@@ -326,8 +326,26 @@ def diagnose(model: RobotModel, unc: CalibrationUncertainty, check: CheckResult,
     fits.sort(key=lambda f: (f.nested_probability < alpha, f.kind != NONE, f.kind == SEVERAL, f.aic, f.p))
     chosen = fits[0]
     explained = absolute.probability >= alpha
-    text, full_calibration = describe(chosen, explained, model)
+    text, full_calibration = describe(chosen, explained, model, check)
     return Diagnosis(fits, chosen, explained, text, alpha, full_calibration=full_calibration, absolute=absolute)
+
+
+def _out_without_a_change(check: CheckResult) -> str:
+    """Words for a check out of limits that no change explains better than none: the poses
+    beyond their own limits stand alone, or the errors are a little too large everywhere."""
+    lead = "No change of the tool, the base or a joint's zero explains this check"
+    out = [p for p in check.points if not p.within]
+    if out:
+        names = [str(p.pose) for p in out]
+        poses = names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
+        beyond = ", ".join(f"{p.error_mm - p.limit_mm:.3f}" for p in out)
+        return (f"{lead}: only pose{'s' if len(out) > 1 else ''} {poses} {'are' if len(out) > 1 else 'is'} beyond "
+                f"{'their' if len(out) > 1 else 'its'} limit (by {beyond} mm), and the other poses agree with the "
+                "calibration. A marker measured badly there (seen at a steep angle, partly covered, a reflection) "
+                "does this: run the check again. If the same poses stay out of limits, run a full calibration.")
+    return (f"{lead}: the errors are spread over every pose, a little larger than the calibration predicts "
+            f"({check.rms_mm:.3f} mm RMS, limit {check.rms_limit_mm:.3f} mm). Run the check again; if it stays out "
+            "of limits, run a full calibration.")
 
 
 def _unchanged(kind: str, joint: int = -1) -> str:
@@ -344,14 +362,17 @@ def _tool_cause(model: RobotModel) -> str:
     return "a tool change or a bent tool"
 
 
-def describe(fit: CandidateFit, explained: bool, model: RobotModel) -> tuple[str, bool]:
-    """The plain-language result, and whether a full calibration is advised."""
+def describe(fit: CandidateFit, explained: bool, model: RobotModel, check: CheckResult | None = None
+             ) -> tuple[str, bool]:
+    """The plain-language result for `check`, and whether a full calibration is advised."""
     if not explained:
         return ("The errors fit none of the simple changes (marker on the tool, robot base, one joint's "
                 "zero): the geometry changed in another way or in several places. Run a full calibration."), True
     change = fit.change()
     if fit.kind == NONE:
-        return "No change found: the errors are within what the calibration predicts.", False
+        if check is None or check.within:
+            return "No change found: the errors are within what the calibration predicts.", False
+        return _out_without_a_change(check), False
     if fit.kind == TOOL:
         d = np.array([v for k, v in change.items()])
         axes = ", ".join(f"{a} {v:+.2f}" for a, v in zip("xyz", d))

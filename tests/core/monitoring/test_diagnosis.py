@@ -192,6 +192,43 @@ def test_two_outlying_points_do_not_make_a_simple_change_unexplained(change, see
     assert diag.summary()["set_aside"] == diag.absolute.set_aside
 
 
+def test_two_outlying_points_without_a_change_are_named_not_called_within():
+    """No change, two check points measured 4 and 5 × 3D σ off: the check is out of limits at
+    those two poses only and no change explains it, so the words name the two poses (never "the
+    errors are within what the calibration predicts" beside a check out of limits)."""
+    c, result, _ = checked(None, 0)
+    c.reset()
+    assert result.within
+    result = outlying(result, [1, 5], [4.0, 5.0])
+    out = [p for p in result.points if not p.within]
+    assert [p.pose for p in out] == [result.points[1].pose, result.points[5].pose] and not result.within
+    diag = diagnose(c.model, c.unc, result)
+    assert diag.explained and diag.chosen.kind == NONE and not diag.full_calibration, diag.text
+    assert diag.text.startswith("No change of the tool, the base or a joint's zero explains this check: only poses "
+                                f"{out[0].pose} and {out[1].pose} are beyond their limit (by "
+                                f"{out[0].error_mm - out[0].limit_mm:.3f}, {out[1].error_mm - out[1].limit_mm:.3f} mm)")
+    assert "within what the calibration predicts" not in diag.text and "run the check again" in diag.text
+
+
+def test_a_check_out_of_limits_only_as_a_whole_is_not_called_within():
+    """Every point within its own limit but the RMS beyond the overall one, and no change chosen:
+    the words say so, with the RMS and its limit."""
+    from dataclasses import replace
+    from core.monitoring.diagnosis import describe
+    c, result, diag = checked(None, 0)
+    c.reset()
+    assert result.within and diag.chosen.kind == NONE
+    over = replace(result, rms_mm=result.rms_limit_mm * 1.2)
+    assert all(p.within for p in over.points) and not over.within
+    text, full = describe(diag.chosen, True, c.model, over)
+    assert text == ("No change of the tool, the base or a joint's zero explains this check: the errors are spread "
+                    "over every pose, a little larger than the calibration predicts "
+                    f"({over.rms_mm:.3f} mm RMS, limit {over.rms_limit_mm:.3f} mm). Run the check again; if it "
+                    "stays out of limits, run a full calibration.") and not full
+    assert describe(diag.chosen, True, c.model, result)[0] == diag.text == (
+        "No change found: the errors are within what the calibration predicts.")
+
+
 @pytest.mark.parametrize("change", ["link3:1.0", "link2:1"])
 def test_a_bent_link_stays_unexplained_with_points_set_aside(change):
     c, result, diag = checked(change)
