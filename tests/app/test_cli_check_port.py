@@ -258,9 +258,17 @@ def test_ctrl_c_stops_the_robot_and_makes_no_move_ahead(cell, tmp_path):
             threading.Timer(0.05, running[0].send_signal, (signal.SIGINT,)).start()
 
     with ControllerSim(lab.true_robot, time_scale=0.5, on_rest=on_rest) as sim:
-        proc = subprocess.Popen([sys.executable, "-m", "app.cli", *check_argv(root, sim.port, cams, tmp_path / "c.csv"),
-                                 "--cell-clear"], stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                                stderr=subprocess.PIPE, text=True, env=dict(os.environ, PYTHONPATH=str(ROOT)))
+        # a test run started in the background (`make test &`, nohup) ignores SIGINT, and a child
+        # inherits an ignored signal, so Python would never raise KeyboardInterrupt there: the
+        # child gets a handled SIGINT instead, which exec resets to the default, as in a terminal
+        ignored = signal.signal(signal.SIGINT, signal.default_int_handler)
+        try:
+            proc = subprocess.Popen([sys.executable, "-m", "app.cli", *check_argv(root, sim.port, cams,
+                                                                                  tmp_path / "c.csv"),
+                                     "--cell-clear"], stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                    stderr=subprocess.PIPE, text=True, env=dict(os.environ, PYTHONPATH=str(ROOT)))
+        finally:
+            signal.signal(signal.SIGINT, ignored)
         running.append(proc)
         _, err = proc.communicate(timeout=600)
         moves, joints = sim.moves, sim.joints()
