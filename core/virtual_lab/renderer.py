@@ -134,6 +134,16 @@ class ImageComposer:
         M = np.column_stack([cam_from_plane[:3, 0], cam_from_plane[:3, 1], cam_from_plane[:3, 3]])
         return np.linalg.inv(M)
 
+    def _smallest_scale(self, cam_from_plane: np.ndarray) -> float:
+        """Image px per plane mm at the plane's origin along its most compressed direction: the
+        smaller singular value of d(pixel)/d(plane X, Y) of the pinhole (distortion left out)."""
+        P = cam_from_plane[:3, 3]
+        z = max(float(P[2]), NEAR)
+        A = cam_from_plane[:3, :2]
+        J = (A[:2] * z - np.outer(P[:2], A[2])) / z ** 2                  # d(x, y normalised)/d(X, Y)
+        J = J * np.array([[self.camera.fx], [self.camera.fy]])
+        return float(np.linalg.svd(J, compute_uv=False).min())
+
     def _window(self, cam_from_plane: np.ndarray, rect, pad: int = 3):
         """Pixel window (x0, y0, x1, y1) holding the plane rectangle, or None if not visible."""
         xmin, xmax, ymin, ymax = rect
@@ -236,11 +246,13 @@ class ImageComposer:
         hi = hi[s:s * (h + 1), s:s * (w + 1)]
         Hm = self._plane_homography(cam_from_plate)
         X, Y, ok = _apply_homography(hi, Hm)
-        # Mip level: texels no smaller than the samples, so that bilinear sampling turns every
-        # texture edge into a ramp at least one sample wide and the box average then places it
-        # to a fraction of a sample (finer texels would quantise edges to 1/s px).
-        P = cam_from_plate[:3, 3]
-        scale_img = s * 0.5 * (self.camera.fx + self.camera.fy) / max(P[2], NEAR)   # samples per mm
+        # Mip level: texels no smaller than the samples in any direction, so that bilinear
+        # sampling turns every texture edge into a ramp at least one sample wide and the box
+        # average then places it to a fraction of a sample. Finer texels quantise edges to 1/s px:
+        # on a tilted plate the texture is compressed across the tilt, and an edge nearly
+        # parallel to a pixel axis then moved in steps as the plate moved (its position swung by
+        # ±0.02 px with a period of one pixel), so the level follows the most compressed direction.
+        scale_img = s * self._smallest_scale(cam_from_plate)             # samples per mm
         level = 0
         while level + 1 < len(texture.levels) and texture.px_per_mm / 2 ** level > scale_img:
             level += 1

@@ -192,3 +192,33 @@ def test_plate_behind_the_camera_is_not_drawn(lab):
     c = ImageComposer(lab.rig.left, None, fill=128.0)
     c.draw_plate(lab.marker_texture, behind)
     assert np.all(c.canvas == 128.0)
+
+
+def test_a_tilted_marker_edge_along_the_pixel_columns_does_not_lock_to_the_pixels(lab):
+    """A plate turned 50° about the image's vertical, so that its vertical sides run along the
+    pixel columns, moved across one pixel in 10 steps: each vertical side, found by the
+    locator's edge fit (seeded with the true outline), stays where the camera model puts it to
+    0.025 px at every step. The mip level used to follow the plate's distance only; the texture,
+    compressed across the tilt, then had texels finer than the sub-samples and its edges moved
+    in steps of them: up to 0.047 px here. Now up to 0.019 px; what is left comes from the 3 × 3
+    sub-samples of a bilinear edge (the edge fit itself finds an ideal edge to 0.0002 px)."""
+    from core.camera import PixelMap
+    from core.marker.edges import fit_outline
+    cam = lab.rig.left
+    pixel_map = PixelMap(cam)
+    corners = lab.marker.outer_corners()
+    worst = 0.0
+    for dx in np.linspace(0.0, 0.45, 10):                  # mm: 0.43 mm is one pixel at 640 mm
+        pose = tf.pose_to_matrix((dx, 0.0, 640.0), np.deg2rad((180.0, 50.0, 0.0)))
+        left, _ = lab.render_marker_at(pose, np.random.default_rng(0), noise=0.0, background=False)
+        outline = cam.project(tf.transform_points(pose, corners))
+        fit = fit_outline(left, outline, pixel_map, inner_px=np.full(4, 8.0), outer_px=np.full(4, 20.0))
+        assert fit.ok, fit.reason
+        ideal = pixel_map.to_ideal(outline)
+        for k in range(4):
+            a, b = ideal[k], ideal[(k + 1) % 4]
+            if abs(b[0] - a[0]) > 0.02 * abs(b[1] - a[1]):      # not a vertical side
+                continue
+            line = fit.lines[k]
+            worst = max(worst, abs(float(line[:2] @ (0.5 * (a + b)) - line[2])))
+    assert worst < 0.025, worst
