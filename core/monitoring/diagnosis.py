@@ -362,15 +362,14 @@ def _tool_cause(model: RobotModel) -> str:
     return "a tool change or a bent tool"
 
 
-def describe(fit: CandidateFit, explained: bool, model: RobotModel, check: CheckResult | None = None
-             ) -> tuple[str, bool]:
+def describe(fit: CandidateFit, explained: bool, model: RobotModel, check: CheckResult) -> tuple[str, bool]:
     """The plain-language result for `check`, and whether a full calibration is advised."""
     if not explained:
         return ("The errors fit none of the simple changes (marker on the tool, robot base, one joint's "
                 "zero): the geometry changed in another way or in several places. Run a full calibration."), True
     change = fit.change()
     if fit.kind == NONE:
-        if check is None or check.within:
+        if check.within:
             return "No change found: the errors are within what the calibration predicts.", False
         return _out_without_a_change(check), False
     if fit.kind == TOOL:
