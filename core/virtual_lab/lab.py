@@ -279,8 +279,11 @@ class VirtualLab:
             m = self.marker
             corners = m.plate_corners()
             rect = (corners[:, 0].min(), corners[:, 0].max(), corners[:, 1].min(), corners[:, 1].max())
+            outer = m.outer_corners()
+            square = (outer[:, 0].min(), outer[:, 0].max(), outer[:, 1].min(), outer[:, 1].max())
             self._texture = PlateTexture.from_image(m.load_image(), m.px_per_mm, m.reference_px, rect,
-                                                    black=MARKER_BLACK, white=MARKER_WHITE, sign_y=-1.0)
+                                                    black=MARKER_BLACK, white=MARKER_WHITE, sign_y=-1.0,
+                                                    square=square)
         return self._texture
 
     def _composers(self) -> tuple[ImageComposer, ImageComposer]:

@@ -10,9 +10,21 @@ precisely where `CameraModel.project` puts it, distortion included.
   keeps every edge and corner where the model puts it with no sampling error.
 - Textured plates (the marker) are supersampled (3x3 per pixel, sub-pixel rays interpolated
   from the ray map), sampled from a mip level of the texture with `cv2.remap`, and averaged.
+  A plate with a `square` (the marker's outer square, whose edges give its reference point)
+  has that square's outline drawn with the exact area coverage of each pixel instead: the
+  texture inside and outside it are sampled as above, each without the outline, and mixed by
+  the fraction of the pixel the square covers. Its optical blur is exact too (see `finish`).
 - Background: a textured wall plane (parallax-correct in both cameras) and thick bars (robot links).
 - `finish` adds optical blur (Gaussian), uneven lighting (vignetting and a smooth gradient),
   sensor noise (read noise plus shot noise) and quantises to uint8.
+
+A lens blurs the scene before the pixels integrate it; blurring the rendered pixels instead
+(a sampled Gaussian kernel on the pixel grid, as `finish` does) changes an edge's profile with
+its position within the pixel when the blur is under about a pixel: a straight edge nearly
+along a pixel axis, fitted by the marker's edge model, then moves by up to ±0.05 px as it
+crosses a pixel. So the marker's outline is given the blur a lens gives it (the pixel
+footprint convolved with the Gaussian, in closed form), as a correction added after `finish`'s
+blur; whatever is drawn over it later hides the correction with it.
 
 Everything here is plain numpy/OpenCV in float32 with cached per-camera maps.
 """
@@ -23,6 +35,7 @@ from functools import lru_cache
 
 import cv2
 import numpy as np
+from scipy.special import ndtr
 
 from core.stereo.board import Board
 from core.camera import CameraModel
@@ -30,6 +43,7 @@ from core.camera import CameraModel
 SUPERSAMPLE = 3
 BLUR_SIGMA = 0.7          # px, optical blur (Gaussian sigma)
 NEAR = 1.0                # mm, nearest depth drawn
+_SQRT_2PI = float(np.sqrt(2.0 * np.pi))
 
 
 # -- per-camera cached maps -------------------------------------------------------------------
@@ -89,7 +103,12 @@ class PlateTexture:
 
     `px_per_mm` and `origin_px` map plate coordinates to level-0 texture pixels:
     tex = origin_px + px_per_mm · (X, sign_y · Y). `rect` is the plate outline in plate mm
-    (xmin, xmax, ymin, ymax); outside the texture but inside the plate the value is `fill`."""
+    (xmin, xmax, ymin, ymax); outside the texture but inside the plate the value is `fill`.
+
+    `square` (xmin, xmax, ymin, ymax, plate mm), if given, is a dark square on a bright plate
+    whose outline is drawn exactly (see the module): `inside_levels` are the texture with
+    everything outside the square made black, `outside_levels` with everything inside it
+    white (`fill`); neither has the outline."""
 
     levels: list[np.ndarray]
     px_per_mm: float
@@ -97,17 +116,36 @@ class PlateTexture:
     rect: tuple[float, float, float, float]
     fill: float
     sign_y: float = -1.0
+    square: tuple[float, float, float, float] | None = None
+    inside_levels: list[np.ndarray] | None = None
+    outside_levels: list[np.ndarray] | None = None
 
     @classmethod
     def from_image(cls, image: np.ndarray, px_per_mm: float, origin_px, rect, *, black: float = 25.0,
-                   white: float = 215.0, sign_y: float = -1.0, max_levels: int = 6) -> "PlateTexture":
-        """An 8-bit image mapped linearly from 0..255 to black..white grey levels."""
+                   white: float = 215.0, sign_y: float = -1.0, max_levels: int = 6,
+                   square=None) -> "PlateTexture":
+        """An 8-bit image mapped linearly from 0..255 to black..white grey levels; `square`
+        (plate mm) as in the class."""
         level = (black + (white - black) * (image.astype(np.float32) / 255.0)).astype(np.float32)
-        levels = [level]
-        while len(levels) < max_levels and min(levels[-1].shape) > 16:
-            levels.append(cv2.pyrDown(levels[-1]))
-        return cls(levels, float(px_per_mm), (float(origin_px[0]), float(origin_px[1])),
-                   tuple(float(v) for v in rect), float(white), sign_y)
+        origin = (float(origin_px[0]), float(origin_px[1]))
+        inside = outside = None
+        if square is not None:
+            square = tuple(float(v) for v in square)
+            ys, xs = np.mgrid[0:level.shape[0], 0:level.shape[1]].astype(np.float32)
+            X = (xs - origin[0]) / px_per_mm
+            Y = (ys - origin[1]) / (sign_y * px_per_mm)
+            within = (X > square[0]) & (X < square[1]) & (Y > square[2]) & (Y < square[3])   # texel centres
+            inside = _mip_levels(np.where(within, level, np.float32(black)), max_levels)
+            outside = _mip_levels(np.where(within, np.float32(white), level), max_levels)
+        return cls(_mip_levels(level, max_levels), float(px_per_mm), origin,
+                   tuple(float(v) for v in rect), float(white), sign_y, square, inside, outside)
+
+
+def _mip_levels(level0: np.ndarray, max_levels: int) -> list[np.ndarray]:
+    levels = [level0.astype(np.float32)]
+    while len(levels) < max_levels and min(levels[-1].shape) > 16:
+        levels.append(cv2.pyrDown(levels[-1]))
+    return levels
 
 
 # -- composing one image ---------------------------------------------------------------------
@@ -118,11 +156,19 @@ class ImageComposer:
     `cam_from_world` (4x4) takes world points (the virtual lab uses the left camera frame as
     the world) into this camera's frame."""
 
-    def __init__(self, camera: CameraModel, cam_from_world: np.ndarray | None = None, fill: float = 128.0):
+    def __init__(self, camera: CameraModel, cam_from_world: np.ndarray | None = None, fill: float = 128.0,
+                 blur_sigma: float = BLUR_SIGMA):
         self.camera = camera
         self.cam_from_world = np.eye(4) if cam_from_world is None else np.asarray(cam_from_world, dtype=float)
         self.rays = ray_map(camera, padded=True)
         self.canvas = np.full((camera.height, camera.width), float(fill), np.float32)
+        self.blur_sigma = float(blur_sigma)          # px, the optical blur `finish` gives
+        self._after_blur: np.ndarray | None = None   # grey levels added after the blur (see the module)
+
+    def _hide_after_blur(self, y0: int, y1: int, x0: int, x1: int, alpha) -> None:
+        """Something drawn over the window with coverage `alpha` hides the corrections under it."""
+        if self._after_blur is not None:
+            self._after_blur[y0:y1, x0:x1] *= 1.0 - alpha
 
     # geometry helpers ---------------------------------------------------------------------
     def _cam_from(self, world_from_obj: np.ndarray) -> np.ndarray:
@@ -197,6 +243,7 @@ class ImageComposer:
         s = np.float32(px_per_mm)
         img = cv2.remap(texture, X * s, Y * s, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT_101)
         self.canvas[ok] = img[ok].astype(np.float32)
+        self._hide_after_blur(0, self.camera.height, 0, self.camera.width, ok)
 
     def draw_checkerboard(self, board: Board, world_from_board: np.ndarray, *, white: float = 215.0,
                           black: float = 28.0, margin: float = 1.0) -> None:
@@ -229,6 +276,7 @@ class ImageComposer:
         bg = self.canvas[y0:y1, x0:x1]
         out = bg + alpha * (white - bg) - (white - black) * blackness
         self.canvas[y0:y1, x0:x1] = out.astype(np.float32)
+        self._hide_after_blur(y0, y1, x0, x1, alpha)
 
     def draw_plate(self, texture: PlateTexture, world_from_plate: np.ndarray,
                    supersample: int = SUPERSAMPLE) -> None:
@@ -259,15 +307,60 @@ class ImageComposer:
         f = 1.0 / 2 ** level
         mx = (texture.origin_px[0] + texture.px_per_mm * X) * f
         my = (texture.origin_px[1] + texture.sign_y * texture.px_per_mm * Y) * f
-        tex = cv2.remap(texture.levels[level], mx, my, cv2.INTER_LINEAR,
-                        borderMode=cv2.BORDER_CONSTANT, borderValue=texture.fill)
         xmin, xmax, ymin, ymax = texture.rect
-        inside = ok & (X >= xmin) & (X <= xmax) & (Y >= ymin) & (Y <= ymax)
-        a = inside.astype(np.float32)
+        a = (ok & (X >= xmin) & (X <= xmax) & (Y >= ymin) & (Y <= ymax)).astype(np.float32)
         alpha = a.reshape(h, s, w, s).mean(axis=(1, 3))
-        colour = (a * tex).reshape(h, s, w, s).mean(axis=(1, 3))
+
+        def averaged(levels):
+            tex = cv2.remap(levels[level], mx, my, cv2.INTER_LINEAR,
+                            borderMode=cv2.BORDER_CONSTANT, borderValue=texture.fill)
+            return (a * tex).reshape(h, s, w, s).mean(axis=(1, 3))
+
+        self._hide_after_blur(y0, y1, x0, x1, alpha)
+        if texture.square is None:
+            colour = averaged(texture.levels)
+        else:
+            cover, blurred = self._square_coverage(cam_from_plate, texture.square, (x0, y0, x1, y1))
+            inside, outside = averaged(texture.inside_levels), averaged(texture.outside_levels)
+            colour = cover * inside + (1.0 - cover) * outside
+            if self.blur_sigma > 0:
+                pixel_blur = cv2.GaussianBlur(cover, (0, 0), self.blur_sigma, borderType=cv2.BORDER_REPLICATE)
+                if self._after_blur is None:
+                    self._after_blur = np.zeros_like(self.canvas)
+                self._after_blur[y0:y1, x0:x1] += (blurred - pixel_blur) * (inside - outside)
         bg = self.canvas[y0:y1, x0:x1]
         self.canvas[y0:y1, x0:x1] = bg * (1.0 - alpha) + colour
+
+    def _square_coverage(self, cam_from_plate: np.ndarray, square, win) -> tuple[np.ndarray, np.ndarray]:
+        """Fraction of each pixel of the window (x0, y0, x1, y1) covered by the plate square
+        (xmin, xmax, ymin, ymax, plate mm), sharp and as the lens blurs it (`blur_sigma`): for
+        each side, the exact coverage of a unit pixel by a straight edge at the pixel centre's
+        distance from it (first order, in px), with the edge's direction in the image; the four
+        sides multiplied (exact away from the corners)."""
+        x0, y0, x1, y1 = win
+        pad = self.rays[y0:y1 + 2, x0:x1 + 2].astype(np.float64)
+        rays = pad[1:-1, 1:-1]
+        dxy_du = 0.5 * (pad[1:-1, 2:] - pad[1:-1, :-2])          # d(x, y normalised)/d(pixel u)
+        dxy_dv = 0.5 * (pad[2:, 1:-1] - pad[:-2, 1:-1])
+        Hm = self._plane_homography(cam_from_plate)
+        x, y = rays[..., 0], rays[..., 1]
+        den = Hm[2, 0] * x + Hm[2, 1] * y + Hm[2, 2]
+        ok = den > 0
+        den = np.where(ok, den, 1.0)
+        cover = ok.astype(np.float64)
+        blurred = cover.copy()
+        for row, bounds in ((0, square[0:2]), (1, square[2:4])):
+            P = (Hm[row, 0] * x + Hm[row, 1] * y + Hm[row, 2]) / den          # X or Y, mm
+            gx = (Hm[row, 0] - P * Hm[2, 0]) / den                             # dP/dx
+            gy = (Hm[row, 1] - P * Hm[2, 1]) / den
+            gu = gx * dxy_du[..., 0] + gy * dxy_du[..., 1]                     # dP/du, mm per px
+            gv = gx * dxy_dv[..., 0] + gy * dxy_dv[..., 1]
+            g = np.maximum(np.hypot(gu, gv), 1e-12)
+            c, sn = np.abs(gu) / g, np.abs(gv) / g
+            for d in ((P - bounds[0]) / g, (bounds[1] - P) / g):
+                cover *= _edge_coverage(d, c, sn)
+                blurred *= _blurred_edge_coverage(d, c, sn, self.blur_sigma)
+        return cover.astype(np.float32), blurred.astype(np.float32)
 
     def draw_bars(self, starts: np.ndarray, ends: np.ndarray, radii, shades) -> None:
         """Thick bars (robot links) between world points, far ones first, anti-aliased,
@@ -328,20 +421,24 @@ class ImageComposer:
         a = mask.astype(np.float32) / 255.0
         region = self.canvas[y0:y1, x0:x1]
         self.canvas[y0:y1, x0:x1] = region + a * (value - region)
+        self._hide_after_blur(y0, y1, x0, x1, a)
 
     # finishing ---------------------------------------------------------------------------
     def finish(self, rng: np.random.Generator | None = None, noise: float = 0.5, *,
-               blur_sigma: float = BLUR_SIGMA, vignetting_strength: float = 0.25,
-               gradient: float = 0.0, gradient_angle: float = 0.0, exposure: float = 1.0) -> np.ndarray:
-        """Optical blur, uneven lighting, sensor noise, quantisation -> uint8 (H, W).
+               vignetting_strength: float = 0.25, gradient: float = 0.0, gradient_angle: float = 0.0,
+               exposure: float = 1.0) -> np.ndarray:
+        """Optical blur (`blur_sigma`, with the corrections of the module), uneven lighting,
+        sensor noise, quantisation -> uint8 (H, W).
 
         Lighting multiplies by the camera's vignetting and by a linear gradient of relative
         amplitude `gradient` (over the image width) in direction `gradient_angle` (rad), and
         by `exposure`. Noise: read noise of std `noise` grey levels plus shot noise whose
         variance grows linearly with brightness (equal to the read noise variance at 255)."""
         img = self.canvas
-        if blur_sigma > 0:
-            img = cv2.GaussianBlur(img, (0, 0), blur_sigma, borderType=cv2.BORDER_REPLICATE)
+        if self.blur_sigma > 0:
+            img = cv2.GaussianBlur(img, (0, 0), self.blur_sigma, borderType=cv2.BORDER_REPLICATE)
+        if self._after_blur is not None:
+            img = img + self._after_blur
         cam = self.camera
         light = vignetting(cam, vignetting_strength)
         if gradient:
@@ -369,6 +466,44 @@ def _apply_homography(rays: np.ndarray, H: np.ndarray):
     X = (H[0, 0] * x + H[0, 1] * y + H[0, 2]) * inv
     Y = (H[1, 0] * x + H[1, 1] * y + H[1, 2]) * inv
     return X, Y, ok
+
+
+def _edge_coverage(d: np.ndarray, c: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Fraction of a unit pixel on the inner side of a straight edge at signed distance `d` (px,
+    + inside) from its centre, the edge's normal being (c, s) (|components|): the distribution
+    of the normal coordinate over the pixel is a trapezoid, the box of width c convolved with
+    the box of width s, and the coverage is its cumulative distribution at d."""
+    a = np.maximum(c, s)
+    b = np.maximum(np.minimum(c, s), 1e-9)
+    lo, mid, hi = -(a + b) / 2, -(a - b) / 2, (a - b) / 2
+    return np.select([d <= lo, d <= mid, d <= hi, d < -lo],
+                     [0.0, (d - lo) ** 2 / (2 * a * b), (d + a / 2) / a, 1.0 - (-lo - d) ** 2 / (2 * a * b)],
+                     1.0)
+
+
+def _psi1(z: np.ndarray) -> np.ndarray:
+    """∫ Φ: the first antiderivative of the normal CDF."""
+    return z * ndtr(z) + np.exp(-0.5 * z * z) / _SQRT_2PI
+
+
+def _psi2(z: np.ndarray) -> np.ndarray:
+    """∫∫ Φ: its second antiderivative."""
+    return 0.5 * ((z * z + 1.0) * ndtr(z) + z * np.exp(-0.5 * z * z) / _SQRT_2PI)
+
+
+def _blurred_edge_coverage(d: np.ndarray, c: np.ndarray, s: np.ndarray, sigma: float) -> np.ndarray:
+    """`_edge_coverage` of the edge blurred by a Gaussian of `sigma` px before the pixel
+    integrates it: the normal CDF at d/sigma averaged over the trapezoid of the pixel footprint
+    (second differences of ∫∫Φ; first differences of ∫Φ where the trapezoid is a box)."""
+    if sigma <= 0:
+        return _edge_coverage(d, c, s)
+    a = np.maximum(c, s)
+    b = np.minimum(c, s)
+    box = sigma * (_psi1((d + a / 2) / sigma) - _psi1((d - a / 2) / sigma)) / a
+    bb = np.maximum(b, 1e-2)
+    trap = sigma * sigma * (_psi2((d + (a + bb) / 2) / sigma) - _psi2((d + (a - bb) / 2) / sigma)
+                            - _psi2((d - (a - bb) / 2) / sigma) + _psi2((d - (a + bb) / 2) / sigma)) / (a * bb)
+    return np.clip(np.where(b < 1e-2, box, trap), 0.0, 1.0)
 
 
 def _checker_axis(u: np.ndarray, g: np.ndarray, sq: float, count: int, margin: float):

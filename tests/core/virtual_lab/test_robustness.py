@@ -69,17 +69,18 @@ def test_sweep_can_be_cancelled():
                          cancelled=lambda: True)
 
 
-@pytest.mark.parametrize("index", [22, 35])
-def test_an_outline_found_differently_in_the_two_images_is_rejected(index):
-    """Two views the sweep found (30 % covered over a corner, seed 5). Fitted through the covered
+@pytest.mark.parametrize("seed, index", [(2, 12), (1, 40)])
+def test_an_outline_found_differently_in_the_two_images_is_rejected(seed, index):
+    """Two views the sweep found (30 % covered over a corner). Fitted through the covered
     stretch, the outline's first corner lies on different rectified rows in the two images: the
-    reference points alone pass every other check and would give a point 2.5 mm off; the corners'
-    row check rejects it. Leaving the covered stretch out locates it (measured 0.025 / 0.019 mm)."""
-    T, left, right = next(_views(0.3, 5, [index]))
+    reference points alone pass every other check and would give a point more than 1 mm off
+    (measured 2.26 / 1.43 mm); the corners' row check rejects it. Leaving the covered stretch
+    out locates it (measured 0.029 / 0.007 mm)."""
+    T, left, right = next(_views(0.3, seed, [index]))
     loc = _locator(_through_covered()).locate(left, right)
     assert not loc.ok and loc.stage == "check" and "corner 1 of the outer square" in loc.reason
     loose = _locator(_through_covered(epipolar_tolerance=6.0, max_corner_planarity=None)).locate(left, right)
-    assert loose.ok and np.linalg.norm(loose.point - T[:3, 3]) > 2.0
+    assert loose.ok and np.linalg.norm(loose.point - T[:3, 3]) > 1.0
     fitted = _locator().locate(left, right)
     assert fitted.ok and np.linalg.norm(fitted.point - T[:3, 3]) < 0.05
 
