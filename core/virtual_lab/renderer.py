@@ -106,8 +106,8 @@ class PlateTexture:
     (xmin, xmax, ymin, ymax); outside the texture but inside the plate the value is `fill`.
 
     `square` (xmin, xmax, ymin, ymax, plate mm), if given, is a dark square on a bright plate
-    whose outline is drawn exactly (see the module): `inside_levels` are the texture with
-    everything outside the square made black, `outside_levels` with everything inside it
+    whose outline is drawn exactly (see the module): `split_levels` hold two channels, the
+    texture with everything outside the square made black, and with everything inside it
     white (`fill`); neither has the outline."""
 
     levels: list[np.ndarray]
@@ -117,8 +117,7 @@ class PlateTexture:
     fill: float
     sign_y: float = -1.0
     square: tuple[float, float, float, float] | None = None
-    inside_levels: list[np.ndarray] | None = None
-    outside_levels: list[np.ndarray] | None = None
+    split_levels: list[np.ndarray] | None = None
 
     @classmethod
     def from_image(cls, image: np.ndarray, px_per_mm: float, origin_px, rect, *, black: float = 25.0,
@@ -128,22 +127,22 @@ class PlateTexture:
         (plate mm) as in the class."""
         level = (black + (white - black) * (image.astype(np.float32) / 255.0)).astype(np.float32)
         origin = (float(origin_px[0]), float(origin_px[1]))
-        inside = outside = None
+        split = None
         if square is not None:
             square = tuple(float(v) for v in square)
             ys, xs = np.mgrid[0:level.shape[0], 0:level.shape[1]].astype(np.float32)
             X = (xs - origin[0]) / px_per_mm
             Y = (ys - origin[1]) / (sign_y * px_per_mm)
             within = (X > square[0]) & (X < square[1]) & (Y > square[2]) & (Y < square[3])   # texel centres
-            inside = _mip_levels(np.where(within, level, np.float32(black)), max_levels)
-            outside = _mip_levels(np.where(within, np.float32(white), level), max_levels)
+            split = _mip_levels(np.dstack([np.where(within, level, np.float32(black)),
+                                           np.where(within, np.float32(white), level)]), max_levels)
         return cls(_mip_levels(level, max_levels), float(px_per_mm), origin,
-                   tuple(float(v) for v in rect), float(white), sign_y, square, inside, outside)
+                   tuple(float(v) for v in rect), float(white), sign_y, square, split)
 
 
 def _mip_levels(level0: np.ndarray, max_levels: int) -> list[np.ndarray]:
     levels = [level0.astype(np.float32)]
-    while len(levels) < max_levels and min(levels[-1].shape) > 16:
+    while len(levels) < max_levels and min(levels[-1].shape[:2]) > 16:
         levels.append(cv2.pyrDown(levels[-1]))
     return levels
 
@@ -309,19 +308,20 @@ class ImageComposer:
         my = (texture.origin_px[1] + texture.sign_y * texture.px_per_mm * Y) * f
         xmin, xmax, ymin, ymax = texture.rect
         a = (ok & (X >= xmin) & (X <= xmax) & (Y >= ymin) & (Y <= ymax)).astype(np.float32)
-        alpha = a.reshape(h, s, w, s).mean(axis=(1, 3))
+        alpha = _pixel_means(a, w, h)
 
         def averaged(levels):
             tex = cv2.remap(levels[level], mx, my, cv2.INTER_LINEAR,
                             borderMode=cv2.BORDER_CONSTANT, borderValue=texture.fill)
-            return (a * tex).reshape(h, s, w, s).mean(axis=(1, 3))
+            return _pixel_means(a[..., None] * tex if tex.ndim == 3 else a * tex, w, h)
 
         self._hide_after_blur(y0, y1, x0, x1, alpha)
         if texture.square is None:
             colour = averaged(texture.levels)
         else:
             cover, blurred = self._square_coverage(cam_from_plate, texture.square, (x0, y0, x1, y1))
-            inside, outside = averaged(texture.inside_levels), averaged(texture.outside_levels)
+            split = averaged(texture.split_levels)
+            inside, outside = split[..., 0], split[..., 1]
             colour = cover * inside + (1.0 - cover) * outside
             if self.blur_sigma > 0:
                 pixel_blur = cv2.GaussianBlur(cover, (0, 0), self.blur_sigma, borderType=cv2.BORDER_REPLICATE)
@@ -349,6 +349,7 @@ class ImageComposer:
         den = np.where(ok, den, 1.0)
         cover = ok.astype(np.float64)
         blurred = cover.copy()
+        reach = 1.0 + 6.0 * self.blur_sigma           # px: the pixel's half-diagonal and the blur's tail
         for row, bounds in ((0, square[0:2]), (1, square[2:4])):
             P = (Hm[row, 0] * x + Hm[row, 1] * y + Hm[row, 2]) / den          # X or Y, mm
             gx = (Hm[row, 0] - P * Hm[2, 0]) / den                             # dP/dx
@@ -358,8 +359,14 @@ class ImageComposer:
             g = np.maximum(np.hypot(gu, gv), 1e-12)
             c, sn = np.abs(gu) / g, np.abs(gv) / g
             for d in ((P - bounds[0]) / g, (bounds[1] - P) / g):
-                cover *= _edge_coverage(d, c, sn)
-                blurred *= _blurred_edge_coverage(d, c, sn, self.blur_sigma)
+                near = np.abs(d) < reach                       # elsewhere the pixel is in or out
+                dn, cn, sn_n = d[near], c[near], sn[near]
+                edge = (d > 0).astype(np.float64)
+                edge[near] = _edge_coverage(dn, cn, sn_n)
+                cover *= edge
+                edge = (d > 0).astype(np.float64)
+                edge[near] = _blurred_edge_coverage(dn, cn, sn_n, self.blur_sigma)
+                blurred *= edge
         return cover.astype(np.float32), blurred.astype(np.float32)
 
     def draw_bars(self, starts: np.ndarray, ends: np.ndarray, radii, shades) -> None:
@@ -454,6 +461,12 @@ class ImageComposer:
             std = np.float32(noise) * np.sqrt(1.0 + np.maximum(img, 0.0) * np.float32(1.0 / 255.0))
             img = img + std * rng.standard_normal(img.shape, dtype=np.float32)
         return np.clip(np.rint(img), 0, 255).astype(np.uint8)
+
+
+def _pixel_means(samples: np.ndarray, w: int, h: int) -> np.ndarray:
+    """The mean of each pixel's s × s sub-samples ((h·s, w·s[, channels]) -> (h, w[, channels])):
+    an area resize by a whole factor, which is that mean."""
+    return cv2.resize(samples, (w, h), interpolation=cv2.INTER_AREA)
 
 
 def _apply_homography(rays: np.ndarray, H: np.ndarray):
