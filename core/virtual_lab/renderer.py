@@ -26,7 +26,8 @@ crosses a pixel. So the marker's outline is given the blur a lens gives it (the 
 footprint convolved with the Gaussian, in closed form), as a correction added after `finish`'s
 blur; whatever is drawn over it later hides the correction with it.
 
-Everything here is plain numpy/OpenCV in float32 with cached per-camera maps.
+Everything here is plain numpy/OpenCV in float32 with cached per-camera maps; the outline's
+coverage is computed in float64 with scipy's normal CDF.
 """
 from __future__ import annotations
 
@@ -319,7 +320,7 @@ class ImageComposer:
         if texture.square is None:
             colour = averaged(texture.levels)
         else:
-            cover, blurred = self._square_coverage(cam_from_plate, texture.square, (x0, y0, x1, y1))
+            cover, blurred = self._square_coverage(Hm, texture.square, (x0, y0, x1, y1))
             split = averaged(texture.split_levels)
             inside, outside = split[..., 0], split[..., 1]
             colour = cover * inside + (1.0 - cover) * outside
@@ -331,18 +332,18 @@ class ImageComposer:
         bg = self.canvas[y0:y1, x0:x1]
         self.canvas[y0:y1, x0:x1] = bg * (1.0 - alpha) + colour
 
-    def _square_coverage(self, cam_from_plate: np.ndarray, square, win) -> tuple[np.ndarray, np.ndarray]:
+    def _square_coverage(self, Hm: np.ndarray, square, win) -> tuple[np.ndarray, np.ndarray]:
         """Fraction of each pixel of the window (x0, y0, x1, y1) covered by the plate square
         (xmin, xmax, ymin, ymax, plate mm), sharp and as the lens blurs it (`blur_sigma`): for
         each side, the exact coverage of a unit pixel by a straight edge at the pixel centre's
         distance from it (first order, in px), with the edge's direction in the image; the four
-        sides multiplied (exact away from the corners)."""
+        sides multiplied (exact away from the corners). `Hm`: normalised image coordinates ->
+        plate mm (`_plane_homography`)."""
         x0, y0, x1, y1 = win
         pad = self.rays[y0:y1 + 2, x0:x1 + 2].astype(np.float64)
         rays = pad[1:-1, 1:-1]
         dxy_du = 0.5 * (pad[1:-1, 2:] - pad[1:-1, :-2])          # d(x, y normalised)/d(pixel u)
         dxy_dv = 0.5 * (pad[2:, 1:-1] - pad[:-2, 1:-1])
-        Hm = self._plane_homography(cam_from_plate)
         x, y = rays[..., 0], rays[..., 1]
         den = Hm[2, 0] * x + Hm[2, 1] * y + Hm[2, 2]
         ok = den > 0
@@ -361,12 +362,12 @@ class ImageComposer:
             for d in ((P - bounds[0]) / g, (bounds[1] - P) / g):
                 near = np.abs(d) < reach                       # elsewhere the pixel is in or out
                 dn, cn, sn_n = d[near], c[near], sn[near]
-                edge = (d > 0).astype(np.float64)
-                edge[near] = _edge_coverage(dn, cn, sn_n)
-                cover *= edge
-                edge = (d > 0).astype(np.float64)
-                edge[near] = _blurred_edge_coverage(dn, cn, sn_n, self.blur_sigma)
-                blurred *= edge
+                step = (d > 0).astype(np.float64)
+                sharp, soft = step, step.copy()
+                sharp[near] = _edge_coverage(dn, cn, sn_n)
+                soft[near] = _blurred_edge_coverage(dn, cn, sn_n, self.blur_sigma)
+                cover *= sharp
+                blurred *= soft
         return cover.astype(np.float32), blurred.astype(np.float32)
 
     def draw_bars(self, starts: np.ndarray, ends: np.ndarray, radii, shades) -> None:
