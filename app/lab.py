@@ -5,6 +5,7 @@ keeps it so): pages and commands take the lab's pieces from here.
 """
 from __future__ import annotations
 
+from core.measurement.point import located_point
 from core.robot.model import RobotModel
 import numpy as np
 
@@ -40,6 +41,5 @@ def image_measure(lab: VirtualLab, locate, *, seed: int = 0):
 
     def measure(q):
         left, right = lab.render_marker_pair(q, rng)
-        loc = locate(left, right)
-        return loc.point if loc.ok else None
+        return located_point(locate(left, right))
     return measure

@@ -41,6 +41,7 @@ from core.errors import RoboCalError
 from core.marker.description import MarkerDescription
 from core.marker.location import MarkerLocator
 from core.measurement.file import read_measurements
+from core.measurement.point import located_point
 from core.poses.candidates import VisibilityOptions
 from core.robot.driver import RobotDriver, RobotFault, RobotTimeout
 from core.stereo.rectification import StereoRectification
@@ -91,8 +92,7 @@ class CellMeasure:
             time.sleep(self.settle_s)
         frames = self.cameras.capture()
         self._start_next()                     # the robot moves on while the marker is located in this pair
-        location = self.locator.locate(frames.left, frames.right)
-        return location.point if location.ok else None
+        return located_point(self.locator.locate(frames.left, frames.right))
 
     def follow(self, plan) -> None:
         """The poses the run measures from now on, in order (rad / mm), once they are known (a

@@ -15,6 +15,7 @@ import numpy as np
 from app.jobs import check as job
 from app.jobs.measurement_hardware import off_plan, taught_joints
 from core.errors import RoboCalError
+from core.measurement.point import located_point
 from core.monitoring.check import check_limits
 from core.robot.driver import RobotDriver
 
@@ -25,7 +26,7 @@ class TaughtCheckPose:
 
     index: int
     q: np.ndarray
-    point: np.ndarray | None
+    point: np.ndarray | None           # a MeasuredPoint (its covariance), None: not found
     warnings: list[str] = field(default_factory=list)     # joints further than 1° / 1 mm from the plan
 
 
@@ -39,7 +40,7 @@ def record_check_pose(cell: job.CheckSetup, index: int, cameras, locator, *, q_t
     warnings = off_plan(model, model.q_to_file(q), model.q_to_file(cell.Q[index]))
     frames = cameras.capture()
     location = locator.locate(frames.left, frames.right)
-    return TaughtCheckPose(index, q, location.point if location.ok else None, warnings)
+    return TaughtCheckPose(index, q, located_point(location), warnings)
 
 
 def check_taught(cell: job.CheckSetup, taught: list[TaughtCheckPose], *, log=None, progress=None, cancelled=None):

@@ -14,6 +14,7 @@ from app.lab import apply_change, ideal_measure, image_measure, lab_options as l
 from core.files import atomic_write_bytes
 from core.kinematics.jacobian import predict_points
 from core.measurement.file import Measurements
+from core.measurement.point import MeasuredPoint
 from core.monitoring.check import CheckLimits, CheckResult, check_limits, run_check
 from core.monitoring.check_poses import DEFAULT_CHECK_POSES, select_check_poses
 from core.monitoring.diagnosis import Diagnosis, diagnose
@@ -315,12 +316,18 @@ def change_parameters(model: RobotModel, target: str, kind: str) -> list:
 @dataclass
 class LoggedCheckPoints:
     """The points of the last check in a log (the one the re-identification follows), as
-    Measurements of its target, with its tool and run name."""
+    Measurements of its target, with its tool and run name, and each point's own covariance
+    ((3, 3) mm² or None) as logged."""
 
     run: str
     target: str
     tool: str
     measurements: Measurements
+    covariances: list
+
+    def points(self) -> list[MeasuredPoint]:
+        """The logged points, each with its own covariance, in the check's order."""
+        return [MeasuredPoint(p, c) for p, c in zip(self.measurements.xyz, self.covariances)]
 
 
 def last_check(log, model: RobotModel) -> LoggedCheckPoints:
@@ -339,7 +346,7 @@ def last_check(log, model: RobotModel) -> LoggedCheckPoints:
     Q = np.atleast_2d(model.q_from_file(q_file)).reshape(len(q_file), model.dof)
     meas = Measurements(pose=np.array([p.pose for p in last.points]), target=[p.target for p in last.points],
                         q_file=q_file, xyz=np.array([p.measured for p in last.points]), Q=Q, source=str(log))
-    return LoggedCheckPoints(last.run, last.points[0].target, last.tool, meas)
+    return LoggedCheckPoints(last.run, last.points[0].target, last.tool, meas, [p.covariance for p in last.points])
 
 
 @dataclass
@@ -394,7 +401,7 @@ def _refuse_gross_points(cell: CheckSetup, new: Measurements) -> None:
 def updated_uncertainty(re: Reidentification, previous: CalibrationUncertainty, out) -> CalibrationUncertainty:
     """The re-identified model's uncertainty, from the re-identification's own parameters and
     covariance (not read back from the model: a fit far off may change the model's parametrisation)."""
-    return CalibrationUncertainty(list(re.parameters), re.covariance, previous.sigma_mm, str(out), previous.dof)
+    return replace(previous, parameters=list(re.parameters), covariance=re.covariance, source=str(out))
 
 
 def reidentify_measured(robot_path, log, kind: str, new: Measurements, out, *, alpha: float = 0.01,
@@ -436,7 +443,7 @@ def reidentify_measured(robot_path, log, kind: str, new: Measurements, out, *, a
     unc = updated_uncertainty(re, cell.unc, out)
     updated = replace(cell, model=re.model, unc=unc, source=str(out),
                       limits=check_limits(re.model, unc, cell.Q, [cell.target] * len(cell.Q), alpha))
-    points = iter(logged.measurements.xyz)
+    points = iter(logged.points())
     after = run_check(updated.model, updated.unc, updated.Q, lambda q: next(points), target=cell.target,
                       tool=cell.tool, pose_ids=logged.measurements.pose, log=log, alpha=alpha, limits=updated.limits,
                       progress=monitor.sub(0.8, 1.0), cancelled=cancelled)

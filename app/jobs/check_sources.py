@@ -23,6 +23,7 @@ import numpy as np
 from app.jobs.cell_measure import CellMeasure, cell_options
 from core.errors import RoboCalError
 from core.measurement.file import Measurements, read_measurements
+from core.measurement.point import MeasuredPoint, located_point
 from core.robot.model import RobotModel
 
 
@@ -115,7 +116,7 @@ def _locate_point(locator, left, right, where: str):
     loc = locator.locate(left, right)
     if not loc.ok:
         raise RoboCalError(loc.reason or "the marker was not found", source=where)
-    return loc.point
+    return located_point(loc)
 
 
 def image_files(model: RobotModel, joints, images, locator, *, target: str = "marker") -> MeasuredPoses:
@@ -156,7 +157,8 @@ def measurement_file(model: RobotModel, path, target: str) -> MeasuredPoses:
         raise RoboCalError(f"the file holds no point of target '{target}' (its targets: {', '.join(names)})",
                            source=path, field="target",
                            hint="Give the measurements of the mounted tool's target, or name the tool with --tool.")
-    points = iter(meas.xyz[rows])
+    sigma = meas.sigma[rows] if meas.sigma is not None else [None] * len(rows)
+    points = iter([MeasuredPoint(p, None if s is None else np.diag(np.square(s))) for p, s in zip(meas.xyz[rows], sigma)])
     return MeasuredPoses(np.asarray(meas.Q, dtype=float)[rows], np.asarray(meas.pose, dtype=int)[rows],
                          lambda q: next(points), f"measurement file {path}", target)
 

@@ -4,7 +4,9 @@ Limits come from the calibration's own predicted uncertainty (core.monitoring.un
 a false-alarm probability `alpha` for the whole check split by Bonferroni: half for the overall
 RMS error (all points together, their correlation through the shared model included) and half
 shared among the points (each point's error length against its own limit). A check is within
-limits when the overall RMS and every point are.
+limits when the overall RMS and every point are. A point measured with its own covariance (a
+MeasuredPoint, core.measurement.point: the marker located in a pair) gets its limit from it as
+soon as it is measured, and the overall limit counts it too (see core.monitoring.uncertainty).
 
 Each point is appended to the check log as soon as it is measured (core.monitoring.log).
 """
@@ -20,16 +22,19 @@ import numpy as np
 
 from core.errors import Cancelled, RoboCalError
 from core.kinematics.jacobian import predict_points
+from core.measurement.point import point_covariance
 from core.monitoring.log import CheckLogWriter
-from core.monitoring.uncertainty import CalibrationUncertainty, norm_limit, prediction_covariance
+from core.monitoring.uncertainty import (CalibrationUncertainty, norm_limit, parameter_covariance,
+                                         with_measurement_noise)
 from core.robot.driver import RobotFault
 from core.robot.model import RobotModel
 from core.task import Monitor
 
 DEFAULT_ALPHA = 0.01
 
-#: measure(q) -> the marker's position (3,) in mm in the measurement frame, or None when it
-#: was not found; q in internal units (rad / mm)
+#: measure(q) -> the marker's position (3,) in mm in the measurement frame (a MeasuredPoint
+#: when the instrument gives its covariance), or None when it was not found; q in internal units
+#: (rad / mm)
 MeasureFn = Callable[[np.ndarray], "np.ndarray | None"]
 
 
@@ -42,6 +47,7 @@ class CheckPoint:
     measured: np.ndarray
     predicted: np.ndarray
     limit_mm: float
+    covariance: np.ndarray | None = None      # the measurement's own (3, 3) mm², when it gave one
 
     @property
     def error(self) -> np.ndarray:
@@ -87,6 +93,11 @@ class CheckResult:
         return [p.target for p in self.points]
 
     @property
+    def covariances(self) -> list:
+        """Each point's own measurement covariance (3, 3) mm², or None."""
+        return [p.covariance for p in self.points]
+
+    @property
     def residuals(self) -> np.ndarray:
         """(3N,) measured − predicted, point by point."""
         return np.concatenate([p.error for p in self.points]) if self.points else np.zeros(0)
@@ -123,12 +134,15 @@ def _now() -> datetime:
 @dataclass
 class CheckLimits:
     """Limits (mm) for a set of check configurations: one per point at false-alarm probability
-    alpha / (2N), and for the overall RMS at alpha / 2. They depend only on the model, its
-    uncertainty and the poses, so a series of checks computes them once."""
+    alpha / (2N), and for the overall RMS at alpha / 2, for points measured with the calibration's
+    σ. They depend only on the model, its uncertainty and the poses, so a series of checks
+    computes them once; `shared` (3N, 3N) mm², the parameter part of S, serves the limits of
+    points measured with their own covariance."""
 
     per_point: np.ndarray
     rms: float
     alpha: float
+    shared: np.ndarray | None = None
 
 
 def check_limits(model: RobotModel, unc: CalibrationUncertainty, Q, targets, alpha: float = DEFAULT_ALPHA
@@ -136,9 +150,28 @@ def check_limits(model: RobotModel, unc: CalibrationUncertainty, Q, targets, alp
     """The limits for the points at Q (N, n) with their target names (see the module)."""
     Q = np.atleast_2d(np.asarray(Q, dtype=float))
     n = len(Q)
-    S = prediction_covariance(model, unc, Q, targets)
+    shared = parameter_covariance(model, unc, Q, targets)
+    S = with_measurement_noise(shared, unc)
     per = np.array([norm_limit(S[3 * i:3 * i + 3, 3 * i:3 * i + 3], 1.0 - alpha / (2 * n)) for i in range(n)])
-    return CheckLimits(per, norm_limit(S, 1.0 - alpha / 2) / math.sqrt(n), float(alpha))
+    return CheckLimits(per, norm_limit(S, 1.0 - alpha / 2) / math.sqrt(n), float(alpha), shared)
+
+
+def _point_limit(limits: CheckLimits, unc: CalibrationUncertainty, k: int, own) -> float:
+    """Point k's limit (mm): the precomputed one, or from its own covariance `own`."""
+    if own is None or limits.shared is None:
+        return float(limits.per_point[k])
+    block = limits.shared[3 * k:3 * k + 3, 3 * k:3 * k + 3] + unc.measurement_covariance(own)
+    return norm_limit(block, 1.0 - limits.alpha / (2 * len(limits.per_point)))
+
+
+def _rms_limit(limits: CheckLimits, unc: CalibrationUncertainty, rows: list[int], own: list) -> float:
+    """The overall RMS limit (mm) of the points measured (their indices `rows` among the check
+    poses, their own covariances `own`)."""
+    if len(rows) == len(limits.per_point) and all(c is None for c in own):
+        return limits.rms
+    idx = np.array([3 * k + a for k in rows for a in range(3)])
+    S = with_measurement_noise(limits.shared[np.ix_(idx, idx)], unc, own)
+    return norm_limit(S, 1.0 - limits.alpha / 2) / math.sqrt(len(rows))
 
 
 def run_check(model: RobotModel, unc: CalibrationUncertainty, Q, measure: MeasureFn, *,
@@ -167,10 +200,11 @@ def run_check(model: RobotModel, unc: CalibrationUncertainty, Q, measure: Measur
     run = start.strftime("%Y%m%dT%H%M%S.%fZ")          # one name per check, also two in a second
     targets = [target] * len(Q)
     predicted = predict_points(model, Q, targets)
-    if limits is None or len(limits.per_point) != len(Q) or limits.alpha != alpha:
+    if limits is None or len(limits.per_point) != len(Q) or limits.alpha != alpha or limits.shared is None:
         limits = check_limits(model, unc, Q, targets, alpha)
     q_file = np.atleast_2d(model.q_to_file(Q))
     points: list[CheckPoint] = []
+    rows: list[int] = []                # the check poses measured, in order
     missing: list[tuple[int, str]] = []
     writer = CheckLogWriter(log, model.dof) if log is not None else None
     stopped = False
@@ -191,18 +225,17 @@ def run_check(model: RobotModel, unc: CalibrationUncertainty, Q, measure: Measur
             if xyz is None:
                 missing.append((int(ids[k]), "the marker was not found"))
                 continue
+            own = point_covariance(xyz)
             p = CheckPoint(int(ids[k]), target, q_file[k], Q[k], np.asarray(xyz, dtype=float).reshape(3),
-                           predicted[k], float(limits.per_point[k]))
+                           predicted[k], _point_limit(limits, unc, k, own), own)
             points.append(p)
+            rows.append(k)
             if writer is not None:
                 writer.point(run, _now().isoformat(), p.pose, target, p.q_file, p.measured, p.predicted,
-                             p.error_mm, p.limit_mm, p.within, tool)
+                             p.error_mm, p.limit_mm, p.within, tool, p.covariance)
         rms, rms_limit = math.nan, math.nan
         if points:
-            rms_limit = limits.rms
-            if len(points) < len(Q):        # the overall limit of the points measured
-                keep = [i for i in range(len(Q)) if int(ids[i]) in {p.pose for p in points}]
-                rms_limit = check_limits(model, unc, Q[keep], [target] * len(keep), alpha).rms
+            rms_limit = _rms_limit(limits, unc, rows, [p.covariance for p in points])
             rms = float(np.sqrt(np.mean([p.error_mm ** 2 for p in points])))
         result = CheckResult(run, start.isoformat(), points, rms, rms_limit, alpha, unc.sigma_mm, missing,
                              cancelled=stopped, log=None if log is None else Path(log), tool=tool)

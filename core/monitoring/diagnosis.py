@@ -304,7 +304,7 @@ def diagnose(model: RobotModel, unc: CalibrationUncertainty, check: CheckResult,
         raise ValueError("a check without points cannot be diagnosed")
     target = check.points[0].target
     Q, targets, e = check.Q, check.targets, check.residuals
-    S = prediction_covariance(model, unc, Q, targets)
+    S = prediction_covariance(model, unc, Q, targets, check.covariances)
     L = cho_factor(S, lower=True)[0]
     L = np.tril(L)
     rw = solve_triangular(L, e, lower=True)

@@ -3,16 +3,19 @@ flushed and synced per row so that a check killed half-way loses nothing it meas
 
 ```
 # robocal.checks/1 ; check points against the calibrated model; an overall row closes each check
-run,time,kind,pose,target,q1,...,qn,x,y,z,px,py,pz,error_mm,limit_mm,within,tool
-20250101T101500Z,2025-01-01T10:15:03+00:00,point,0,marker,10.000,...,412.310,-20.550,815.020,412.1,-20.4,815.3,0.392,0.611,1,gripper
-20250101T101500Z,2025-01-01T10:15:40+00:00,overall,,,,...,,,,,,,0.402,0.455,1,gripper
+run,time,kind,pose,target,q1,...,qn,x,y,z,px,py,pz,error_mm,limit_mm,within,tool,cxx,cxy,cxz,cyy,cyz,czz
+20250101T101500Z,2025-01-01T10:15:03+00:00,point,0,marker,10.000,...,412.310,-20.550,815.020,412.1,-20.4,815.3,0.392,0.611,1,gripper,1.2e-05,3.1e-07,-2e-06,1.1e-05,4e-07,9.8e-05
+20250101T101500Z,2025-01-01T10:15:40+00:00,overall,,,,...,,,,,,,0.402,0.455,1,gripper,,,,,,
 ```
 `run` names one check (all its rows), `time` is ISO 8601 UTC. A `point` row: joint values in
 deg / mm, measured x, y, z and predicted px, py, pz in mm (measurement frame), the error
 length and its limit (mm), `within` 1 or 0. An `overall` row: the RMS error over the check's
 points and its limit (mm). `tool`: the tool mounted for the check (the robot file's tool name).
-A log written before the `tool` column existed reads as it is (its tools are empty) and new
-checks are appended to it without the column. A row cut short by a crash is ignored when read
+`cxx … czz`: the measured point's own covariance (mm², measurement frame; its six distinct
+entries) when the instrument gave one (the marker located in a pair), else empty: a later
+re-identification from the log judges the point as the check did. A log written before the
+`tool` or the covariance columns existed reads as it is (no tools, no covariances) and new checks
+are appended to it in its own layout. A row cut short by a crash is ignored when read
 and cut off before the next append.
 """
 from __future__ import annotations
@@ -33,12 +36,16 @@ FAMILY = "robocal.checks"
 FORMAT = f"{FAMILY}/1"
 TAG = f"# {FORMAT} ; check points against the calibrated model; an overall row closes each check"
 POINT, OVERALL = "point", "overall"
+COVARIANCE = ["cxx", "cxy", "cxz", "cyy", "cyz", "czz"]
+_UPPER = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]       # the entries COVARIANCE names
 
 
-def header_columns(dof: int, tool: bool = True) -> list[str]:
-    """The header for n joints; `tool` False: the layout before the tool column."""
+def header_columns(dof: int, tool: bool = True, covariance: bool = True) -> list[str]:
+    """The header for n joints; `tool` / `covariance` False: the layouts before those columns
+    (a log without the tool column has no covariance columns either)."""
     return (["run", "time", "kind", "pose", "target"] + [f"q{i + 1}" for i in range(dof)]
-            + ["x", "y", "z", "px", "py", "pz", "error_mm", "limit_mm", "within"] + (["tool"] if tool else []))
+            + ["x", "y", "z", "px", "py", "pz", "error_mm", "limit_mm", "within"] + (["tool"] if tool else [])
+            + (COVARIANCE if tool and covariance else []))
 
 
 @dataclass
@@ -53,6 +60,7 @@ class LoggedPoint:
     within: bool
     time: str = ""
     tool: str = ""
+    covariance: np.ndarray | None = None     # (3, 3) mm², the measurement's own
 
 
 @dataclass
@@ -78,6 +86,7 @@ class CheckLog:
     dof: int
     path: Path | None = None
     tool_column: bool = True        # False for a log written before the tool column
+    covariance_columns: bool = True  # False for a log written before the covariance columns
 
 
 def _fmt(v: float) -> str:
@@ -93,13 +102,13 @@ class CheckLogWriter:
         require_regular_file(self.path)
         ensure_writable_dir(self.path.parent if str(self.path.parent) else Path("."))
         new = not self.path.exists() or self.path.stat().st_size == 0
-        self.tool_column = True
+        self.tool_column = self.covariance_columns = True
         if not new:
             existing = read_check_log(self.path)        # refused here, the file is left as it was
             if existing.dof != self.dof:
                 raise RoboCalError(f"the log holds checks of a robot with {existing.dof} joints, not {self.dof}",
                                    source=self.path, field="header", hint="Give another check log file.")
-            self.tool_column = existing.tool_column
+            self.tool_column, self.covariance_columns = existing.tool_column, existing.covariance_columns
             drop_partial_last_line(self.path)           # only a check log's own cut-off row
         try:
             self._handle = open(self.path, "a", encoding="utf-8", newline="")
@@ -118,15 +127,19 @@ class CheckLogWriter:
             raise RoboCalError(f"cannot write the check log ({exc.strerror})", source=self.path,
                                hint="Check the disk space.") from exc
 
-    def _row(self, values: list[str], tool: str) -> None:
-        self._write(",".join(values + ([tool] if self.tool_column else [])) + "\n")
+    def _row(self, values: list[str], tool: str, covariance=None) -> None:
+        extra = [tool] if self.tool_column else []
+        if self.tool_column and self.covariance_columns:
+            extra += [""] * 6 if covariance is None else [f"{covariance[i, j]:.6g}" for i, j in _UPPER]
+        self._write(",".join(values + extra) + "\n")
 
     def point(self, run: str, time: str, pose: int, target: str, q_file, measured, predicted,
-              error_mm: float, limit_mm: float, within: bool, tool: str = "") -> None:
+              error_mm: float, limit_mm: float, within: bool, tool: str = "", covariance=None) -> None:
+        """One check point; `covariance` (3, 3) mm²: the measurement's own, or None."""
         values = [run, time, POINT, str(int(pose)), target] + [f"{v:.3f}" for v in np.asarray(q_file, float)] \
             + [_fmt(v) for v in measured] + [_fmt(v) for v in predicted] \
             + [_fmt(error_mm), _fmt(limit_mm), "1" if within else "0"]
-        self._row(values, tool)
+        self._row(values, tool, None if covariance is None else np.asarray(covariance, dtype=float).reshape(3, 3))
 
     def overall(self, run: str, time: str, rms_mm: float, limit_mm: float, within: bool, tool: str = "") -> None:
         values = [run, time, OVERALL, "", ""] + [""] * (self.dof + 6) + [_fmt(rms_mm), _fmt(limit_mm),
@@ -171,16 +184,17 @@ def read_check_log(path: str | Path) -> CheckLog:
     complete = text if text.endswith("\n") else "".join(lines[:-1])   # a cut-off last row is dropped
     header: list[str] | None = None
     dof = 0
-    tool_column = True
+    tool_column = covariance_columns = True
     checks: dict[str, LoggedCheck] = {}
     for line_no, row in enumerate(csv.reader(io.StringIO(complete)), start=1):
         if not row or row[0].lstrip().startswith("#"):
             continue
         if header is None:
             header = row
-            tool_column = row[-1:] == ["tool"]
-            dof = len(row) - 14 - tool_column
-            if dof < 1 or row != header_columns(dof, tool_column):
+            covariance_columns = row[-6:] == COVARIANCE
+            tool_column = covariance_columns or row[-1:] == ["tool"]
+            dof = len(row) - 14 - tool_column - 6 * covariance_columns
+            if dof < 1 or row != header_columns(dof, tool_column, covariance_columns):
                 raise RoboCalError(f"line {line_no}: expected the header {','.join(header_columns(6))} "
                                    f"(q1 … qn for n joints)", source=path, field="header")
             continue
@@ -211,11 +225,30 @@ def read_check_log(path: str | Path) -> CheckLog:
             check.points.append(LoggedPoint(
                 pose, cols["target"], np.array([num[f"q{i + 1}"] for i in range(dof)]),
                 np.array([num["x"], num["y"], num["z"]]), np.array([num["px"], num["py"], num["pz"]]),
-                err, lim, within == "1", cols["time"], tool))
+                err, lim, within == "1", cols["time"], tool, _covariance(path, line_no, cols)))
         else:
             raise RoboCalError(f"line {line_no}: expected 'point' or 'overall', got {kind!r}", source=path,
                                field="kind")
     if header is None:
         raise RoboCalError("the check log has no header line", source=path, field="header",
                            hint="Start a new check log.")
-    return CheckLog(list(checks.values()), dof, path, tool_column)
+    return CheckLog(list(checks.values()), dof, path, tool_column, covariance_columns)
+
+
+def _covariance(path, line_no: int, cols: dict) -> np.ndarray | None:
+    """A point row's own covariance (3, 3) mm², None when its covariance columns are empty or
+    absent; RoboCalError for some filled and some empty, a bad number, or a matrix that is no
+    covariance (not positive semi-definite)."""
+    texts = [cols.get(c, "").strip() for c in COVARIANCE]
+    if not any(texts):
+        return None
+    if not all(texts):
+        raise RoboCalError(f"line {line_no}: the covariance columns are partly empty", source=path,
+                           field=COVARIANCE[texts.index("")], hint="Fill all six or leave all six empty.")
+    C = np.zeros((3, 3))
+    for (i, j), c, t in zip(_UPPER, COVARIANCE, texts):
+        C[i, j] = C[j, i] = _number(path, line_no, c, t)
+    if np.linalg.eigvalsh(C).min() < -1e-9 * max(float(np.trace(C)), 1e-300) or np.trace(C) <= 0:
+        raise RoboCalError(f"line {line_no}: the covariance is not positive semi-definite", source=path,
+                           field="cxx", hint="Restore the log from a backup, or empty the six covariance columns.")
+    return C

@@ -2,9 +2,17 @@
 parameters (from the calibrated robot file) propagated to a point, plus the measurement noise.
 
 For check points at configurations Q (N, n) the predicted difference e = measured − model has
-covariance  S = Φ·C·Φᵀ + σ²·I  (3N × 3N, mm²), with Φ the calibration Jacobian of the
-estimated parameters (core.kinematics.jacobian), C their covariance and σ the measurement
-noise per axis (mm). The parameter part correlates the points (they share the same model).
+covariance  S = Φ·C·Φᵀ + M  (3N × 3N, mm²), with Φ the calibration Jacobian of the
+estimated parameters (core.kinematics.jacobian), C their covariance and M the measurement
+noise, block-diagonal: σ²·I per point (σ per axis, mm), or for a point measured with its own
+covariance Σ_i (the marker locator's, core.measurement.point) that covariance scaled by
+s_i = max(k², σ² / (tr Σ_i / 3)): k the calibration's noise factor (for a calibration that weighted
+its points by their own σ, its unitless σ̂; 1 otherwise), σ a floor (no point measured after the
+calibration is predicted better than the calibration's own errors, its held-out ones included).
+So a point the cameras see from afar or at a slant, which they measure less precisely, gets the
+wider limit its own covariance gives; through images the locator's 3D σ at the check poses of the
+virtual lab spans 0.0045–0.011 mm, 1.0–2.4 × the calibration's σ·√3. The parameter part
+correlates the points (they share the same model).
 
 Limits on error lengths: |e|² = Σ λ_i·z_i² with λ the eigenvalues of S is a weighted sum of
 χ²₁ variables; its tail probability is computed by Imhof's (1961) integral and the quantile
@@ -39,10 +47,24 @@ class CalibrationUncertainty:
     sigma_mm: float
     source: str = ""
     dof: float = math.inf          # degrees of freedom of σ (the calibration's m − p; inf if given)
+    noise_factor: float = 1.0      # k: a weighted calibration's σ̂ (its errors / the points' own σ); 1 otherwise
 
     @property
     def names(self) -> list[str]:
         return [p.name for p in self.parameters]
+
+    def measurement_covariance(self, own=None) -> np.ndarray:
+        """The noise (3, 3) mm² of a point measured after the calibration, measurement frame: σ²·I,
+        or for a point with its own covariance `own` that covariance scaled by
+        max(k², σ² / (tr own / 3)) (see the module)."""
+        floor = self.sigma_mm ** 2
+        if own is None:
+            return floor * np.eye(3)
+        own = np.asarray(own, dtype=float).reshape(3, 3)
+        mean = float(np.trace(own)) / 3.0
+        if not math.isfinite(mean) or mean <= 0.0:
+            return floor * np.eye(3)
+        return max(self.noise_factor ** 2, floor / mean) * own
 
 
 MAX_SIGMA_MM = 1000.0          # a larger measurement noise is no calibration (and overflows the limits)
@@ -72,6 +94,18 @@ def statistics_sigma_mm(stats: dict, source=None) -> float:
         absorbed = math.sqrt(3.0 * n / dof) if isinstance(n, int) and isinstance(dof, int) and 0 < dof <= 3 * n else 1.0
         own = float(sigma) / math.sqrt(3.0) * absorbed
     return max(own, held_out_sigma_mm(stats))
+
+
+def statistics_noise_factor(stats: dict) -> float:
+    """k of a calibration's `statistics`: its σ̂ when it weighted its points by their own σ (σ̂ is
+    then unitless, `sigma_hat_unit` "1"), else 1 (and 1 when that σ̂ is not a positive number: a
+    point's own covariance is then taken as it is)."""
+    if stats.get("sigma_hat_unit", "mm") == "mm":
+        return 1.0
+    k = stats.get("sigma_hat")
+    if not isinstance(k, (int, float)) or isinstance(k, bool) or not math.isfinite(k) or k <= 0:
+        return 1.0
+    return float(k)
 
 
 def held_out_sigma_mm(stats: dict) -> float:
@@ -130,7 +164,10 @@ def calibration_uncertainty(model: RobotModel, *, source: str | Path | None = No
             or np.any(np.diag(C) < 0):
         raise RoboCalError(f"expected a symmetric {p} × {p} matrix of numbers with a non-negative diagonal",
                            source=source, field="calibration.covariance.matrix")
-    dof = math.inf
+    dof, factor = math.inf, 1.0
+    stats = cal.get("statistics")
+    if isinstance(stats, dict):
+        factor = statistics_noise_factor(stats)
     if sigma_mm is None:
         stats = _field(cal, "statistics", source, "calibration.statistics")
         if not isinstance(stats, dict):
@@ -148,16 +185,36 @@ def calibration_uncertainty(model: RobotModel, *, source: str | Path | None = No
                            "determine its parameters", source=source, field="calibration.covariance.matrix",
                            hint="Calibrate again with more poses (robocal select-poses).")
     return CalibrationUncertainty([known[n] for n in names], 0.5 * (C + C.T), float(sigma_mm),
-                                  source or "", dof)
+                                  source or "", dof, factor)
+
+
+def parameter_covariance(model: RobotModel, unc: CalibrationUncertainty, Q,
+                         point_targets: Sequence[str]) -> np.ndarray:
+    """Φ·C·Φᵀ (3N, 3N) in mm²: the calibration's parameter covariance propagated to the points at
+    Q (N, n) with their target names."""
+    Q = np.atleast_2d(np.asarray(Q, dtype=float))
+    J = calibration_jacobian(model, Q, list(point_targets), unc.parameters)
+    return J @ unc.covariance @ J.T
+
+
+def with_measurement_noise(shared: np.ndarray, unc: CalibrationUncertainty, own=None) -> np.ndarray:
+    """S: the parameter part `shared` (3N, 3N) mm² plus each point's measurement noise
+    (CalibrationUncertainty.measurement_covariance of its own covariance, `own`: N of (3, 3) or
+    None; None: no point has one)."""
+    S = np.array(shared, dtype=float)
+    n = len(S) // 3
+    own = [None] * n if own is None else list(own)
+    for i in range(n):
+        S[3 * i:3 * i + 3, 3 * i:3 * i + 3] += unc.measurement_covariance(own[i])
+    return S
 
 
 def prediction_covariance(model: RobotModel, unc: CalibrationUncertainty, Q,
-                          point_targets: Sequence[str]) -> np.ndarray:
+                          point_targets: Sequence[str], own=None) -> np.ndarray:
     """S (3N, 3N) in mm² of measured − predicted for points at Q (N, n) with their target names:
-    the calibration's parameter covariance propagated through Φ, plus σ² per coordinate."""
-    Q = np.atleast_2d(np.asarray(Q, dtype=float))
-    J = calibration_jacobian(model, Q, list(point_targets), unc.parameters)
-    return J @ unc.covariance @ J.T + unc.sigma_mm ** 2 * np.eye(3 * len(Q))
+    the calibration's parameter covariance propagated through Φ, plus each point's measurement
+    noise (σ² per coordinate, or its own covariance `own[i]` scaled, see the module)."""
+    return with_measurement_noise(parameter_covariance(model, unc, Q, point_targets), unc, own)
 
 
 def weighted_chi2_sf(x: float, lam: np.ndarray) -> float:

@@ -114,3 +114,39 @@ def test_wrong_poses_refused():
     c = cell()
     with pytest.raises(RoboCalError, match="joint values"):
         run_check(c.model, c.unc, c.Q[:, :5], ideal_measure(c.lab))
+
+
+def test_a_point_measured_less_precisely_is_judged_by_its_own_covariance(tmp_path):
+    """Pose 3 measured with 2.4 × the calibration's σ per axis (as the cameras measure a marker
+    far off), twice its own 3D σ away: within the limit its own covariance gives, out of the one
+    σ gives. A point measured better than σ keeps σ's limit. Every limit is logged."""
+    from core.kinematics.jacobian import predict_points
+    from core.measurement.point import MeasuredPoint
+    c = cell()
+    predicted = predict_points(c.model, c.Q, ["marker"] * len(c.Q))
+    wide = (2.4 * c.unc.sigma_mm) ** 2 * np.eye(3)
+    error = np.array([1.0, -1.0, 1.0]) / np.sqrt(3) * 2.0 * 2.4 * c.unc.sigma_mm * np.sqrt(3)
+
+    def measure(own):
+        points = iter(range(len(c.Q)))
+
+        def at(q):
+            k = next(points)
+            if k == 3:
+                return MeasuredPoint(predicted[k] + error, own)
+            return MeasuredPoint(predicted[k], (0.5 * c.unc.sigma_mm) ** 2 * np.eye(3))
+        return at
+    limits = check_limits(c.model, c.unc, c.Q, ["marker"] * len(c.Q))
+    own = run_check(c.model, c.unc, c.Q, measure(wide), limits=limits, log=tmp_path / "c.csv")
+    plain = run_check(c.model, c.unc, c.Q, measure(None), limits=limits)
+    assert own.points[3].within and not plain.points[3].within
+    assert plain.points[3].limit_mm == pytest.approx(limits.per_point[3], rel=1e-12)
+    # the parameter part is small against the noise: the limit grows about as the point's σ
+    assert 2.2 < own.points[3].limit_mm / limits.per_point[3] < 2.4
+    for k in (0, 1, 2, 4):
+        assert own.points[k].limit_mm == pytest.approx(limits.per_point[k], rel=1e-9)
+    assert own.rms_limit_mm > plain.rms_limit_mm
+    np.testing.assert_allclose(own.points[3].covariance, wide)
+    logged = read_check_log(tmp_path / "c.csv").checks[-1]
+    assert [p.limit_mm for p in logged.points] == pytest.approx([p.limit_mm for p in own.points], abs=1e-4)
+    assert logged.rms_limit_mm == pytest.approx(own.rms_limit_mm, abs=1e-4)

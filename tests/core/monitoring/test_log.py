@@ -24,12 +24,53 @@ def test_round_trip(tmp_path):
 def test_file_written_from_the_format_description(tmp_path):
     path = tmp_path / "checks.csv"
     path.write_text(TAG + "\n" + ",".join(header_columns(1)) + "\n"
-                    "a,2025-01-01T10:00:00+00:00,point,3,marker,12.5,1,2,3,1,2,3.5,0.5,0.9,1,gripper\n"
-                    "a,2025-01-01T10:00:09+00:00,overall,,,,,,,,,,0.5,0.8,1,gripper\n")
+                    "a,2025-01-01T10:00:00+00:00,point,3,marker,12.5,1,2,3,1,2,3.5,0.5,0.9,1,gripper,"
+                    "1.2e-05,3e-07,-2e-06,1.1e-05,4e-07,9.8e-05\n"
+                    "a,2025-01-01T10:00:01+00:00,point,4,marker,12.5,1,2,3,1,2,3.5,0.5,0.9,1,gripper,,,,,,\n"
+                    "a,2025-01-01T10:00:09+00:00,overall,,,,,,,,,,0.5,0.8,1,gripper,,,,,,\n")
     (check,) = read_check_log(path).checks
     assert check.points[0].pose == 3 and check.points[0].predicted.tolist() == [1, 2, 3.5]
     assert check.rms_limit_mm == 0.8 and check.within
     assert check.tool == "gripper" and check.points[0].tool == "gripper"
+    assert check.points[0].covariance[2, 0] == -2e-06 and check.points[0].covariance[2, 2] == 9.8e-05
+    assert check.points[1].covariance is None
+
+
+def test_a_points_own_covariance_is_logged_to_six_digits(tmp_path):
+    import numpy as np
+    path = tmp_path / "checks.csv"
+    C = np.array([[1.23456789e-5, 2e-7, -3e-6], [2e-7, 1.1e-5, 4e-7], [-3e-6, 4e-7, 9.87654321e-5]])
+    with CheckLogWriter(path, 1) as w:
+        w.point("r", "t", 0, "marker", [1.0], [1, 2, 3], [1, 2, 3], 0.0, 0.3, True, "", C)
+        w.point("r", "t", 1, "marker", [1.0], [1, 2, 3], [1, 2, 3], 0.0, 0.3, True)
+    first, second = read_check_log(path).checks[0].points
+    np.testing.assert_allclose(first.covariance, C, rtol=1e-5)
+    assert second.covariance is None
+
+
+@pytest.mark.parametrize("cov, field", [(",,,,,9e-05", "cxx"), ("1e-5,0,0,1e-5,0,x", "czz"),
+                                         ("1e-5,0,0,-1e-5,0,1e-5", "cxx")])
+def test_a_bad_covariance_is_named(tmp_path, cov, field):
+    path = tmp_path / "checks.csv"
+    path.write_text(TAG + "\n" + ",".join(header_columns(1)) + "\n"
+                    f"a,2025-01-01T10:00:00+00:00,point,3,marker,12.5,1,2,3,1,2,3.5,0.5,0.9,1,gripper,{cov}\n")
+    with pytest.raises(RoboCalError) as exc:
+        read_check_log(path)
+    assert exc.value.field == field and exc.value.source == str(path)
+
+
+def test_log_without_the_covariance_columns_is_appended_in_its_layout(tmp_path):
+    import numpy as np
+    path = tmp_path / "checks.csv"
+    path.write_text(TAG + "\n" + ",".join(header_columns(1, covariance=False)) + "\n"
+                    "a,2025-01-01T10:00:00+00:00,point,3,marker,12.5,1,2,3,1,2,3.5,0.5,0.9,1,gripper\n")
+    log = read_check_log(path)
+    assert log.tool_column and not log.covariance_columns and log.checks[0].points[0].covariance is None
+    with CheckLogWriter(path, 1) as w:
+        w.point("b", "t", 0, "marker", [1.0], [1, 2, 3], [1, 2, 3], 0.0, 0.3, True, "gripper", np.eye(3) * 1e-5)
+    log = read_check_log(path)
+    assert [c.run for c in log.checks] == ["a", "b"] and log.checks[1].points[0].tool == "gripper"
+    assert log.checks[1].points[0].covariance is None
 
 
 def test_log_without_the_tool_column_is_read_and_appended_in_its_layout(tmp_path):
@@ -59,8 +100,8 @@ def test_cut_off_last_row_is_dropped_and_repaired_on_append(tmp_path):
 
 
 @pytest.mark.parametrize("old, new, field", [
-    (",0.3000,1,\n", ",0.3000,yes,\n", "within"),
-    (",0.3000,1,\n", ",abc,1,\n", "limit_mm"),
+    (",0.3000,1,,,,,,,\n", ",0.3000,yes,,,,,,,\n", "within"),
+    (",0.3000,1,,,,,,,\n", ",abc,1,,,,,,,\n", "limit_mm"),
     (",point,0,", ",dot,0,", "kind"),
     (",point,0,", ",point,zero,", "pose"),
 ])

@@ -92,3 +92,31 @@ def test_a_calibration_that_did_not_converge_is_refused(key, value, field):
     with pytest.raises(RoboCalError) as exc:
         calibration_uncertainty(robot_from_dict(data), source="c.json")
     assert exc.value.field == field
+
+
+def test_a_point_with_its_own_covariance_keeps_its_shape_above_the_calibrations_noise():
+    """Σ_i scaled by max(k², σ²/(tr Σ_i / 3)): a point measured less precisely than σ keeps its
+    own covariance (times k² for a weighted calibration); one measured better is raised to σ²
+    per axis on average, its shape kept; a point without one gets σ²·I."""
+    from dataclasses import replace
+    unc = replace(cell().unc, sigma_mm=0.01)
+    wide = np.diag([0.01, 0.01, 0.06]) ** 2                 # mean per axis 0.0036 mm² > σ² = 1e-4
+    np.testing.assert_allclose(unc.measurement_covariance(wide), wide, rtol=1e-12)
+    np.testing.assert_allclose(replace(unc, noise_factor=1.5).measurement_covariance(wide), 2.25 * wide, rtol=1e-12)
+    narrow = np.diag([0.001, 0.002, 0.005]) ** 2
+    scaled = unc.measurement_covariance(narrow)
+    assert np.trace(scaled) / 3 == pytest.approx(1e-4, rel=1e-12)
+    np.testing.assert_allclose(scaled / scaled[2, 2], narrow / narrow[2, 2], rtol=1e-12)
+    np.testing.assert_allclose(unc.measurement_covariance(None), 1e-4 * np.eye(3), rtol=1e-12)
+    # S: the parameter part plus each point's block; the points' correlation through the model stays
+    S0 = prediction_covariance(cell().model, unc, cell().Q[:2], ["marker"] * 2)
+    S1 = prediction_covariance(cell().model, unc, cell().Q[:2], ["marker"] * 2, [wide, None])
+    np.testing.assert_allclose(S1 - S0, np.block([[wide - 1e-4 * np.eye(3), np.zeros((3, 3))],
+                                                  [np.zeros((3, 3)), np.zeros((3, 3))]]), atol=1e-15)
+
+
+def test_the_noise_factor_is_a_weighted_calibrations_sigma_hat():
+    from core.monitoring.uncertainty import statistics_noise_factor
+    assert statistics_noise_factor({"sigma_hat": 0.688, "sigma_hat_unit": "1"}) == 0.688
+    assert statistics_noise_factor({"sigma_hat": 0.049}) == 1.0                 # σ̂ in mm: not a factor
+    assert statistics_noise_factor({"sigma_hat": "x", "sigma_hat_unit": "1"}) == 1.0

@@ -1,0 +1,41 @@
+"""A measured point that carries its own covariance.
+
+An instrument that knows how precisely it measured each point (the marker locator through its
+edges and the stereo geometry; a laser tracker's file with σ columns) returns a MeasuredPoint:
+the position (3,) in mm in the measurement frame, usable wherever a plain array is, with
+`covariance` (3, 3) in mm² in the same frame. Arrays computed from it are plain arrays: their
+`covariance` (read with point_covariance) is None.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+class MeasuredPoint(np.ndarray):
+    """A point (3,) mm with its covariance (3, 3) mm² (None when the instrument did not give one)."""
+
+    covariance: np.ndarray | None
+
+    def __new__(cls, xyz, covariance=None):
+        obj = np.asarray(xyz, dtype=float).reshape(3).copy().view(cls)
+        obj.covariance = None if covariance is None else np.asarray(covariance, dtype=float).reshape(3, 3)
+        return obj
+
+    def __array_finalize__(self, obj):
+        self.covariance = None          # a slice or a result of arithmetic is no longer the measured point
+
+    def __reduce__(self):
+        return MeasuredPoint, (np.asarray(self).copy(), self.covariance)
+
+
+def point_covariance(point) -> np.ndarray | None:
+    """The covariance (3, 3) mm² a measured point carries, or None."""
+    return getattr(point, "covariance", None) if isinstance(point, MeasuredPoint) else None
+
+
+def located_point(location) -> MeasuredPoint | None:
+    """A marker location's (core.marker.location.MarkerLocation) point with its covariance, None
+    when the marker was not found."""
+    if not location.ok:
+        return None
+    return MeasuredPoint(location.point, location.covariance)
