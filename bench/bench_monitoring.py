@@ -254,6 +254,7 @@ def _file_path_verdicts(report, lab, locator, calibrated, tmp) -> None:
     import cv2
     from app.jobs import check as job
     from app.jobs.check_sources import image_files
+    from core.measurement.point import located_point
     from core.poses.file import write_poses
 
     opts = lab_options(lab)
@@ -302,9 +303,8 @@ def _file_path_verdicts(report, lab, locator, calibrated, tmp) -> None:
                     os.link(files[i], folder / side / f"{j:02d}.png")
             memory = iter(pair for pair, _ in chosen)
 
-            def lab_measure(q):
-                loc = once.locate(*next(memory))
-                return loc.point if loc.ok else None
+            def lab_measure(q):                # as app.lab.image_measure: the point with its covariance
+                return located_point(once.locate(*next(memory)))
             on_lab, d_lab = job.check(cell, lab_measure)
             files = image_files(cell.model, joints, folder, once)
             on_files = run_check(cell.model, cell.unc, cell.Q, files.measure, limits=cell.limits)

@@ -144,7 +144,8 @@ def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: D
     opts = {k: v for k, v in (lab_options or {}).items() if k != "robot"}
     opts["target"] = cell.target
     proposal = propose_poses(cell.model, cell.unc, diagnosis.parameters, result.Q, candidates=CANDIDATES,
-                             seed=seed, measured_scale=diagnosis.chosen.noise_scale, progress=monitor.sub(0.0, 0.3),
+                             seed=seed, measured_scale=diagnosis.chosen.noise_scale,
+                             new_per_parameter=with_own_covariance(result), progress=monitor.sub(0.0, 0.3),
                              cancelled=cancelled, **opts)
     Qs, xyz = [], []
     follow = getattr(measure, "follow", None)       # a connected cell moves on while the marker is located
@@ -187,6 +188,13 @@ def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: D
                            "changed", hint="The change is not only what the diagnosis found: run a full calibration.")
     path = write_keeping_previous(re, out, kept)
     return Update(re, Path(path), proposal.Q, after, updated)
+
+
+def with_own_covariance(result: CheckResult) -> bool:
+    """Whether the check's points were measured with their own covariance (located in images, or
+    a file's σ): their errors repeat at a pose, so the re-identification proposes at least one new
+    pose per changed parameter (core.monitoring.reidentify)."""
+    return any(p.covariance is not None for p in result.points)
 
 
 def write_keeping_previous(re: Reidentification, out: Path, kept: Path | None) -> Path:
@@ -296,7 +304,8 @@ def propose_reidentification(cell: CheckSetup, result: CheckResult, diagnosis: D
     opts = {k: v for k, v in (options or {}).items() if k not in ("robot", "target")}
     return propose_poses(cell.model, cell.unc, diagnosis.parameters, result.Q, target=cell.target,
                          candidates=CANDIDATES, seed=seed, measured_scale=diagnosis.chosen.noise_scale,
-                         progress=progress, cancelled=cancelled, **opts)
+                         new_per_parameter=with_own_covariance(result), progress=progress, cancelled=cancelled,
+                         **opts)
 
 
 def change_parameters(model: RobotModel, target: str, kind: str) -> list:
