@@ -30,7 +30,7 @@ class MeasuredPoint(np.ndarray):
 
 def point_covariance(point) -> np.ndarray | None:
     """The covariance (3, 3) mm² a measured point carries, or None."""
-    return getattr(point, "covariance", None) if isinstance(point, MeasuredPoint) else None
+    return point.covariance if isinstance(point, MeasuredPoint) else None
 
 
 def located_point(location) -> MeasuredPoint | None:
