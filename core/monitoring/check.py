@@ -158,7 +158,7 @@ def check_limits(model: RobotModel, unc: CalibrationUncertainty, Q, targets, alp
 
 def _point_limit(limits: CheckLimits, unc: CalibrationUncertainty, k: int, own) -> float:
     """Point k's limit (mm): the precomputed one, or from its own covariance `own`."""
-    if own is None or limits.shared is None:
+    if own is None:
         return float(limits.per_point[k])
     block = limits.shared[3 * k:3 * k + 3, 3 * k:3 * k + 3] + unc.measurement_covariance(own)
     return norm_limit(block, 1.0 - limits.alpha / (2 * len(limits.per_point)))

@@ -14,8 +14,8 @@ points and its limit (mm). `tool`: the tool mounted for the check (the robot fil
 `cxx … czz`: the measured point's own covariance (mm², measurement frame; its six distinct
 entries) when the instrument gave one (the marker located in a pair), else empty: a later
 re-identification from the log judges the point as the check did. A log written before the
-`tool` or the covariance columns existed reads as it is (no tools, no covariances) and new checks
-are appended to it in its own layout. A row cut short by a crash is ignored when read
+`tool` or the covariance columns existed reads as it is (no tools, no covariances); appending to
+it first rewrites it (atomically) in the present layout, its rows kept with those columns empty. A row cut short by a crash is ignored when read
 and cut off before the next append.
 """
 from __future__ import annotations
@@ -30,7 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from core.errors import RoboCalError
-from core.files import drop_partial_last_line, ensure_writable_dir, read_text, require_regular_file
+from core.files import atomic_write_text, drop_partial_last_line, ensure_writable_dir, read_text, require_regular_file
+from core.measurement.point import usable_covariance
 
 FAMILY = "robocal.checks"
 FORMAT = f"{FAMILY}/1"
@@ -94,7 +95,8 @@ def _fmt(v: float) -> str:
 
 
 class CheckLogWriter:
-    """Appends rows to a check log; creates it with its tag and header when new."""
+    """Appends rows to a check log; creates it with its tag and header when new, and rewrites a log
+    of an earlier layout in the present one first."""
 
     def __init__(self, path: str | Path, dof: int):
         self.path = Path(path)
@@ -102,14 +104,14 @@ class CheckLogWriter:
         require_regular_file(self.path)
         ensure_writable_dir(self.path.parent if str(self.path.parent) else Path("."))
         new = not self.path.exists() or self.path.stat().st_size == 0
-        self.tool_column = self.covariance_columns = True
         if not new:
             existing = read_check_log(self.path)        # refused here, the file is left as it was
             if existing.dof != self.dof:
                 raise RoboCalError(f"the log holds checks of a robot with {existing.dof} joints, not {self.dof}",
                                    source=self.path, field="header", hint="Give another check log file.")
-            self.tool_column, self.covariance_columns = existing.tool_column, existing.covariance_columns
             drop_partial_last_line(self.path)           # only a check log's own cut-off row
+            if not (existing.tool_column and existing.covariance_columns):
+                _upgrade_layout(self.path, existing)
         try:
             self._handle = open(self.path, "a", encoding="utf-8", newline="")
         except OSError as exc:
@@ -128,18 +130,17 @@ class CheckLogWriter:
                                hint="Check the disk space.") from exc
 
     def _row(self, values: list[str], tool: str, covariance=None) -> None:
-        extra = [tool] if self.tool_column else []
-        if self.tool_column and self.covariance_columns:
-            extra += [""] * 6 if covariance is None else [f"{covariance[i, j]:.6g}" for i, j in _UPPER]
-        self._write(",".join(values + extra) + "\n")
+        cov = [""] * 6 if covariance is None else [f"{covariance[i, j]:.8g}" for i, j in _UPPER]
+        self._write(",".join(values + [tool] + cov) + "\n")
 
     def point(self, run: str, time: str, pose: int, target: str, q_file, measured, predicted,
               error_mm: float, limit_mm: float, within: bool, tool: str = "", covariance=None) -> None:
-        """One check point; `covariance` (3, 3) mm²: the measurement's own, or None."""
+        """One check point; `covariance` (3, 3) mm²: the measurement's own, or None (also for a
+        matrix that is no covariance, core.measurement.point.usable_covariance)."""
         values = [run, time, POINT, str(int(pose)), target] + [f"{v:.3f}" for v in np.asarray(q_file, float)] \
             + [_fmt(v) for v in measured] + [_fmt(v) for v in predicted] \
             + [_fmt(error_mm), _fmt(limit_mm), "1" if within else "0"]
-        self._row(values, tool, None if covariance is None else np.asarray(covariance, dtype=float).reshape(3, 3))
+        self._row(values, tool, usable_covariance(covariance))
 
     def overall(self, run: str, time: str, rms_mm: float, limit_mm: float, within: bool, tool: str = "") -> None:
         values = [run, time, OVERALL, "", ""] + [""] * (self.dof + 6) + [_fmt(rms_mm), _fmt(limit_mm),
@@ -155,6 +156,23 @@ class CheckLogWriter:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def _upgrade_layout(path: Path, log: "CheckLog") -> None:
+    """Rewrite a log of an earlier layout (without the tool or the covariance columns) in the
+    present one, atomically: the tag and comment lines as they are, the header of today, every
+    row with an empty tool (when it had none) and empty covariance columns."""
+    text = read_text(path, "a check log (checks.csv)")
+    out, header_seen = [], False
+    for line in text.splitlines():
+        if not line.strip() or line.lstrip().startswith("#"):
+            out.append(line)
+        elif not header_seen:
+            out.append(",".join(header_columns(log.dof)))
+            header_seen = True
+        else:
+            out.append(line + ("," if not log.tool_column else "") + "," * len(COVARIANCE))
+    atomic_write_text(path, "\n".join(out) + "\n")
 
 
 def _number(path, line_no: int, column: str, text: str) -> float:
@@ -237,8 +255,8 @@ def read_check_log(path: str | Path) -> CheckLog:
 
 def _covariance(path, line_no: int, cols: dict) -> np.ndarray | None:
     """A point row's own covariance (3, 3) mm², None when its covariance columns are empty or
-    absent; RoboCalError for some filled and some empty, a bad number, or a matrix that is no
-    covariance (not positive semi-definite)."""
+    absent; RoboCalError for some filled and some empty, a bad number, or entries that give a
+    negative variance in some direction."""
     texts = [cols.get(c, "").strip() for c in COVARIANCE]
     if not any(texts):
         return None
@@ -248,7 +266,7 @@ def _covariance(path, line_no: int, cols: dict) -> np.ndarray | None:
     C = np.zeros((3, 3))
     for (i, j), c, t in zip(_UPPER, COVARIANCE, texts):
         C[i, j] = C[j, i] = _number(path, line_no, c, t)
-    if np.linalg.eigvalsh(C).min() < -1e-9 * max(float(np.trace(C)), 1e-300) or np.trace(C) <= 0:
-        raise RoboCalError(f"line {line_no}: the covariance is not positive semi-definite", source=path,
+    if usable_covariance(C) is None:
+        raise RoboCalError(f"line {line_no}: cxx … czz give a negative variance in some direction", source=path,
                            field="cxx", hint="Restore the log from a backup, or empty the six covariance columns.")
     return C

@@ -7,8 +7,9 @@ estimated parameters (core.kinematics.jacobian), C their covariance and M the me
 noise, block-diagonal: σ²·I per point (σ per axis, mm), or for a point measured with its own
 covariance Σ_i (the marker locator's, core.measurement.point) that covariance scaled by
 s_i = max(k², σ² / (tr Σ_i / 3)): k the calibration's noise factor (for a calibration that weighted
-its points by their own σ, its unitless σ̂; 1 otherwise), σ a floor (no point measured after the
-calibration is predicted better than the calibration's own errors, its held-out ones included).
+its points by their own σ, its unitless σ̂; 1 otherwise), σ a floor on its mean variance per axis
+(no point measured after the calibration is taken, on average over its axes, as better predicted
+than the calibration's own errors, its held-out ones included).
 So a point the cameras see from afar or at a slant, which they measure less precisely, gets the
 wider limit its own covariance gives; through images the locator's 3D σ at the check poses of the
 virtual lab spans 0.0045–0.011 mm, 1.0–2.4 × the calibration's σ·√3. The parameter part

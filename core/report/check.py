@@ -155,7 +155,7 @@ def _diagnose(check, model) -> str:
 
     unc = calibration_uncertainty(model)
     points = [CheckPoint(p.pose, p.target, p.q_file, model.q_from_file(p.q_file), p.measured, p.predicted,
-                         p.limit_mm) for p in check.points]
+                         p.limit_mm, p.covariance) for p in check.points]
     result = CheckResult(check.run, check.time, points, float(check.rms_mm), float(check.rms_limit_mm),
                          DEFAULT_ALPHA, unc.sigma_mm, tool=check.tool)
     return diagnose(model, unc, result).text

@@ -26,3 +26,9 @@ def test_a_marker_location_gives_its_point_and_covariance():
     np.testing.assert_array_equal(p, [10.0, 0.0, 800.0])
     np.testing.assert_array_equal(point_covariance(p), np.eye(3) * 4e-6)
     assert located_point(MarkerLocation(ok=False)) is None
+
+
+def test_a_matrix_that_is_no_covariance_is_dropped():
+    for bad in (np.full((3, 3), np.nan), np.zeros((3, 3)), np.diag([1e-4, -1e-4, 1e-4]), np.ones((2, 2)),
+                np.array([[1e-4, 2e-4, 0], [2e-4, 1e-4, 0], [0, 0, 1e-4]])):
+        assert point_covariance(MeasuredPoint([1.0, 2.0, 3.0], bad)) is None

@@ -150,3 +150,28 @@ def test_a_point_measured_less_precisely_is_judged_by_its_own_covariance(tmp_pat
     logged = read_check_log(tmp_path / "c.csv").checks[-1]
     assert [p.limit_mm for p in logged.points] == pytest.approx([p.limit_mm for p in own.points], abs=1e-4)
     assert logged.rms_limit_mm == pytest.approx(own.rms_limit_mm, abs=1e-4)
+
+
+def test_a_missing_pose_leaves_the_others_judged_by_their_own_covariance():
+    """Pose 2 not measured: each other point keeps its own limit, and the overall limit is that of
+    the seven measured with their covariances (the parameter part of the poses measured only)."""
+    from core.kinematics.jacobian import predict_points
+    from core.measurement.point import MeasuredPoint
+    from core.monitoring.uncertainty import norm_limit, prediction_covariance
+    c = cell()
+    predicted = predict_points(c.model, c.Q, ["marker"] * len(c.Q))
+    own = [np.diag([1.0, 1.0, 9.0]) * (k + 1) * c.unc.sigma_mm ** 2 for k in range(len(c.Q))]
+    points = iter(range(len(c.Q)))
+
+    def measure(q):
+        k = next(points)
+        return None if k == 2 else MeasuredPoint(predicted[k], own[k])
+    result = run_check(c.model, c.unc, c.Q, measure)
+    keep = [k for k in range(len(c.Q)) if k != 2]
+    assert [p.pose for p in result.points] == keep and result.missing[0][0] == 2
+    S = prediction_covariance(c.model, c.unc, c.Q[keep], ["marker"] * len(keep), [own[k] for k in keep])
+    assert result.rms_limit_mm == pytest.approx(norm_limit(S, 1 - 0.01 / 2) / np.sqrt(len(keep)), rel=1e-9)
+    n = len(c.Q)
+    for p, k in zip(result.points, keep):
+        block = S[3 * keep.index(k):3 * keep.index(k) + 3, 3 * keep.index(k):3 * keep.index(k) + 3]
+        assert p.limit_mm == pytest.approx(norm_limit(block, 1 - 0.01 / (2 * n)), rel=1e-9)

@@ -49,7 +49,7 @@ def test_a_points_own_covariance_is_logged_to_six_digits(tmp_path):
 
 
 @pytest.mark.parametrize("cov, field", [(",,,,,9e-05", "cxx"), ("1e-5,0,0,1e-5,0,x", "czz"),
-                                         ("1e-5,0,0,-1e-5,0,1e-5", "cxx")])
+                                         ("1e-5,0,0,-1e-5,0,1e-5", "cxx"), ("1e-5,2e-5,0,1e-5,0,1e-5", "cxx")])
 def test_a_bad_covariance_is_named(tmp_path, cov, field):
     path = tmp_path / "checks.csv"
     path.write_text(TAG + "\n" + ",".join(header_columns(1)) + "\n"
@@ -59,21 +59,36 @@ def test_a_bad_covariance_is_named(tmp_path, cov, field):
     assert exc.value.field == field and exc.value.source == str(path)
 
 
-def test_log_without_the_covariance_columns_is_appended_in_its_layout(tmp_path):
+def test_log_without_the_covariance_columns_gains_them_when_appended_to(tmp_path):
+    """A point measured with its covariance is logged with it also in a log begun before the
+    columns existed, so that a re-identification from the log judges it as the check did."""
     import numpy as np
     path = tmp_path / "checks.csv"
-    path.write_text(TAG + "\n" + ",".join(header_columns(1, covariance=False)) + "\n"
+    path.write_text(TAG + "\n# a comment kept\n" + ",".join(header_columns(1, covariance=False)) + "\n"
                     "a,2025-01-01T10:00:00+00:00,point,3,marker,12.5,1,2,3,1,2,3.5,0.5,0.9,1,gripper\n")
     log = read_check_log(path)
     assert log.tool_column and not log.covariance_columns and log.checks[0].points[0].covariance is None
     with CheckLogWriter(path, 1) as w:
         w.point("b", "t", 0, "marker", [1.0], [1, 2, 3], [1, 2, 3], 0.0, 0.3, True, "gripper", np.eye(3) * 1e-5)
     log = read_check_log(path)
-    assert [c.run for c in log.checks] == ["a", "b"] and log.checks[1].points[0].tool == "gripper"
-    assert log.checks[1].points[0].covariance is None
+    assert [c.run for c in log.checks] == ["a", "b"] and log.checks[0].points[0].tool == "gripper"
+    assert log.checks[0].points[0].covariance is None
+    np.testing.assert_allclose(log.checks[1].points[0].covariance, np.eye(3) * 1e-5)
+    assert path.read_text().splitlines()[1] == "# a comment kept"
 
 
-def test_log_without_the_tool_column_is_read_and_appended_in_its_layout(tmp_path):
+def test_a_matrix_that_is_no_covariance_is_logged_as_none(tmp_path):
+    """A locator's covariance gone wrong (NaN, all zero) must not make the log unreadable."""
+    import numpy as np
+    path = tmp_path / "checks.csv"
+    with CheckLogWriter(path, 1) as w:
+        w.point("r", "t", 0, "marker", [1.0], [1, 2, 3], [1, 2, 3], 0.0, 0.3, True, "", np.full((3, 3), np.nan))
+        w.point("r", "t", 1, "marker", [1.0], [1, 2, 3], [1, 2, 3], 0.0, 0.3, True, "", np.zeros((3, 3)))
+        w.point("r", "t", 2, "marker", [1.0], [1, 2, 3], [1, 2, 3], 0.0, 0.3, True, "", np.diag([1e-5, -1e-5, 1e-5]))
+    assert [p.covariance for p in read_check_log(path).checks[0].points] == [None, None, None]
+
+
+def test_log_without_the_tool_column_is_read_and_rewritten_in_the_present_layout_to_append(tmp_path):
     path = tmp_path / "checks.csv"
     path.write_text(TAG + "\n" + ",".join(header_columns(1, tool=False)) + "\n"
                     "a,2025-01-01T10:00:00+00:00,point,3,marker,12.5,1,2,3,1,2,3.5,0.5,0.9,1\n"
@@ -83,8 +98,12 @@ def test_log_without_the_tool_column_is_read_and_appended_in_its_layout(tmp_path
     with CheckLogWriter(path, 1) as w:
         w.point("b", "t", 0, "marker", [1.0], [1, 2, 3], [1, 2, 3], 0.0, 0.3, True, "gripper")
     log = read_check_log(path)
-    assert [c.run for c in log.checks] == ["a", "b"] and log.checks[1].points[0].tool == ""
-    assert path.read_text().splitlines()[1] == ",".join(header_columns(1, tool=False))
+    assert log.tool_column and log.covariance_columns
+    assert [c.run for c in log.checks] == ["a", "b"] and log.checks[1].points[0].tool == "gripper"
+    (old,) = log.checks[0].points
+    assert old.pose == 3 and old.predicted.tolist() == [1, 2, 3.5] and old.tool == "" and old.covariance is None
+    assert log.checks[0].rms_limit_mm == 0.8 and log.checks[0].within
+    assert path.read_text().splitlines()[1] == ",".join(header_columns(1))
 
 
 def test_cut_off_last_row_is_dropped_and_repaired_on_append(tmp_path):
