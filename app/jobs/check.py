@@ -4,7 +4,6 @@ diagnose, and re-identify what changed from the proposed poses."""
 from __future__ import annotations
 
 import copy
-import math
 from dataclasses import dataclass, replace
 from datetime import datetime, timezone
 from pathlib import Path
@@ -145,7 +144,7 @@ def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: D
     opts = {k: v for k, v in (lab_options or {}).items() if k != "robot"}
     opts["target"] = cell.target
     proposal = propose_poses(cell.model, cell.unc, diagnosis.parameters, result.Q, candidates=CANDIDATES,
-                             seed=seed, measured_scale=check_point_scales(cell.unc, result, diagnosis),
+                             seed=seed, measured_scale=diagnosis.chosen.noise_scale,
                              new_per_parameter=with_own_covariance(result), progress=monitor.sub(0.0, 0.3),
                              cancelled=cancelled, **opts)
     Qs, xyz = [], []
@@ -165,7 +164,7 @@ def reidentify_from_proposed(cell: CheckSetup, result: CheckResult, diagnosis: D
                         xyz=np.array(xyz), Q=Q)
     out = Path(out)
     kept = history_path(out) if archive and out.is_file() else None
-    scale = [1.0] * (len(Q) - len(result.points)) + list(check_point_scales(cell.unc, result, diagnosis))
+    scale = [1.0] * (len(Q) - len(result.points)) + [diagnosis.chosen.noise_scale] * len(result.points)
     re = reidentify(cell.model, cell.unc, diagnosis.parameters, meas, noise_scale=scale, reason=diagnosis.text,
                     previous=str(kept) if kept is not None else cell.source, progress=monitor.sub(0.6, 0.7),
                     cancelled=cancelled)
@@ -197,19 +196,6 @@ def with_own_covariance(result: CheckResult) -> bool:
     errors at a pose are taken to repeat the same way). The re-identification then proposes at
     least one new pose per changed parameter (core.monitoring.reidentify)."""
     return any(p.covariance is not None for p in result.points)
-
-
-def own_scales(unc: CalibrationUncertainty, covariances) -> np.ndarray:
-    """Each point's measurement noise as a multiple of the calibration's σ: the RMS per axis of
-    CalibrationUncertainty.measurement_covariance of its own covariance (None: 1)."""
-    return np.array([math.sqrt(np.trace(unc.measurement_covariance(c)) / 3.0) / unc.sigma_mm for c in covariances])
-
-
-def check_point_scales(unc: CalibrationUncertainty, result: CheckResult, diagnosis: Diagnosis) -> np.ndarray:
-    """Each check point's noise as a multiple of the calibration's σ, for the re-identification: its
-    own (own_scales) times the factor its residuals show once the diagnosed change is fitted
-    (CandidateFit.noise_scale, relative to the same covariance)."""
-    return own_scales(unc, result.covariances) * diagnosis.chosen.noise_scale
 
 
 def write_keeping_previous(re: Reidentification, out: Path, kept: Path | None) -> Path:
@@ -318,7 +304,7 @@ def propose_reidentification(cell: CheckSetup, result: CheckResult, diagnosis: D
     what `diagnosis` found; `options`: the cell's cameras and marker (core.poses.candidates)."""
     opts = {k: v for k, v in (options or {}).items() if k not in ("robot", "target")}
     return propose_poses(cell.model, cell.unc, diagnosis.parameters, result.Q, target=cell.target,
-                         candidates=CANDIDATES, seed=seed, measured_scale=check_point_scales(cell.unc, result, diagnosis),
+                         candidates=CANDIDATES, seed=seed, measured_scale=diagnosis.chosen.noise_scale,
                          new_per_parameter=with_own_covariance(result), progress=progress, cancelled=cancelled,
                          **opts)
 
@@ -457,9 +443,8 @@ def reidentify_measured(robot_path, log, kind: str, new: Measurements, out, *, a
     kept = history_path(out) if out.is_file() else None
     reason = f"{kind} changed (check {logged.run}), re-identified from {len(new.Q)} new poses and the check"
     try:
-        re = reidentify(cell.model, cell.unc, params, meas, reason=reason, previous=str(robot_path), alpha=alpha,
-                        noise_scale=[1.0] * len(new.Q) + list(own_scales(cell.unc, logged.covariances)),
-                        progress=monitor.sub(0.1, 0.8), cancelled=cancelled)
+        re = reidentify(cell.model, cell.unc, params, meas, reason=reason, previous=str(robot_path),
+                        alpha=alpha, progress=monitor.sub(0.1, 0.8), cancelled=cancelled)
     except RoboCalError as exc:            # the new points cannot be fitted: name the file they came from
         if exc.source is not None or not new.source:
             raise
