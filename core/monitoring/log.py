@@ -15,8 +15,8 @@ points and its limit (mm). `tool`: the tool mounted for the check (the robot fil
 entries) when the instrument gave one (the marker located in a pair), else empty: a later
 re-identification from the log judges the point as the check did. A log written before the
 `tool` or the covariance columns existed reads as it is (no tools, no covariances); appending to
-it first rewrites it (atomically) in the present layout, its rows kept with those columns empty. A row cut short by a crash is ignored when read
-and cut off before the next append.
+it first rewrites it (atomically) in the present layout, its rows kept with those columns empty.
+A row cut short by a crash is ignored when read and cut off before the next append.
 """
 from __future__ import annotations
 
