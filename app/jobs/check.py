@@ -195,7 +195,7 @@ def with_own_covariance(result: CheckResult) -> bool:
     stereo calibration's errors repeat at a pose), or from a file with σ columns (an instrument's
     errors at a pose are taken to repeat the same way). The re-identification then proposes at
     least one new pose per changed parameter (core.monitoring.reidentify)."""
-    return any(p.covariance is not None for p in result.points)
+    return any(c is not None for c in result.covariances)
 
 
 def write_keeping_previous(re: Reidentification, out: Path, kept: Path | None) -> Path:

@@ -151,17 +151,23 @@ def check_limits(model: RobotModel, unc: CalibrationUncertainty, Q, targets, alp
     Q = np.atleast_2d(np.asarray(Q, dtype=float))
     n = len(Q)
     shared = parameter_covariance(model, unc, Q, targets)
-    S = with_measurement_noise(shared, unc)
-    per = np.array([norm_limit(S[3 * i:3 * i + 3, 3 * i:3 * i + 3], 1.0 - alpha / (2 * n)) for i in range(n)])
-    return CheckLimits(per, norm_limit(S, 1.0 - alpha / 2) / math.sqrt(n), float(alpha), shared)
+    per = np.array([_limit_of_point(shared, unc, i, None, alpha) for i in range(n)])
+    return CheckLimits(per, norm_limit(with_measurement_noise(shared, unc), 1.0 - alpha / 2) / math.sqrt(n),
+                       float(alpha), shared)
+
+
+def _limit_of_point(shared: np.ndarray, unc: CalibrationUncertainty, k: int, own, alpha: float) -> float:
+    """Point k's limit (mm) at false-alarm probability alpha / (2N): its block of the parameter
+    part `shared` (3N, 3N) plus its measurement noise (own covariance `own`, or None)."""
+    block = shared[3 * k:3 * k + 3, 3 * k:3 * k + 3] + unc.measurement_covariance(own)
+    return norm_limit(block, 1.0 - alpha / (2 * (len(shared) // 3)))
 
 
 def _point_limit(limits: CheckLimits, unc: CalibrationUncertainty, k: int, own) -> float:
     """Point k's limit (mm): the precomputed one, or from its own covariance `own`."""
     if own is None:
         return float(limits.per_point[k])
-    block = limits.shared[3 * k:3 * k + 3, 3 * k:3 * k + 3] + unc.measurement_covariance(own)
-    return norm_limit(block, 1.0 - limits.alpha / (2 * len(limits.per_point)))
+    return _limit_of_point(limits.shared, unc, k, own, limits.alpha)
 
 
 def _rms_limit(limits: CheckLimits, unc: CalibrationUncertainty, rows: list[int], own: list) -> float:

@@ -513,11 +513,14 @@ def _blurred_edge_coverage(d: np.ndarray, c: np.ndarray, s: np.ndarray, sigma: f
         return _edge_coverage(d, c, s)
     a = np.maximum(c, s)
     b = np.minimum(c, s)
-    box = sigma * (_psi1((d + a / 2) / sigma) - _psi1((d - a / 2) / sigma)) / a
-    bb = np.maximum(b, 1e-2)
-    trap = sigma * sigma * (_psi2((d + (a + bb) / 2) / sigma) - _psi2((d + (a - bb) / 2) / sigma)
-                            - _psi2((d - (a - bb) / 2) / sigma) + _psi2((d - (a + bb) / 2) / sigma)) / (a * bb)
-    return np.clip(np.where(b < 1e-2, box, trap), 0.0, 1.0)
+    out = np.empty_like(d)
+    box = b < 1e-2                       # an edge along a pixel axis: the trapezoid is a box
+    db, ab = d[box], a[box]
+    out[box] = sigma * (_psi1((db + ab / 2) / sigma) - _psi1((db - ab / 2) / sigma)) / ab
+    dt, at, bt = d[~box], a[~box], b[~box]
+    out[~box] = sigma * sigma * (_psi2((dt + (at + bt) / 2) / sigma) - _psi2((dt + (at - bt) / 2) / sigma)
+                                 - _psi2((dt - (at - bt) / 2) / sigma) + _psi2((dt - (at + bt) / 2) / sigma)) / (at * bt)
+    return np.clip(out, 0.0, 1.0)
 
 
 def _checker_axis(u: np.ndarray, g: np.ndarray, sq: float, count: int, margin: float):
