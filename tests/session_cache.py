@@ -119,3 +119,77 @@ def computed_once_per_image(monkeypatch) -> None:
         for user in users:
             monkeypatch.setattr(user, name, cached)
 
+
+
+_renders: "OrderedDict" = None       # key -> (left, right, rng state after the render); set on first use
+_render_originals: dict = {}
+_render_lock = threading.Lock()
+RENDERS_KEPT = 300                    # the last 300 distinct pairs: ~0.8 GB per process at most
+_room_digests: dict = {}             # id(room) -> (room, digest): a room is never changed in place
+
+
+def _room_digest(room) -> str:
+    with _render_lock:
+        known = _room_digests.get(id(room))
+        if known is not None and known[0] is room:
+            return known[1]
+    digest = hashlib.sha1(pickle.dumps(room)).hexdigest()
+    with _render_lock:
+        _room_digests[id(room)] = (room, digest)
+    return digest
+
+
+def _render_key(name: str, lab, args, kwargs, rng) -> tuple | None:
+    """Everything a lab's rendering depends on, or None where the result is not repeatable (no
+    generator or seed given: fresh entropy)."""
+    import numpy as np
+
+    if rng is None:
+        return None
+    rng_key = (rng.bit_generator.state if isinstance(rng, np.random.Generator) else rng)
+    scene = (lab.rig, lab.true_robot, lab.board, lab.marker, lab.noise, lab.target, lab._right_from_left)
+    return (name, hashlib.sha1(pickle.dumps((scene, args, sorted(kwargs.items()), rng_key))).hexdigest(),
+            _room_digest(lab.room))
+
+
+def rendered_once_per_input(monkeypatch) -> None:
+    """For the duration of a test, the virtual lab's stereo renderings (render_checkerboard_pair,
+    render_marker_pair, render_marker_at: functions of the lab's rig, true robot, board, marker,
+    room and noise, the pose and options, and the random generator's state) are rendered once per
+    session for each distinct input and handed out as copies; the caller's generator is left in the
+    state the rendering would have left it in. Renderings without a generator or seed are not kept."""
+    global _renders
+    from collections import OrderedDict
+
+    import numpy as np
+
+    from core.virtual_lab.lab import VirtualLab
+
+    if _renders is None:
+        _renders = OrderedDict()
+    for name in ("render_checkerboard_pair", "render_marker_pair", "render_marker_at"):
+        original = _render_originals.setdefault(name, getattr(VirtualLab, name))
+
+        def cached(lab, pose, rng=None, *args, _name=name, _original=original, **kwargs):
+            key = _render_key(_name, lab, args, kwargs, rng)
+            if key is None:
+                return _original(lab, pose, rng, *args, **kwargs)
+            key = key + (hashlib.sha1(np.ascontiguousarray(pose, dtype=float)).hexdigest(),)
+            with _render_lock:
+                kept = _renders.get(key)
+                if kept is not None:
+                    _renders.move_to_end(key)
+            if kept is None:
+                generator = rng if isinstance(rng, np.random.Generator) else None
+                left, right = _original(lab, pose, rng, *args, **kwargs)
+                kept = (left.copy(), right.copy(), generator and generator.bit_generator.state)
+                with _render_lock:
+                    _renders[key] = kept
+                    while len(_renders) > RENDERS_KEPT:
+                        _renders.popitem(last=False)
+                return left, right
+            if isinstance(rng, np.random.Generator):
+                rng.bit_generator.state = kept[2]
+            return kept[0].copy(), kept[1].copy()
+
+        monkeypatch.setattr(VirtualLab, name, cached)
