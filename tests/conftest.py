@@ -15,8 +15,9 @@
   the garbage collector's view, so the next collections scan only what the following tests make.
 - SIFT features and checkerboard corners are computed once per session for each distinct image
   (the virtual lab renders the same images in many tests) and handed out as copies; so are the
-  lab's stereo renderings, for each distinct lab, pose and random state, outside the renderer's
-  own tests and tests marked fresh_renders (tests/session_cache.py).
+  lab's stereo renderings (for each distinct lab, pose and random state) and the marker's
+  locations in a pair, outside the renderer's and the locator's own tests and tests marked
+  no_session_cache (tests/session_cache.py).
 - With pytest-xdist (`make test` runs `-n auto --dist loadscope`), the longest modules are
   handed out first (their seconds in the last run, from pytest's cache) and the modules that
   share the in-process demo walk run on one worker (tests/scheduling.py).
@@ -42,7 +43,7 @@ import pytest
 from hypothesis import settings
 
 from tests import scheduling
-from tests.session_cache import computed_once_per_image, lab_copy, rendered_once_per_input
+from tests.session_cache import computed_once_per_image, lab_copy, located_once_per_input, rendered_once_per_input
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 # Linear algebra on one thread per test process (numpy is loaded after this file): `make test` runs
@@ -221,8 +222,8 @@ def pytest_unconfigure(config):
 def pytest_configure(config):
     config.addinivalue_line("markers", "slow: over ~20 s alone (a whole demo walk, a fuzzed command line, a chain of "
                                        "commands on rendered images); `make test-quick` leaves them out")
-    config.addinivalue_line("markers", "fresh_renders: every rendering of the virtual lab is rendered again, not "
-                                       "handed out from the session's renderings (a test of repeatable rendering)")
+    config.addinivalue_line("markers", "no_session_cache: the virtual lab's renderings and the marker's locations "
+                                       "are computed again, not handed out from the session's (a test of repeatability)")
     if config.pluginmanager.hasplugin("xdist") and not hasattr(config, "workerinput"):
         config.pluginmanager.register(WorkerExitStatus(), "robocal-worker-exit-status")
         if config.getvalue("dist") == "loadscope":
@@ -256,13 +257,18 @@ def _images_analysed_once(monkeypatch):
 
 
 @pytest.fixture(autouse=True)
-def _renderings_made_once(request, monkeypatch):
+def _renderings_and_locations_made_once(request, monkeypatch):
     """A stereo pair the virtual lab rendered before in the session, from the same lab, pose,
-    options and random state, is a copy of the first rendering (tests/session_cache.py); not for
-    the renderer's own tests (tests/core/virtual_lab) and tests marked fresh_renders."""
-    if request.node.get_closest_marker("fresh_renders") or "tests/core/virtual_lab/" in request.node.nodeid:
+    options and random state, is a copy of the first rendering, and so is the marker located again
+    in the same pair with the same marker, rectification and options (tests/session_cache.py); not
+    in the renderer's and the locator's own tests (tests/core/virtual_lab, tests/core/marker) and
+    tests marked no_session_cache."""
+    if request.node.get_closest_marker("no_session_cache"):
         return
-    rendered_once_per_input(monkeypatch)
+    if "tests/core/virtual_lab/" not in request.node.nodeid:
+        rendered_once_per_input(monkeypatch)
+    if "tests/core/marker/" not in request.node.nodeid:
+        located_once_per_input(monkeypatch)
 
 
 @pytest.fixture(autouse=True)

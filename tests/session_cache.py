@@ -193,3 +193,63 @@ def rendered_once_per_input(monkeypatch) -> None:
             return kept[0].copy(), kept[1].copy()
 
         monkeypatch.setattr(VirtualLab, name, cached)
+
+
+_locations: "OrderedDict" = None     # key -> MarkerLocation; set on first use
+_locator_original: list = []
+LOCATIONS_KEPT = 2000
+_locator_digests: dict = {}          # id(locator) -> (locator, digest of its marker and rectification)
+
+
+def _locator_digest(locator) -> str:
+    with _pixel_lock:
+        known = _locator_digests.get(id(locator))
+        if known is not None and known[0] is locator:
+            return known[1]
+    digest = hashlib.sha1(pickle.dumps((locator.trained.to_bytes(), locator.rect))).hexdigest()
+    with _pixel_lock:
+        _locator_digests[id(locator)] = (locator, digest)
+    return digest
+
+
+def located_once_per_input(monkeypatch) -> None:
+    """For the duration of a test, MarkerLocator.locate of a stereo pair (a function of the two
+    images, the trained marker, the rectification, the options and the predicted homographies)
+    is computed once per session for each distinct input and handed out as a copy; a call that
+    reports progress or can be cancelled is always computed."""
+    global _locations
+    from collections import OrderedDict
+
+    import numpy as np
+
+    from core.marker.location import MarkerLocator
+
+    if _locations is None:
+        _locations = OrderedDict()
+    if not _locator_original:
+        _locator_original.append(MarkerLocator.locate)
+    original = _locator_original[0]
+
+    def cached(locator, left, right, *, predicted=None, progress=None, cancelled=None):
+        if progress is not None or cancelled is not None:
+            return original(locator, left, right, predicted=predicted, progress=progress, cancelled=cancelled)
+        images = hashlib.sha1()
+        for image in (left, right):
+            image = np.ascontiguousarray(image)
+            images.update(repr((image.shape, image.dtype.str)).encode())
+            images.update(image)
+        key = (_locator_digest(locator), images.hexdigest(),
+               hashlib.sha1(pickle.dumps((locator.options, predicted))).hexdigest())
+        with _pixel_lock:
+            kept = _locations.get(key)
+            if kept is not None:
+                _locations.move_to_end(key)
+        if kept is None:
+            kept = original(locator, left, right, predicted=predicted)
+            with _pixel_lock:
+                _locations[key] = kept
+                while len(_locations) > LOCATIONS_KEPT:
+                    _locations.popitem(last=False)
+        return copy.deepcopy(kept)
+
+    monkeypatch.setattr(MarkerLocator, "locate", cached)

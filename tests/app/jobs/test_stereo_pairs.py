@@ -55,7 +55,7 @@ def test_cancel_keeps_the_finished_batches(lab, image_pairs):
     assert [len(b) for b in batches] == [FILE_CHUNK]
 
 
-@pytest.mark.fresh_renders
+@pytest.mark.no_session_cache
 def test_virtual_pairs_are_rendered_in_batches_and_repeatable(lab, tmp_path, monkeypatch):
     monkeypatch.setattr(stereo_pairs, "RENDER_CHUNK", 2)
     batches, seen = [], []
