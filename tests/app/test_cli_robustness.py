@@ -88,7 +88,7 @@ def test_a_closed_pipe_is_one_line(tmp_path):
 
 
 def test_ctrl_c_while_starting_is_one_line_and_exit_130(monkeypatch, capsys):
-    def interrupted():
+    def interrupted(command=None):
         raise KeyboardInterrupt
     monkeypatch.setattr(cli, "build_parser", interrupted)
     assert main(["identify", "--robot", "r.json"]) == 130
