@@ -143,7 +143,8 @@ def _main(argv: list[str]) -> int:
 
     if not argv:
         argv = ["gui"]
-    parser = build_parser(argv[0] if argv[0] in COMMANDS else None)
+    # `gui` keeps the full parser: the window starts with every command module loaded, as before
+    parser = build_parser(argv[0] if argv[0] in COMMANDS and argv[0] != "gui" else None)
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:
