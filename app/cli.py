@@ -76,10 +76,15 @@ class _Parser(argparse.ArgumentParser):
             pass
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The `robocal` parser; with `command` (a name in COMMANDS) only that subcommand is added,
+    and only its module imported: a command line that starts with it parses the same (same
+    namespace, same messages and exit codes), without building the other subcommands' parsers."""
     parser = _Parser(prog="robocal", description="Robot calibration with a stereo camera pair.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for name, module_name in COMMANDS.items():
+        if command is not None and name != command:
+            continue
         module = importlib.import_module(f"app.commands.{module_name}")
         p = sub.add_parser(name, help=module.HELP, description=module.HELP)
         module.add_arguments(p)
@@ -136,9 +141,10 @@ def _main(argv: list[str]) -> int:
     from core.files import json_default
     from core.locks import output_locks
 
-    parser = build_parser()
     if not argv:
         argv = ["gui"]
+    # `gui` keeps the full parser: the window starts with every command module loaded, as before
+    parser = build_parser(argv[0] if argv[0] in COMMANDS and argv[0] != "gui" else None)
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:

@@ -18,23 +18,27 @@ from core.poses.file import read_poses
 from core.robot.file import read_robot
 from core.robot.model import robot_path
 from core.virtual_lab.changes import apply_change
-from core.virtual_lab.lab import VirtualLab
 from tests.app.virtual_inputs import marker_dataset
+from tests.session_cache import create_labs_once
 
 SEED = 3
 
 
 @pytest.fixture(scope="module")
-def cell(tmp_path_factory):
-    """(folder, dataset, calibrated.json, lab): the README chain on a 36-pose dataset of lab seed 3."""
+def cell(tmp_path_factory, built_lab):
+    """(folder, dataset, calibrated.json, lab): the README chain on a 36-pose dataset of lab seed 3.
+    The dataset's lab and the module's are copies of the lab built once per session
+    (tests/session_cache.py: the same lab a build gives)."""
     root = tmp_path_factory.mktemp("checkfiles")
-    ds = marker_dataset(root, poses=36, seed=SEED)
+    with pytest.MonkeyPatch.context() as patch:
+        create_labs_once(patch)
+        ds = marker_dataset(root, poses=36, seed=SEED)
     assert main(["measure", "--stereo", str(ds / "stereo.yaml"), "--marker", str(ds / "marker" / "training.png"),
                  "--images", str(ds / "poses"), "--joints", str(ds / "poses" / "joints.csv"),
                  "--out", str(root / "meas.csv")]) == 0
     assert main(["identify", "--robot", str(robot_path("educational_6r")), "--measurements", str(root / "meas.csv"),
                  "--out", str(root / "calibrated.json"), "--holdout", "0.25"]) == 0
-    return root, ds, root / "calibrated.json", VirtualLab.create(seed=SEED, noise=0.5)
+    return root, ds, root / "calibrated.json", built_lab(None, SEED, 0.5)
 
 
 def locator_args(ds):

@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import os
 import pty
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -44,7 +45,8 @@ def cell(tmp_path_factory, built_lab):
     return root, lab
 
 
-def cameras(lab, root, folder, change=None):
+def render_cameras(lab, root, folder, change=None):
+    """The lab's pairs at the check poses (after `change` to its true robot) as two image folders."""
     Q = read_poses(root / "poses.csv", lab.nominal_robot).Q
     true = lab.true_robot
     if change:
@@ -59,6 +61,27 @@ def cameras(lab, root, folder, change=None):
             cv2.imwrite(str(folder / "right" / f"{k:03d}.png"), right)
     finally:
         lab.true_robot = true
+    return folder
+
+
+@pytest.fixture(scope="module")
+def rendered(cell, tmp_path_factory):
+    """rendered(change): the two camera folders of `render_cameras` for that change, rendered once
+    per module (the pairs follow from the module's lab, the check poses, the change and a fixed
+    seed only); tests get copies (`cameras`), so none can change what another reads."""
+    root, lab = cell
+    folders = {}
+
+    def folder(change):
+        if change not in folders:
+            folders[change] = render_cameras(lab, root, tmp_path_factory.mktemp("rendered") / "cams", change)
+        return folders[change]
+    return folder
+
+
+def cameras(rendered, folder, change=None):
+    """--cameras LEFT,RIGHT: a copy, in `folder`, of the pairs rendered at the check poses."""
+    shutil.copytree(rendered(change), folder)
     return f"{folder / 'left'},{folder / 'right'}"
 
 
@@ -93,9 +116,9 @@ def robocal(argv, stdin):
 
 
 @pytest.mark.parametrize("change, code, kind", [(None, 0, "none"), ("tool:1.5", 3, "tool")])
-def test_a_check_drives_the_serial_robot_and_says_so(cell, tmp_path, capsys, change, code, kind):
+def test_a_check_drives_the_serial_robot_and_says_so(cell, rendered, tmp_path, capsys, change, code, kind):
     root, lab = cell
-    cams = cameras(lab, root, tmp_path / "cams", change)
+    cams = cameras(rendered, tmp_path / "cams", change)
     proc, port = sim_robot(tmp_path)
     try:
         got, data, err = check(root, port, cams, tmp_path / "c.csv", capsys,
@@ -113,9 +136,9 @@ def test_a_check_drives_the_serial_robot_and_says_so(cell, tmp_path, capsys, cha
                                read_poses(root / "poses.csv").q_file, atol=2e-3)      # as the controller reported
 
 
-def test_a_robot_fault_stops_the_check_with_the_log_kept(cell, tmp_path, capsys):
+def test_a_robot_fault_stops_the_check_with_the_log_kept(cell, rendered, tmp_path, capsys):
     root, lab = cell
-    cams = cameras(lab, root, tmp_path / "cams")
+    cams = cameras(rendered, tmp_path / "cams")
     proc, port = sim_robot(tmp_path, "fault@4")
     try:
         code, data, err = check(root, port, cams, tmp_path / "c.csv", capsys)
@@ -127,11 +150,11 @@ def test_a_robot_fault_stops_the_check_with_the_log_kept(cell, tmp_path, capsys)
     assert len(logged) == 1 and not logged[0].finished and 1 <= len(logged[0].points) < 8
 
 
-def test_with_no_terminal_and_no_cell_clear_the_robot_never_moves(cell, tmp_path):
+def test_with_no_terminal_and_no_cell_clear_the_robot_never_moves(cell, rendered, tmp_path):
     """Run from cron or a systemd timer without --cell-clear: refused in one line naming the flag,
     before anything is connected."""
     root, lab = cell
-    cams = cameras(lab, root, tmp_path / "cams")
+    cams = cameras(rendered, tmp_path / "cams")
     with ControllerSim(lab.true_robot, time_scale=0.01) as sim:
         done = robocal(check_argv(root, sim.port, cams, tmp_path / "c.csv"), subprocess.DEVNULL)
         moves = sim.moves
@@ -142,10 +165,10 @@ def test_with_no_terminal_and_no_cell_clear_the_robot_never_moves(cell, tmp_path
 
 
 @pytest.mark.parametrize("answer, code, moved", [("n", 1, 0), ("y", 0, 8)])
-def test_on_a_terminal_the_first_motion_is_asked_once(cell, tmp_path, answer, code, moved):
+def test_on_a_terminal_the_first_motion_is_asked_once(cell, rendered, tmp_path, answer, code, moved):
     """Standard input a pseudo-terminal on which the technician answers: only yes moves the robot."""
     root, lab = cell
-    cams = cameras(lab, root, tmp_path / "cams")
+    cams = cameras(rendered, tmp_path / "cams")
     master, terminal = pty.openpty()
     try:
         os.write(master, f"{answer}\n".encode())
@@ -209,14 +232,14 @@ def test_a_tool_change_is_reidentified_by_driving_the_proposed_poses(cell, tmp_p
                    "robocal_v1) or the path of a protocol profile file (JSON)"),
     ("BAD", "the profile file cannot be used: "),
 ])
-def test_an_unusable_profile_is_refused_before_anything_connects(cell, tmp_path, capsys, profile, words):
+def test_an_unusable_profile_is_refused_before_anything_connects(cell, rendered, tmp_path, capsys, profile, words):
     """--profile is read when the command line is: an unknown name or a profile file that does not
     read as one ends the command (exit 2) in one line naming --profile; the robot never moves."""
     root, lab = cell
     if profile == "BAD":
         profile = str(tmp_path / "profile.json")
         (tmp_path / "profile.json").write_text('{"format": "robocal.protocol/1", "name": "x"}')
-    cams = cameras(lab, root, tmp_path / "cams")
+    cams = cameras(rendered, tmp_path / "cams")
     with ControllerSim(lab.true_robot, time_scale=0.01) as sim:
         argv = check_argv(root, sim.port, cams, tmp_path / "c.csv")
         argv[argv.index("--profile") + 1] = profile
@@ -227,11 +250,11 @@ def test_an_unusable_profile_is_refused_before_anything_connects(cell, tmp_path,
     assert len(err.strip().splitlines()) == 1 and err.startswith("robocal check: error: argument --profile: " + words), err
 
 
-def test_no_move_is_made_ahead_after_a_fault(cell, tmp_path, capsys):
+def test_no_move_is_made_ahead_after_a_fault(cell, rendered, tmp_path, capsys):
     """The fourth move (one made ahead, while the third pair is located) faults: the check stops
     there (exit 1) and no move follows it, ahead or not."""
     root, lab = cell
-    cams = cameras(lab, root, tmp_path / "cams")
+    cams = cameras(rendered, tmp_path / "cams")
     with ControllerSim(lab.true_robot, time_scale=0.01, faults="fault@4") as sim:
         code, data, err = check(root, sim.port, cams, tmp_path / "c.csv", capsys)
         moves = sim.moves
@@ -239,14 +262,14 @@ def test_no_move_is_made_ahead_after_a_fault(cell, tmp_path, capsys):
     assert len(read_check_log(tmp_path / "c.csv").checks[0].points) == 3
 
 
-def test_ctrl_c_stops_the_robot_and_makes_no_move_ahead(cell, tmp_path):
+def test_ctrl_c_stops_the_robot_and_makes_no_move_ahead(cell, rendered, tmp_path):
     """Ctrl-C (SIGINT) once the robot rested at the third pose: the command ends (exit 130,
     "interrupted"); at most the move already started ahead follows it, and that one is stopped
     where the robot is, not finished at the next pose."""
     import signal
     import threading
     root, lab = cell
-    cams = cameras(lab, root, tmp_path / "cams")
+    cams = cameras(rendered, tmp_path / "cams")
     Q = read_poses(root / "poses.csv", lab.nominal_robot).Q
     running, signalled = [], threading.Event()
     at_signal = []

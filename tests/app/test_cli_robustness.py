@@ -88,7 +88,7 @@ def test_a_closed_pipe_is_one_line(tmp_path):
 
 
 def test_ctrl_c_while_starting_is_one_line_and_exit_130(monkeypatch, capsys):
-    def interrupted():
+    def interrupted(command=None):
         raise KeyboardInterrupt
     monkeypatch.setattr(cli, "build_parser", interrupted)
     assert main(["identify", "--robot", "r.json"]) == 130
@@ -98,7 +98,10 @@ def test_ctrl_c_while_starting_is_one_line_and_exit_130(monkeypatch, capsys):
 @pytest.fixture(scope="module")
 def marker_ds(tmp_path_factory):
     from tests.app.virtual_inputs import marker_dataset
-    return marker_dataset(tmp_path_factory.mktemp("robust_ds"), poses=6)
+    from tests.session_cache import create_labs_once
+    with pytest.MonkeyPatch.context() as patch:
+        create_labs_once(patch)          # the lab of seed 3 built once per session, copied (tests/session_cache.py)
+        return marker_dataset(tmp_path_factory.mktemp("robust_ds"), poses=6)
 
 
 def _measure(ds, out, *more):

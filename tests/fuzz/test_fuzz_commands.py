@@ -24,6 +24,7 @@ from hypothesis import strategies as st
 from app.cli import main
 from core.robot.model import robot_path
 from tests.fuzz.cells import with_cell
+from tests.session_cache import create_labs_once
 
 ROBOT = robot_path("educational_6r")
 FUZZ = settings(derandomize=True, max_examples=150, deadline=None, database=None,
@@ -115,6 +116,14 @@ def test_malformed_measurement_files(files, tmp_path_factory, line, column, valu
             assert_one_clear_line(code, err, [str(m)])
 
 
+@pytest.fixture
+def labs_built_once(monkeypatch):
+    """VirtualLab.create hands out copies of labs built once per session (tests/session_cache.py:
+    the same lab a build gives): `simulate` and `select-poses --lab-seed` build the same few labs
+    for most of the option values tried."""
+    create_labs_once(monkeypatch)
+
+
 @FUZZ
 @given(value=st.one_of(st.sampled_from(["nan", "inf", "-inf", "-1", "1e9", "1e400", "0", "x", "", "1.5", "-0"]),
                        st.text(max_size=6)),
@@ -125,7 +134,7 @@ def test_malformed_measurement_files(files, tmp_path_factory, line, column, valu
            ("select-poses", "--random-trials"), ("select-poses", "--lab-seed"), ("select-poses", "--seed"),
            ("simulate", "--noise"), ("simulate", "--seed"), ("simulate", "--pairs"), ("simulate", "--poses"),
            ("stereo-calibrate", "--square"), ("stereo-calibrate", "--outlier-k"), ("locate", "--marker-size")]))
-def test_option_values(files, tmp_path_factory, option, value):
+def test_option_values(files, labs_built_once, tmp_path_factory, option, value):
     command, name = option
     work = tmp_path_factory.mktemp("opt")
     base = {
