@@ -15,8 +15,8 @@
   the garbage collector's view, so the next collections scan only what the following tests make.
 - SIFT features and checkerboard corners are computed once per session for each distinct image
   (the virtual lab renders the same images in many tests) and handed out as copies; so are the
-  lab's stereo renderings (for each distinct lab, pose and random state) and the marker's
-  locations in a pair, outside the renderer's and the locator's own tests and tests marked
+  lab's stereo renderings (for each distinct lab, pose and random state), markers trained from an
+  image and the marker's locations in a pair, outside the renderer's and the locator's own tests and tests marked
   no_session_cache (tests/session_cache.py).
 - With pytest-xdist (`make test` runs `-n auto --dist loadscope`), the longest modules are
   handed out first (their seconds in the last run, from pytest's cache) and the modules that
@@ -43,7 +43,8 @@ import pytest
 from hypothesis import settings
 
 from tests import scheduling
-from tests.session_cache import computed_once_per_image, lab_copy, located_once_per_input, rendered_once_per_input
+from tests.session_cache import (computed_once_per_image, lab_copy, located_once_per_input,
+                                 rendered_once_per_input, trained_once_per_image)
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 # Linear algebra on one thread per test process (numpy is loaded after this file): `make test` runs
@@ -259,16 +260,17 @@ def _images_analysed_once(monkeypatch):
 @pytest.fixture(autouse=True)
 def _renderings_and_locations_made_once(request, monkeypatch):
     """A stereo pair the virtual lab rendered before in the session, from the same lab, pose,
-    options and random state, is a copy of the first rendering, and so is the marker located again
-    in the same pair with the same marker, rectification and options (tests/session_cache.py); not
-    in the renderer's and the locator's own tests (tests/core/virtual_lab, tests/core/marker) and
-    tests marked no_session_cache."""
+    options and random state, is a copy of the first rendering; so is the marker located again in
+    the same pair with the same marker, rectification and options, and a marker trained again from
+    the same image (tests/session_cache.py); not in the renderer's and the marker's own tests
+    (tests/core/virtual_lab, tests/core/marker) and tests marked no_session_cache."""
     if request.node.get_closest_marker("no_session_cache"):
         return
     if "tests/core/virtual_lab/" not in request.node.nodeid:
         rendered_once_per_input(monkeypatch)
     if "tests/core/marker/" not in request.node.nodeid:
         located_once_per_input(monkeypatch)
+        trained_once_per_image(monkeypatch)
 
 
 @pytest.fixture(autouse=True)

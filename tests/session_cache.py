@@ -1,6 +1,8 @@
 """Expensive, deterministic test inputs and results built once per test session (with
 pytest-xdist: once per worker process) and handed out as deep copies: virtual labs (~2 s), trained
-markers (~0.6 s), and the SIFT features and checkerboard corners of an image (~0.1 s each).
+markers (~0.6 s), and the SIFT features and checkerboard corners of an image (~0.1 s each); and
+memoised for each distinct input: the lab's stereo renderings, markers trained from an image and
+the marker located in a pair.
 
 A test gets the same object a fresh build would give it, and cannot change what another test
 gets: labs are changed in place by tests (`apply_change` moves the true robot, `lab.target`, a
@@ -118,6 +120,42 @@ def computed_once_per_image(monkeypatch) -> None:
 
         for user in users:
             monkeypatch.setattr(user, name, cached)
+
+
+_trained: dict = {}
+_train_original: list = []
+
+
+def trained_once_per_image(monkeypatch) -> None:
+    """For the duration of a test, a marker trained from an image (core.marker.training.train_marker,
+    a function of the pixels, the outline and the options: ~0.5 s) is trained once per session for
+    each distinct image and option and handed out as a copy, wherever the wizard, a command or a
+    test trains it; a call that reports progress or can be cancelled is always computed."""
+    import numpy as np
+
+    import app.jobs.marker
+    import core.marker
+    import core.virtual_lab.marker_comparison
+    from core.marker import training
+
+    if not _train_original:
+        _train_original.append(training.train_marker)
+    original = _train_original[0]
+
+    def cached(image, outline=None, *, progress=None, cancelled=None, **options):
+        if progress is not None or cancelled is not None:
+            return original(image, outline, progress=progress, cancelled=cancelled, **options)
+        key = _pixel_key("train_marker", image, (None if outline is None else np.asarray(outline).tolist(),), options)
+        with _pixel_lock:
+            kept = _trained.get(key)
+        if kept is None:
+            kept = original(image, outline, **options)
+            with _pixel_lock:
+                _trained[key] = kept
+        return copy.deepcopy(kept)
+
+    for user in (training, core.marker, app.jobs.marker, core.virtual_lab.marker_comparison):
+        monkeypatch.setattr(user, "train_marker", cached)
 
 
 
