@@ -48,6 +48,7 @@ DEFAULT_JOINT_SPEED = 90.0       # deg/s (mm/s for prismatic joints) at 100 % sp
 GRBL_AXES = "XYZABC"
 GRBL_BANNER = b"\r\nGrbl 1.1h ['$' for help]\r\n"
 RECONNECT_DELAY = 0.2            # s, after a disconnect fault
+IDLE_WAKE = 0.02                 # s, the longest the simulator waits with nothing due (how soon it sees close())
 
 
 @dataclass
@@ -199,12 +200,15 @@ class ControllerSim:
                     buf.clear()
                 time.sleep(0.005)
                 continue
+            with self._lock:
+                wait = self._next_due(now)
             try:
-                ready, _, _ = select.select([self._master], [], [], 0.002)
+                ready, _, _ = select.select([self._master], [], [], wait)
                 data = os.read(self._master, 4096) if ready else b""
             except OSError:
                 data = b""
                 time.sleep(0.005)
+            now = time.monotonic()
             with self._lock:
                 for byte in data:
                     if self.protocol == "grbl" and byte in b"?!\x18\x95\x96\x97":
@@ -223,6 +227,17 @@ class ControllerSim:
                 self._remove_link()
                 self._close_fds()
                 reopen_at = time.monotonic() + RECONNECT_DELAY
+
+    def _next_due(self, now: float) -> float:
+        """Seconds until the simulator has something to do on its own (a reply due, a move ending or
+        faulting), at most IDLE_WAKE; what the computer sends wakes it at once."""
+        due = [IDLE_WAKE]
+        if self._out:
+            due.append(self._out[0][0] - now)
+        if self._motion is not None:
+            _, _, t0, duration, faults = self._motion
+            due.append(t0 + (duration / 2 if "fault" in faults else duration) - now)
+        return max(0.0, min(due))
 
     def _send(self, text: bytes | str, at: float) -> None:
         data = text.encode("ascii") if isinstance(text, str) else text
