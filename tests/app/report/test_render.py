@@ -27,6 +27,14 @@ def project(tmp_path_factory):
     return make_project(tmp_path_factory.mktemp("render") / "project")[0]
 
 
+@pytest.fixture(scope="module")
+def drawn(qapp, project):
+    """(report, draw_figures(report)) of the sample project, drawn once: the images are only read
+    (drawing is deterministic, and each test that writes a report draws its own)."""
+    report = build_report(open_project(project.folder))
+    return report, draw_figures(report)
+
+
 def pdf_text(path) -> str:
     text = subprocess.run(["pdftotext", "-layout", str(path), "-"], capture_output=True, text=True,
                           check=True).stdout
@@ -38,9 +46,8 @@ def pdf_pages(path) -> tuple[int, str]:
     return int(re.search(r"Pages:\s+(\d+)", info).group(1)), re.search(r"Page size:\s+(.*)", info).group(1)
 
 
-def test_every_drawable_figure_is_an_image_with_ink(qapp, project):
-    report = build_report(open_project(project.folder))
-    images = draw_figures(report)
+def test_every_drawable_figure_is_an_image_with_ink(drawn):
+    report, images = drawn
     drawable = [f.key for f in report.figures() if not f.unavailable]
     assert sorted(images) == sorted(drawable) and len(images) >= 12
     sizes = {f.key: f.size for f in report.figures()}
@@ -62,10 +69,9 @@ def test_html_is_self_contained(qapp, project, tmp_path):
 
 @pytest.mark.skipif(not HAVE_POPPLER, reason="poppler-utils (pdftotext, pdfinfo) not installed")
 @pytest.mark.parametrize("size, points", [("a4", "595 x 842 pts"), ("letter", "612 x 792 pts")])
-def test_pdf_has_pages_numbers_and_sections(qapp, project, tmp_path, size, points):
+def test_pdf_has_pages_numbers_and_sections(drawn, tmp_path, size, points):
     out = tmp_path / "r.pdf"
-    out.write_bytes(pdf_document(build_report(open_project(project.folder)),
-                                 draw_figures(build_report(open_project(project.folder))), size))
+    out.write_bytes(pdf_document(*drawn, size))
     pages, page_size = pdf_pages(out)
     assert pages > 5 and page_size.startswith(points)
     text = pdf_text(out)
