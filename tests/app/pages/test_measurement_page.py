@@ -41,18 +41,11 @@ def q_file(lab):
     return lab.nominal_robot.q_to_file(Q)
 
 
-@pytest.fixture(scope="module")
-def rendered_pairs() -> dict:
-    """The pairs the module's lab rendered, by (lab, joints, marker pose, random state)."""
-    return {}
-
-
-@pytest.fixture(autouse=True)
-def _pairs_rendered_once(monkeypatch, rendered_pairs):
-    """The measurement job renders the lab's view of each pose with a generator seeded by the
-    pose's number: every test measures the same poses of the same lab, so each pair is rendered
-    once per module and handed out as a copy (bit-identical: same lab, joints, marker pose and
-    generator state; the generator is left where the rendering leaves it)."""
+def render_each_pose_once(monkeypatch, rendered: dict) -> None:
+    """A measurement job renders the lab's view of each pose with a generator seeded by the pose's
+    number: a test that measures the same poses of the same lab again gets, from now on, each pair
+    rendered once and handed out as a copy, kept in `rendered` (bit-identical: same lab, joints,
+    marker pose and generator state; the generator is left where the rendering leaves it)."""
     render = VirtualLab.render_marker_pair
 
     def once(lab, q, rng=None, **options):
@@ -60,12 +53,25 @@ def _pairs_rendered_once(monkeypatch, rendered_pairs):
             return render(lab, q, rng, **options)
         key = (id(lab), np.asarray(q, dtype=float).tobytes(), lab.marker_pose(q).tobytes(),
                repr(rng.bit_generator.state))
-        if key not in rendered_pairs:
-            rendered_pairs[key] = (render(lab, q, rng), rng.bit_generator.state)
-        (left, right), after = rendered_pairs[key]
+        if key not in rendered:
+            rendered[key] = (render(lab, q, rng), rng.bit_generator.state)
+        (left, right), after = rendered[key]
         rng.bit_generator.state = after
         return left.copy(), right.copy()
     monkeypatch.setattr(VirtualLab, "render_marker_pair", once)
+
+
+@pytest.fixture(scope="module")
+def rendered_pairs() -> dict:
+    """The pairs the module's lab rendered, by (lab, joints, marker pose, generator state)."""
+    return {}
+
+
+@pytest.fixture(autouse=True)
+def _pairs_rendered_once(monkeypatch, rendered_pairs):
+    """Every test measures the same poses of the module's lab: each pair is rendered once per
+    module (render_each_pose_once)."""
+    render_each_pose_once(monkeypatch, rendered_pairs)
 
 
 def ready_state(lab, trained, q_file):
