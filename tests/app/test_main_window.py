@@ -23,7 +23,8 @@ HELP_PHRASES = {
 
 
 @pytest.fixture
-def window(qtbot):
+def fresh_window(qtbot):
+    """A new wizard window, shown, for a test that changes it (a project, the robot, closing)."""
     win = MainWindow(WizardState())
     qtbot.addWidget(win)
     win.resize(1400, 900)
@@ -33,18 +34,49 @@ def window(qtbot):
     win.close()
 
 
+@pytest.fixture(scope="module")
+def hidden_window(qapp):
+    """One wizard window (no project) for the tests that only look at it, move between its pages
+    or run a task in it and wait for its end (building one takes ~2 s of CPU: every page with its
+    plots). Built when the first of them (test_nine_steps_in_order) asks for it; hidden between
+    tests (see `window`)."""
+    win = MainWindow(WizardState())
+    win.resize(1400, 900)
+    yield win
+    win.show()
+    win.close()
+    win.deleteLater()
+    QApplication.processEvents()
+
+
 @pytest.fixture
-def ready_window(window, tmp_path):
-    window.state.new_project(tmp_path / "project")
-    window.state.choose_preset("educational_6r")
-    return window
+def window(hidden_window, qtbot):
+    """The module's window, shown for one test, then back on step 1 and hidden. Each test that
+    uses it leaves it as it found it (checked here): no project, no task running, the explain
+    panel shown."""
+    win = hidden_window
+    win.show()
+    qtbot.waitExposed(win)
+    yield win
+    qtbot.waitUntil(lambda: not win.tasks.busy, timeout=10000)
+    assert win.state.project is None and win.explain_dock.isVisible()
+    win.go_to(Step.SETUP)
+    win.hide()
+
+
+@pytest.fixture
+def ready_window(fresh_window, tmp_path):
+    fresh_window.state.new_project(tmp_path / "project")
+    fresh_window.state.choose_preset("educational_6r")
+    return fresh_window
 
 
 def image_stats(image: QImage) -> tuple[int, float]:
     image = image.convertToFormat(QImage.Format.Format_RGB32)
     data = np.frombuffer(image.constBits(), np.uint8, count=image.sizeInBytes())
     data = data.reshape(image.height(), image.bytesPerLine())[:, : image.width() * 4]
-    return len(np.unique(data.reshape(-1, 4)[::7], axis=0)), float(data.std())
+    pixels = np.ascontiguousarray(data).reshape(-1, 4)[::7]
+    return len(np.unique(pixels.copy().view(np.uint32))), float(data.std())      # a pixel's 4 bytes as one number
 
 
 def test_nine_steps_in_order(window):
@@ -98,16 +130,16 @@ def test_each_step_has_its_own_page(window):
         assert window.step_list.state(int(step)) is not StepState.ERROR
 
 
-def test_next_is_gated_by_the_setup_page(window, tmp_path):
-    assert not window.next_button.isEnabled() and not window.back_button.isEnabled()
-    assert window.step_list.state(0) is StepState.TODO
-    window.next()
-    assert window.current_step is Step.SETUP
-    window.state.choose_preset("ur5")
-    assert not window.next_button.isEnabled()          # still no project
-    window.state.new_project(tmp_path / "p")
-    assert window.next_button.isEnabled()
-    assert window.step_list.state(0) is StepState.DONE
+def test_next_is_gated_by_the_setup_page(fresh_window, tmp_path):
+    assert not fresh_window.next_button.isEnabled() and not fresh_window.back_button.isEnabled()
+    assert fresh_window.step_list.state(0) is StepState.TODO
+    fresh_window.next()
+    assert fresh_window.current_step is Step.SETUP
+    fresh_window.state.choose_preset("ur5")
+    assert not fresh_window.next_button.isEnabled()          # still no project
+    fresh_window.state.new_project(tmp_path / "p")
+    assert fresh_window.next_button.isEnabled()
+    assert fresh_window.step_list.state(0) is StepState.DONE
     assert (tmp_path / "p" / "robot.json").is_file()   # the robot chosen first went into it
 
 
@@ -257,10 +289,10 @@ def test_page_registered_for_the_wrong_step_is_refused(qtbot):
         SetupPage(state, tasks, step=Step.STEREO)
 
 
-def test_window_title_follows_the_project(window, tmp_path):
-    assert window.windowTitle() == "RoboCal — no project"
-    window.state.new_project(tmp_path / "Cell 7")
-    assert window.windowTitle() == "RoboCal — Cell 7"
+def test_window_title_follows_the_project(fresh_window, tmp_path):
+    assert fresh_window.windowTitle() == "RoboCal — no project"
+    fresh_window.state.new_project(tmp_path / "Cell 7")
+    assert fresh_window.windowTitle() == "RoboCal — Cell 7"
 
 
 def test_stop_key_works_while_a_modal_dialog_is_open(ready_window, qtbot):

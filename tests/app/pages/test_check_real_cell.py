@@ -8,6 +8,7 @@ A real-cell project with nothing connected says so and never measures the lab.""
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -46,19 +47,38 @@ def confirmed():
     messages.set_non_interactive(False)
 
 
-def calibrated_project(lab, folder: Path, cell: dict) -> WizardState:
-    """A real-cell project of the educational 6R arm with its stereo.yaml (the lab's true rig), its
-    trained marker, its measurements and the calibration identified from them."""
-    state = WizardState(seed=0, noise=0.5)
-    state.new_project(folder, mode=projects.HARDWARE, **cell)
-    state.choose_preset("educational_6r")
-    project = state.project
-    true_stereo_yaml(lab, project.path("stereo"))
-    lab_marker(lab).save(marker_file(project))
+@pytest.fixture(scope="module")
+def calibration_files(lab, tmp_path_factory) -> dict[str, Path]:
+    """The calibration files every test's project starts from, written once (they follow from the
+    seed-0 lab alone; each test copies them into its own project): the lab's true rig as
+    stereo.yaml, its trained marker, ideal measurements at 50 poses and the robot identified from
+    them. Keys: the project's file names for `project.path` (and "marker")."""
+    folder = tmp_path_factory.mktemp("calibration")
+    files = {"stereo": folder / "stereo.yaml", "marker": folder / "marker.npz",
+             "measurements": folder / "measurements.csv", "calibrated": folder / "calibrated.json"}
+    true_stereo_yaml(lab, files["stereo"])
+    lab_marker(lab).save(files["marker"])
     meas = ideal_lab_measurements(lab, 50, sigma_mm=0.05, seed=4)
-    write_ideal_measurements(meas, project.path("measurements"), sigma_mm=0.05)
-    write_calibrated_model(identify(lab.nominal_robot, meas), project.path("calibrated"))
-    return state
+    write_ideal_measurements(meas, files["measurements"], sigma_mm=0.05)
+    write_calibrated_model(identify(lab.nominal_robot, meas), files["calibrated"])
+    return files
+
+
+@pytest.fixture
+def calibrated_project(calibration_files):
+    """calibrated_project(folder, cell): a real-cell project of the educational 6R arm with its
+    stereo.yaml (the lab's true rig), its trained marker, its measurements and the calibration
+    identified from them (copies of `calibration_files`)."""
+    def make(folder: Path, cell: dict) -> WizardState:
+        state = WizardState(seed=0, noise=0.5)
+        state.new_project(folder, mode=projects.HARDWARE, **cell)
+        state.choose_preset("educational_6r")
+        project = state.project
+        for name in ("stereo", "measurements", "calibrated"):
+            shutil.copyfile(calibration_files[name], project.path(name))
+        shutil.copyfile(calibration_files["marker"], marker_file(project))
+        return state
+    return make
 
 
 def start_sim_robot(folder: Path, cameras: Path, change: str):
@@ -86,12 +106,12 @@ def wait(page, qtbot) -> None:
     qtbot.waitUntil(lambda: not page.task.busy, timeout=TIMEOUT)
 
 
-def test_a_tool_change_on_the_serial_robot_is_found_and_reidentified(lab, qtbot, tmp_path, confirmed):
+def test_a_tool_change_on_the_serial_robot_is_found_and_reidentified(qtbot, tmp_path, calibrated_project, confirmed):
     cameras = tmp_path / "cell-cameras"
     proc, port = start_sim_robot(tmp_path, cameras, "tool:1.5")
     cell = {"robot_connection": {"kind": "serial", "port": port, "profile": "robocal_v1"},
             "cameras": {"kind": "sources", "left": str(cameras / "left"), "right": str(cameras / "right")}}
-    state, tasks = calibrated_project(lab, tmp_path / "project", cell), TaskRunner()
+    state, tasks = calibrated_project(tmp_path / "project", cell), TaskRunner()
     try:
         choice = RobotChoice("serial", port, "robocal_v1")
         state.hardware.use_serial_robot(open_serial_robot(state.robot, choice, reply_timeout=10.0), choice)
@@ -139,8 +159,8 @@ def test_a_tool_change_on_the_serial_robot_is_found_and_reidentified(lab, qtbot,
     assert np.isfinite(update.after.rms_mm)
 
 
-def test_a_real_cell_with_nothing_connected_says_so_and_measures_nothing(lab, qtbot, tmp_path):
-    state = calibrated_project(lab, tmp_path / "project", {
+def test_a_real_cell_with_nothing_connected_says_so_and_measures_nothing(qtbot, tmp_path, calibrated_project):
+    state = calibrated_project(tmp_path / "project", {
         "robot_connection": {"kind": "serial", "port": "/dev/ttyUSB0", "profile": "robocal_v1"},
         "cameras": {"kind": "sources", "left": "0", "right": "2"}})
     tasks = TaskRunner()
@@ -160,7 +180,7 @@ def test_a_real_cell_with_nothing_connected_says_so_and_measures_nothing(lab, qt
         state.close()
 
 
-def test_a_robot_fault_ends_a_scheduled_check_keeping_the_log(lab, qtbot, tmp_path, confirmed):
+def test_a_robot_fault_ends_a_scheduled_check_keeping_the_log(lab, qtbot, tmp_path, calibrated_project, confirmed):
     """The controller simulator on a pty (in this process), faulting on its third move; the lab's
     cameras watch it through two image folders. The scheduled check stops there, the schedule is
     switched off, and the two points measured stay in the log."""
@@ -171,7 +191,7 @@ def test_a_robot_fault_ends_a_scheduled_check_keeping_the_log(lab, qtbot, tmp_pa
     sim = ControllerSim(lab.true_robot, faults="fault@3", time_scale=0.01, on_rest=cameras.on_rest).start()
     cell = {"robot_connection": {"kind": "serial", "port": sim.port, "profile": "robocal_v1"},
             "cameras": {"kind": "sources", "left": str(cameras.left), "right": str(cameras.right)}}
-    state, tasks = calibrated_project(lab, tmp_path / "project", cell), TaskRunner()
+    state, tasks = calibrated_project(tmp_path / "project", cell), TaskRunner()
     try:
         choice = RobotChoice("serial", sim.port, "robocal_v1")
         state.hardware.use_serial_robot(open_serial_robot(state.robot, choice, reply_timeout=10.0), choice)
@@ -195,7 +215,7 @@ def test_a_robot_fault_ends_a_scheduled_check_keeping_the_log(lab, qtbot, tmp_pa
         sim.close()
 
 
-def test_teach_mode_records_each_check_pose_by_hand(lab, qtbot, tmp_path):
+def test_teach_mode_records_each_check_pose_by_hand(lab, qtbot, tmp_path, calibrated_project):
     """No robot connection: the technician brings the robot to each listed pose (here the lab's
     cameras are rendered where it was brought) and types the joints; the recorded poses are checked
     and logged, within limits for the unchanged robot."""
@@ -205,7 +225,7 @@ def test_teach_mode_records_each_check_pose_by_hand(lab, qtbot, tmp_path):
     cameras.on_rest(np.zeros(6))
     cell = {"robot_connection": {"kind": "teach"},
             "cameras": {"kind": "sources", "left": str(cameras.left), "right": str(cameras.right)}}
-    state, tasks = calibrated_project(lab, tmp_path / "project", cell), TaskRunner()
+    state, tasks = calibrated_project(tmp_path / "project", cell), TaskRunner()
     try:
         state.hardware.set_cameras(LiveCameras.open(CameraChoice("sources", str(cameras.left), str(cameras.right))))
         page = open_page(qtbot, state, tasks)
@@ -235,7 +255,7 @@ def test_teach_mode_records_each_check_pose_by_hand(lab, qtbot, tmp_path):
         state.close()
 
 
-def test_the_fixture_panel_works_in_a_real_cell_project(lab, qtbot, tmp_path):
+def test_the_fixture_panel_works_in_a_real_cell_project(lab, qtbot, tmp_path, calibrated_project):
     """Nothing connected: the fixture is located from its description and a folder of pairs (the
     lab's fixture is not offered)."""
     import cv2
@@ -243,7 +263,7 @@ def test_the_fixture_panel_works_in_a_real_cell_project(lab, qtbot, tmp_path):
     from app.lab import place_fixture, render_fixture_pairs
     from core.fixtures.description import write_fixture_description
 
-    state = calibrated_project(lab, tmp_path / "project", {"robot_connection": {"kind": "teach"}})
+    state = calibrated_project(tmp_path / "project", {"robot_connection": {"kind": "teach"}})
     tasks = TaskRunner()
     try:
         page = open_page(qtbot, state, tasks)
@@ -268,7 +288,7 @@ def test_the_fixture_panel_works_in_a_real_cell_project(lab, qtbot, tmp_path):
         state.close()
 
 
-def test_stop_ends_a_check_on_the_cell(lab, qtbot, tmp_path, confirmed):
+def test_stop_ends_a_check_on_the_cell(lab, qtbot, tmp_path, calibrated_project, confirmed):
     """The Stop key (the main window's Stop calls state.hardware.stop_robot) during a check: the robot halts,
     the check ends with the points measured kept, nothing moves until Resume."""
     from app.sim_cameras import SimulatedCellCameras
@@ -278,7 +298,7 @@ def test_stop_ends_a_check_on_the_cell(lab, qtbot, tmp_path, confirmed):
     sim = ControllerSim(lab.true_robot, time_scale=0.05, on_rest=cameras.on_rest).start()
     cell = {"robot_connection": {"kind": "serial", "port": sim.port, "profile": "robocal_v1"},
             "cameras": {"kind": "sources", "left": str(cameras.left), "right": str(cameras.right)}}
-    state, tasks = calibrated_project(lab, tmp_path / "project", cell), TaskRunner()
+    state, tasks = calibrated_project(tmp_path / "project", cell), TaskRunner()
     try:
         choice = RobotChoice("serial", sim.port, "robocal_v1")
         state.hardware.use_serial_robot(open_serial_robot(state.robot, choice, reply_timeout=10.0), choice)

@@ -5,12 +5,15 @@ measures every pose; a disconnect mid-run keeps what was measured and Resume fin
 reconnecting; teach mode records a typed pose and refuses one outside the joint limits."""
 from __future__ import annotations
 
+import shutil
+from pathlib import Path
+
 import numpy as np
 import pytest
 from PySide6.QtCore import Qt
 
 from app import messages
-from app.hardware import RobotChoice, open_serial_robot
+from app.hardware import CameraChoice, LiveCameras, RobotChoice, open_serial_robot
 from app.jobs.measurement import MEASURED, PENDING
 from app.pages.measurement.page import MeasurementPage
 from app.state import WizardState
@@ -57,14 +60,25 @@ def prepare(state, lab, trained, Q):
     write_poses(state.project.path("poses"), lab.nominal_robot.q_to_file(Q))
 
 
+@pytest.fixture(scope="module")
+def camera_folders(lab, Q, tmp_path_factory) -> Path:
+    """The image folders (left/, right/) of the pairs the lab's cameras see at the planned poses,
+    rendered once (deterministic: the module's lab, poses and seed); each test opens a copy."""
+    folder = tmp_path_factory.mktemp("cams") / "cams"
+    rendered_folders(lab, Q, folder).close()
+    return folder
+
+
 @pytest.fixture
-def hardware(qtbot, lab, trained, Q, tmp_path):
-    """A hardware project (no virtual lab) with its cameras open on image folders."""
+def hardware(qtbot, lab, trained, Q, camera_folders, tmp_path):
+    """A hardware project (no virtual lab) with its cameras open on image folders (a copy of
+    `camera_folders`)."""
     state = WizardState(seed=0)
     state.new_project(tmp_path / "project", mode=HARDWARE)
     state.choose_preset("educational_6r")
     prepare(state, lab, trained, Q)
-    state.hardware.set_cameras(rendered_folders(lab, Q, tmp_path / "cams"))
+    cams = shutil.copytree(camera_folders, tmp_path / "cams")
+    state.hardware.set_cameras(LiveCameras.open(CameraChoice("sources", str(cams / "left"), str(cams / "right"))))
     yield state
     state.close()
 

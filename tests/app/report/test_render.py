@@ -27,6 +27,22 @@ def project(tmp_path_factory):
     return make_project(tmp_path_factory.mktemp("render") / "project")[0]
 
 
+@pytest.fixture(scope="module")
+def drawn(qapp, project):
+    """(report, draw_figures(report)) of the sample project, drawn once: the images are only read
+    (drawing is deterministic; `robocal report` in the tests below still draws its own)."""
+    report = build_report(open_project(project.folder))
+    return report, draw_figures(report)
+
+
+@pytest.fixture
+def draw(drawn):
+    """write_report's `draw`: a figure of the sample project as drawn once (`drawn`), for the
+    tests of what is written around the figures."""
+    images = drawn[1]
+    return lambda fig, cancelled=None: images[fig.key]
+
+
 def pdf_text(path) -> str:
     text = subprocess.run(["pdftotext", "-layout", str(path), "-"], capture_output=True, text=True,
                           check=True).stdout
@@ -38,9 +54,8 @@ def pdf_pages(path) -> tuple[int, str]:
     return int(re.search(r"Pages:\s+(\d+)", info).group(1)), re.search(r"Page size:\s+(.*)", info).group(1)
 
 
-def test_every_drawable_figure_is_an_image_with_ink(qapp, project):
-    report = build_report(open_project(project.folder))
-    images = draw_figures(report)
+def test_every_drawable_figure_is_an_image_with_ink(drawn):
+    report, images = drawn
     drawable = [f.key for f in report.figures() if not f.unavailable]
     assert sorted(images) == sorted(drawable) and len(images) >= 12
     sizes = {f.key: f.size for f in report.figures()}
@@ -53,8 +68,8 @@ def test_every_drawable_figure_is_an_image_with_ink(qapp, project):
         assert len(colours) > 5, key
 
 
-def test_html_is_self_contained(qapp, project, tmp_path):
-    out = write_report(open_project(project.folder), [tmp_path / "r.html"])[0]
+def test_html_is_self_contained(qapp, project, tmp_path, draw):
+    out = write_report(open_project(project.folder), [tmp_path / "r.html"], draw=draw)[0]
     text = out.read_text()
     assert text.count("<img src='data:image/png;base64,") == 12
     assert "src='figure:" not in text and "file:" not in text
@@ -62,10 +77,9 @@ def test_html_is_self_contained(qapp, project, tmp_path):
 
 @pytest.mark.skipif(not HAVE_POPPLER, reason="poppler-utils (pdftotext, pdfinfo) not installed")
 @pytest.mark.parametrize("size, points", [("a4", "595 x 842 pts"), ("letter", "612 x 792 pts")])
-def test_pdf_has_pages_numbers_and_sections(qapp, project, tmp_path, size, points):
+def test_pdf_has_pages_numbers_and_sections(drawn, tmp_path, size, points):
     out = tmp_path / "r.pdf"
-    out.write_bytes(pdf_document(build_report(open_project(project.folder)),
-                                 draw_figures(build_report(open_project(project.folder))), size))
+    out.write_bytes(pdf_document(*drawn, size))
     pages, page_size = pdf_pages(out)
     assert pages > 5 and page_size.startswith(points)
     text = pdf_text(out)
@@ -81,11 +95,11 @@ def test_pdf_has_pages_numbers_and_sections(qapp, project, tmp_path, size, point
 
 
 @pytest.mark.skipif(not HAVE_POPPLER, reason="poppler-utils (pdftotext, pdfinfo) not installed")
-def test_pdf_pages_are_filled_and_few(qapp, project, tmp_path):
+def test_pdf_pages_are_filled_and_few(qapp, project, tmp_path, draw):
     """The sample project (stereo, poses, measurements, identification; no marker, check or
     compensation) on a few full pages: every page but the last holds text down to its lower half."""
     out = write_report(open_project(project.folder), [tmp_path / "r.pdf"], author="Ana Student",
-                       course="Robotics 2", serial="RCS6-0421")[0]
+                       course="Robotics 2", serial="RCS6-0421", draw=draw)[0]
     pages, _ = pdf_pages(out)
     assert 4 <= pages <= 8, pages
     bbox = subprocess.run(["pdftotext", "-bbox", str(out), "-"], capture_output=True, text=True, check=True).stdout
@@ -121,7 +135,7 @@ def test_cli_refuses_another_suffix_and_a_missing_folder(qapp, tmp_path, capsys)
     assert not (tmp_path / "r.pdf").exists()
 
 
-def test_a_full_disk_keeps_the_previous_report(qapp, project, tmp_path, monkeypatch):
+def test_a_full_disk_keeps_the_previous_report(qapp, project, tmp_path, monkeypatch, draw):
     html, pdf = tmp_path / "r.html", tmp_path / "r.pdf"
     html.write_text("previous html")
     pdf.write_bytes(b"previous pdf")
@@ -135,7 +149,7 @@ def test_a_full_disk_keeps_the_previous_report(qapp, project, tmp_path, monkeypa
 
     monkeypatch.setattr(os, "fsync", fsync)
     with pytest.raises(RoboCalError) as caught:
-        write_report(open_project(project.folder), [html, pdf])
+        write_report(open_project(project.folder), [html, pdf], draw=draw)
     assert "No space left on device" in caught.value.message and "no output was changed" in caught.value.message
     assert html.read_text() == "previous html" and pdf.read_bytes() == b"previous pdf"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.html", "r.pdf"]
