@@ -18,7 +18,6 @@ from app.worker import TaskRunner
 from core.measurement.run import read_rejects, rejects_path_for
 from core.measurement.file import read_measurements
 from core.poses.file import write_poses
-from core.virtual_lab.lab import VirtualLab
 from tests.app.virtual_inputs import lab_marker, lab_state, make_lab
 from tests.app.windows import close_window
 
@@ -39,39 +38,6 @@ def trained(lab):
 def q_file(lab):
     Q = lab.random_visible_poses(N_POSES, np.random.default_rng(5))
     return lab.nominal_robot.q_to_file(Q)
-
-
-def render_each_pose_once(monkeypatch, rendered: dict) -> None:
-    """A measurement job renders the lab's view of each pose with a generator seeded by the pose's
-    number: a test that measures the same poses of the same lab again gets, from now on, each pair
-    rendered once and handed out as a copy, kept in `rendered` (bit-identical: same lab, joints,
-    marker pose and generator state; the generator is left where the rendering leaves it)."""
-    render = VirtualLab.render_marker_pair
-
-    def once(lab, q, rng=None, **options):
-        if options or not isinstance(rng, np.random.Generator):
-            return render(lab, q, rng, **options)
-        key = (id(lab), np.asarray(q, dtype=float).tobytes(), lab.marker_pose(q).tobytes(),
-               repr(rng.bit_generator.state))
-        if key not in rendered:
-            rendered[key] = (render(lab, q, rng), rng.bit_generator.state)
-        (left, right), after = rendered[key]
-        rng.bit_generator.state = after
-        return left.copy(), right.copy()
-    monkeypatch.setattr(VirtualLab, "render_marker_pair", once)
-
-
-@pytest.fixture(scope="module")
-def rendered_pairs() -> dict:
-    """The pairs the module's lab rendered, by (lab, joints, marker pose, generator state)."""
-    return {}
-
-
-@pytest.fixture(autouse=True)
-def _pairs_rendered_once(monkeypatch, rendered_pairs):
-    """Every test measures the same poses of the module's lab: each pair is rendered once per
-    module (render_each_pose_once)."""
-    render_each_pose_once(monkeypatch, rendered_pairs)
 
 
 def ready_state(lab, trained, q_file):

@@ -23,7 +23,6 @@ from core.measurement.file import write_measurements
 from core.poses.file import write_poses
 from core.provenance import inputs_file
 from core.virtual_lab.synthetic import perturbed_model, simulate_measurements
-from tests.app.pages.test_measurement_page import render_each_pose_once
 from tests.app.virtual_inputs import lab_marker, lab_state, make_lab, true_stereo_yaml
 from widgets.step_list import StepState
 
@@ -183,8 +182,7 @@ def test_the_step_list_marks_an_out_of_date_step(qtbot, tmp_path):
 
 
 @pytest.mark.slow
-def test_measurements_are_out_of_date_after_a_new_stereo_calibration(qtbot, lab, tmp_path, made, monkeypatch):
-    render_each_pose_once(monkeypatch, {})             # the run after Start over sees the same pairs
+def test_measurements_are_out_of_date_after_a_new_stereo_calibration(qtbot, lab, tmp_path, made):
     state = lab_state(lab)
     lab_marker(lab).save(state.project.folder / "marker.npz")
     write_poses(state.project.path("poses"), lab.nominal_robot.q_to_file(

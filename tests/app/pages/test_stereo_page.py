@@ -43,36 +43,6 @@ def shared_lab(lab, monkeypatch):
 
 
 @pytest.fixture(scope="module")
-def lab_draws() -> dict:
-    """Board poses and pairs the module's lab made, by their arguments and generator state."""
-    return {}
-
-
-@pytest.fixture
-def virtual_pairs_once(monkeypatch, lab_draws):
-    """The page's virtual pairs (the same 12 board poses and renderings for every test of a new
-    project with the same seed) are chosen and rendered once per module and handed out as copies:
-    bit-identical, as the call has the same lab, arguments and generator state, and the generator
-    is left where the original call leaves it."""
-    originals = {name: getattr(VirtualLab, name) for name in ("random_board_poses", "render_checkerboard_pair")}
-
-    def once(name):
-        def call(lab, first, rng=None, **options):
-            if not isinstance(rng, np.random.Generator):
-                return originals[name](lab, first, rng, **options)
-            key = (name, id(lab), repr(lab.board), np.asarray(first).tobytes(), repr(sorted(options.items())),
-                   repr(rng.bit_generator.state))
-            if key not in lab_draws:
-                lab_draws[key] = (originals[name](lab, first, rng, **options), rng.bit_generator.state)
-            made, after = lab_draws[key]
-            rng.bit_generator.state = after
-            return type(made)(a.copy() for a in made)
-        return call
-    for name in originals:
-        monkeypatch.setattr(VirtualLab, name, once(name))
-
-
-@pytest.fixture(scope="module")
 def rendered_folders(lab, tmp_path_factory):
     """8 virtual-lab pairs written as PNGs into left/ and right/ (like `robocal simulate`)."""
     root = tmp_path_factory.mktemp("rendered")
@@ -117,7 +87,7 @@ def patch_dirs(monkeypatch, *answers):
 
 
 # -- the whole walk ------------------------------------------------------------------------
-def test_virtual_lab_pairs_calibrate_drop_outlier_and_export(page, qtbot, tmp_path, monkeypatch, virtual_pairs_once):
+def test_virtual_lab_pairs_calibrate_drop_outlier_and_export(page, qtbot, tmp_path, monkeypatch):
     assert page.board == Board(9, 6, 25.0)                      # prefilled from the lab
     assert not page.options_panel.calibrate_button.isEnabled() and not page.save_button.isEnabled()
     page.pairs.virtual_count.setValue(12)
@@ -377,7 +347,7 @@ def test_cancel_calibration(page, qtbot, monkeypatch, rendered_folders):
 
 
 # -- autopilot and a project that has a calibration -------------------------------------------------
-def test_autopilot_renders_calibrates_and_saves(page, qtbot, monkeypatch, virtual_pairs_once):
+def test_autopilot_renders_calibrates_and_saves(page, qtbot, monkeypatch):
     monkeypatch.setattr(stereo_page, "VIRTUAL_PAIRS", 12)
     done = []
     page.autopilot(lambda ok=True, message="": done.append((ok, message)))
