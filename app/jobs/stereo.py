@@ -58,9 +58,9 @@ def detect_files(pairs: Sequence[tuple[Path, Path]], board: Board, sources: str 
 
     def work(lr, source):
         left, right = lr
-        det = detect_pair(left, right, board)
-        images = [load_gray(p)[0] for p in (left, right)]
-        return AddedPair(det, thumbnail(images[0], images[1], det, board), source)
+        read = [load_gray(p) for p in (left, right)]
+        det = detect_pair(left, right, board, read=read)
+        return AddedPair(det, thumbnail(read[0][0], read[1][0], det, board), source)
 
     out: list[AddedPair] = []
     with ThreadPoolExecutor(max_workers=2) as pool:
@@ -110,7 +110,8 @@ def render_pairs(lab, poses: Sequence[np.ndarray], seeds: Sequence[Sequence[int]
                         raise RoboCalError("could not encode a rendered image as PNG", source=p)
                     atomic_write_bytes(p, buf.tobytes())
                     written.append(Path(p))
-                results.append((pool.submit(detect_pair, lp, rp, board), left, right))
+                # the images just written (PNG keeps every grey level): detected without reading them back
+                results.append((pool.submit(detect_pair, lp, rp, board, read=((left, None), (right, None))), left, right))
             out = []
             for i, (fut, left, right) in enumerate(results):
                 monitor.step((i + 0.5) / max(n, 1) * 0.2 + 0.8, f"detecting the board: pair {first + i + 1} of {total}")

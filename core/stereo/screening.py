@@ -58,8 +58,9 @@ class DetectionResult:
 
 
 def detect_pair(left, right, board: Board, options: BoardDetectionOptions = BoardDetectionOptions(), *,
-                index: int = 0, name: str | None = None) -> PairDetection:
-    """Detect and check one pair. `left`/`right` are image paths or arrays.
+                index: int = 0, name: str | None = None, read=None) -> PairDetection:
+    """Detect and check one pair. `left`/`right` are image paths or arrays; `read`, if given, is
+    what `load_gray` gave for the two paths (gray image or None, why), read once by the caller.
 
     Acceptance (in this order): both images readable, same size, board found in both,
     not at the border, not blurred, corner order consistent between the two images.
@@ -70,8 +71,10 @@ def detect_pair(left, right, board: Board, options: BoardDetectionOptions = Boar
     if name is None:
         name = f"{Path(lp).name} | {Path(rp).name}"
     dets = []
-    for src, label in ((left, lp), (right, rp)):
-        if isinstance(src, (str, Path)):
+    for k, src in enumerate((left, right)):
+        if read is not None:
+            gray, why = read[k]
+        elif isinstance(src, (str, Path)):
             gray, why = load_gray(src)
         else:
             gray, why = (to_gray8(src), None) if src is not None else (None, "no image")
