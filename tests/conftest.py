@@ -224,7 +224,8 @@ def pytest_configure(config):
     config.addinivalue_line("markers", "slow: over ~20 s alone (a whole demo walk, a fuzzed command line, a chain of "
                                        "commands on rendered images); `make test-quick` leaves them out")
     config.addinivalue_line("markers", "no_session_cache: the virtual lab's renderings and the marker's locations "
-                                       "are computed again, not handed out from the session's (a test of repeatability)")
+                                       "are computed again, not handed out from the session's (a test of repeatability, or of what "
+                                       "happens while a run is under way: each pose takes its real time)")
     if config.pluginmanager.hasplugin("xdist") and not hasattr(config, "workerinput"):
         config.pluginmanager.register(WorkerExitStatus(), "robocal-worker-exit-status")
         if config.getvalue("dist") == "loadscope":

@@ -27,6 +27,7 @@ def page(qtbot, boxes):
     state.close()
 
 
+@pytest.mark.no_session_cache          # the run must still be under way at pose 3
 def test_points_shown_as_they_come_and_kept_on_cancel(qtbot, page, tmp_path):
     panel = page.verification_panel
     assert page.model.result.trained is not None and not page.is_complete()

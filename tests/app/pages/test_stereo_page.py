@@ -324,6 +324,7 @@ def test_bad_folders_give_a_clear_message(page, qtbot, tmp_path, rendered_folder
 
 
 # -- cancel -------------------------------------------------------------------------------------
+@pytest.mark.no_session_cache          # the rendering must still be under way when it is cancelled
 def test_cancel_rendering_keeps_finished_pairs_only(page, qtbot):
     page.sources.add_virtual_pairs(12)
     qtbot.waitUntil(lambda: len(page.items) >= 1 or not page.task.busy, timeout=WAIT_MS)
