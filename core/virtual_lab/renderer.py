@@ -476,11 +476,14 @@ class ImageComposer:
         amplitude `gradient` (over the image width) in direction `gradient_angle` (rad), and
         by `exposure`. Noise: read noise of std `noise` grey levels plus shot noise whose
         variance grows linearly with brightness (equal to the read noise variance at 255)."""
-        img = self.canvas
+        # In place on one image buffer and one scratch buffer: the same float32 operations in
+        # the same order as the expressions in the comments, so the same image.
         if self.blur_sigma > 0:
-            img = cv2.GaussianBlur(img, (0, 0), self.blur_sigma, borderType=cv2.BORDER_REPLICATE)
+            img = cv2.GaussianBlur(self.canvas, (0, 0), self.blur_sigma, borderType=cv2.BORDER_REPLICATE)
+        else:
+            img = self.canvas.copy()
         if self._after_blur is not None:
-            img = img + self._after_blur
+            img += self._after_blur
         cam = self.camera
         light = vignetting(cam, vignetting_strength)
         if gradient:
@@ -488,14 +491,25 @@ class ImageComposer:
             gy = np.sin(gradient_angle) * gradient / cam.width
             xs = (np.arange(cam.width, dtype=np.float32) - cam.cx) * np.float32(gx)
             ys = (np.arange(cam.height, dtype=np.float32) - cam.cy) * np.float32(gy)
-            light = light * (1.0 + ys[:, None] + xs[None, :])
-        img = img * (light * np.float32(exposure))
+            light = np.multiply(light, np.add(1.0 + ys[:, None], xs[None, :]))   # light·(1 + ys + xs)
+            light *= np.float32(exposure)
+        else:
+            light = light * np.float32(exposure)
+        img *= light                                                              # img·(light·exposure)
         if noise > 0:
             if rng is None:
                 raise ValueError("a random generator is needed for noise")
-            std = np.float32(noise) * np.sqrt(1.0 + np.maximum(img, 0.0) * np.float32(1.0 / 255.0))
-            img = img + std * rng.standard_normal(img.shape, dtype=np.float32)
-        return np.clip(np.rint(img), 0, 255).astype(np.uint8)
+            # std = noise·√(1 + max(img, 0)/255); img + std·z, z standard normal
+            std = np.maximum(img, 0.0, out=light)
+            std *= np.float32(1.0 / 255.0)
+            std += 1.0
+            np.sqrt(std, out=std)
+            std *= np.float32(noise)
+            std *= rng.standard_normal(img.shape, dtype=np.float32)
+            img += std
+        np.rint(img, out=img)
+        np.clip(img, 0, 255, out=img)
+        return img.astype(np.uint8)
 
 
 def _pixel_means(samples: np.ndarray, w: int, h: int) -> np.ndarray:
