@@ -348,7 +348,8 @@ class ImageComposer:
         def averaged(levels):
             tex = cv2.remap(levels[level], mx, my, cv2.INTER_LINEAR,
                             borderMode=cv2.BORDER_CONSTANT, borderValue=texture.fill)
-            return _pixel_means(a[..., None] * tex if tex.ndim == 3 else a * tex, w, h)
+            tex *= a[..., None] if tex.ndim == 3 else a           # a · tex, in place
+            return _pixel_means(tex, w, h)
 
         self._hide_after_blur(y0, y1, x0, x1, alpha)
         if texture.square is None:
@@ -520,13 +521,24 @@ def _pixel_means(samples: np.ndarray, w: int, h: int) -> np.ndarray:
 
 def _apply_homography(rays: np.ndarray, H: np.ndarray):
     """(…, 2) float32 points through a 3x3 homography -> (X, Y, ok) float32 (ok: in front)."""
-    x, y = rays[..., 0], rays[..., 1]
+    x, y = np.ascontiguousarray(rays[..., 0]), np.ascontiguousarray(rays[..., 1])
     H = H.astype(np.float32)
-    den = H[2, 0] * x + H[2, 1] * y + H[2, 2]
+    tmp = np.empty_like(x)
+
+    def affine(row):                                # H[row, 0]·x + H[row, 1]·y + H[row, 2], float32
+        out = np.multiply(x, H[row, 0])
+        out += np.multiply(y, H[row, 1], out=tmp)
+        out += H[row, 2]
+        return out
+
+    den = affine(2)
     ok = den > 0
-    inv = np.float32(1.0) / np.where(ok, den, np.float32(1.0))
-    X = (H[0, 0] * x + H[0, 1] * y + H[0, 2]) * inv
-    Y = (H[1, 0] * x + H[1, 1] * y + H[1, 2]) * inv
+    den[~ok] = 1.0
+    inv = np.divide(np.float32(1.0), den, out=den)  # 1 / np.where(ok, den, 1)
+    X = affine(0)
+    X *= inv
+    Y = affine(1)
+    Y *= inv
     return X, Y, ok
 
 
