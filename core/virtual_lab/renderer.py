@@ -461,9 +461,12 @@ class ImageComposer:
         for p in pts:
             q = np.round((p - [x0, y0]) * (1 << shift)).astype(np.int32)
             cv2.fillConvexPoly(mask, q, 255, cv2.LINE_AA, shift)
-        a = mask.astype(np.float32) / 255.0
+        a = mask.astype(np.float32)
+        a /= 255.0
         region = self.canvas[y0:y1, x0:x1]
-        self.canvas[y0:y1, x0:x1] = region + a * (value - region)
+        mixed = np.subtract(value, region)          # region + a·(value − region), in place
+        mixed *= a
+        region += mixed
         self._hide_after_blur(y0, y1, x0, x1, a)
 
     # finishing ---------------------------------------------------------------------------
