@@ -176,6 +176,25 @@ def absolute_test(e: np.ndarray, L: np.ndarray, Jw: np.ndarray, p: int, sigma_do
         stat = float(e @ residual_maker(L, Jw) @ e) / dof
         prob = chi2.sf(stat * dof, dof) if math.isinf(sigma_dof) else f_dist.sf(stat, dof, sigma_dof)
         return AbsoluteTest(float(prob), stat, [], 0, dof)
+    sets, limits, null_stat = _null_distribution(L, Jw, k, dof, sigma_dof)
+    (stat,), (aside,) = sets.statistic(e[:, None], limits)
+    prob = (1 + int(np.count_nonzero(null_stat >= stat))) / (1 + NULL_DRAWS)
+    return AbsoluteTest(prob, float(stat), list(aside), len(aside), dof - 3 * len(aside))
+
+
+_NULLS: dict = {}                   # the last few null distributions, by their inputs
+NULLS_KEPT = 8
+
+
+def _null_distribution(L: np.ndarray, Jw: np.ndarray, k: int, dof: int, sigma_dof: float):
+    """The point sets, flag limits and null statistics of the absolute test for S = L·Lᵀ and Jw: a
+    function of these alone (seeded draws), so computed once for the errors of several checks
+    judged against the same calibration and hypothesis."""
+    key = (L.shape, L.tobytes(), Jw.shape, Jw.tobytes(), k, dof, float(sigma_dof))
+    known = _NULLS.get(key)
+    if known is not None:
+        return known
+    n = len(L)
     sets = _PointSets(residual_maker(L, Jw), n // 3, k, dof)
     rng = np.random.default_rng(NULL_SEED)
     null = L @ rng.standard_normal((n, NULL_DRAWS))
@@ -183,9 +202,10 @@ def absolute_test(e: np.ndarray, L: np.ndarray, Jw: np.ndarray, p: int, sigma_do
         null *= np.sqrt(sigma_dof / rng.chisquare(sigma_dof, NULL_DRAWS))
     limits = sets.flag_limits(null)
     null_stat, _ = sets.statistic(null, limits)
-    (stat,), (aside,) = sets.statistic(e[:, None], limits)
-    prob = (1 + int(np.count_nonzero(null_stat >= stat))) / (1 + NULL_DRAWS)
-    return AbsoluteTest(prob, float(stat), list(aside), len(aside), dof - 3 * len(aside))
+    if len(_NULLS) >= NULLS_KEPT:
+        _NULLS.pop(next(iter(_NULLS)))
+    _NULLS[key] = (sets, limits, null_stat)
+    return sets, limits, null_stat
 
 
 class _PointSets:

@@ -218,22 +218,42 @@ def prediction_covariance(model: RobotModel, unc: CalibrationUncertainty, Q,
     return with_measurement_noise(parameter_covariance(model, unc, Q, point_targets), unc, own)
 
 
-def weighted_chi2_sf(x: float, lam: np.ndarray) -> float:
+def weighted_chi2_sf(x: float, lam: np.ndarray, memo: dict | None = None) -> float:
     """P(Σ λ_i·z_i² > x) for independent standard normal z_i (Imhof's integral; the
-    oscillating tail beyond u = 1 with quad's Fourier-integral rule, QAWF)."""
+    oscillating tail beyond u = 1 with quad's Fourier-integral rule, QAWF).
+
+    `memo` (u -> the integrand's angle and modulus at u, which do not depend on x) may be shared
+    by calls for the same λ: the two parts of the tail evaluate them at the same u, and so do
+    calls for several x on [0, 1]."""
     lam = [float(v) for v in np.ravel(lam)]     # plain floats: quad calls these ~10⁴ times a value
     w = 0.5 * x
+    memo = {} if memo is None else memo
 
-    def angle(u):
-        return 0.5 * math.fsum(math.atan(v * u) for v in lam)
+    def angle_rho(u):
+        """(½ Σ atan(λ·u), u·Π (1 + (λ·u)²)^¼), remembered per u."""
+        found = memo.get(u)
+        if found is None:
+            t = [v * u for v in lam]
+            found = memo[u] = (0.5 * math.fsum(map(math.atan, t)), u * math.prod([(1.0 + s ** 2) ** 0.25 for s in t]))
+        return found
 
-    def rho(u):
-        return u * math.prod((1.0 + (v * u) ** 2) ** 0.25 for v in lam)
+    def head_part(u):
+        if u > 0:
+            a, r = angle_rho(u)
+            return math.sin(a - w * u) / r
+        return 0.5 * math.fsum(lam) - w
 
-    head = quad(lambda u: math.sin(angle(u) - w * u) / rho(u) if u > 0 else 0.5 * math.fsum(lam) - w,
-                0.0, 1.0, limit=200)[0]
-    tail = (quad(lambda u: math.sin(angle(u)) / rho(u), 1.0, np.inf, weight="cos", wvar=w)[0]
-            - quad(lambda u: math.cos(angle(u)) / rho(u), 1.0, np.inf, weight="sin", wvar=w)[0])
+    def sin_part(u):
+        a, r = angle_rho(u)
+        return math.sin(a) / r
+
+    def cos_part(u):
+        a, r = angle_rho(u)
+        return math.cos(a) / r
+
+    head = quad(head_part, 0.0, 1.0, limit=200)[0]
+    tail = (quad(sin_part, 1.0, np.inf, weight="cos", wvar=w)[0]
+            - quad(cos_part, 1.0, np.inf, weight="sin", wvar=w)[0])
     return 0.5 + (head + tail) / math.pi
 
 
@@ -256,7 +276,14 @@ def _norm_limit_of(eigenvalues: tuple, probability: float) -> float:
     guess = c * chi2.ppf(probability, nu)
     lam = lam[lam > 1e-12 * lam.max()] / c          # scaled so the guess is near chi2 quantiles
     tail = 1.0 - probability
-    f = lambda x: weighted_chi2_sf(x, lam) - tail
+    memo: dict = {}                                  # the integrand's parts per u, shared by every x
+    values: dict = {}                                # f per x: brentq asks again for the bracket's ends
+
+    def f(x):
+        if x not in values:
+            values[x] = weighted_chi2_sf(x, lam, memo) - tail
+        return values[x]
+
     lo, hi = 0.5 * guess / c, 2.0 * guess / c
     while f(hi) > 0:
         hi *= 2.0

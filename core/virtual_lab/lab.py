@@ -251,26 +251,30 @@ class VirtualLab:
         roll = np.deg2rad(rng.uniform(-25.0, 25.0, m))
         tilt = np.deg2rad(BOARD_MAX_TILT) * np.sqrt(rng.uniform(0.0, 1.0, m))
         phi = rng.uniform(0.0, 2 * np.pi, m)
-        Ts, feats = [], []
         outline = self._board_outline()
         mid = np.array([(b.cols - 1) * b.square / 2, (b.rows - 1) * b.square / 2, 0.0])
+        Ts, P, Pr = [], [], []
         for i in range(m):
             axis = np.array([np.cos(phi[i]), np.sin(phi[i]), 0.0])
             R = tf.rot_axis(axis, tilt[i]) @ tf.rot_z(roll[i])
-            t = centre[i] - R @ mid
-            T = tf.make_transform(R, t)
-            P = tf.transform_points(T, outline)
-            if np.any(P[:, 2] < 100.0):
-                continue
-            Pr = self.rig.to_right(P)
-            if not (np.all(self.rig.left.in_image(self.rig.left.project(P), BOARD_MARGIN_PX))
-                    and np.all(self.rig.right.in_image(self.rig.right.project(Pr), BOARD_MARGIN_PX))):
-                continue
-            Ts.append(T)
-            feats.append([uv[i, 0] / cam.width, uv[i, 1] / cam.height,
-                          (depth[i] - BOARD_DEPTH[0]) / (BOARD_DEPTH[1] - BOARD_DEPTH[0]),
-                          np.sin(tilt[i]) * np.cos(phi[i]) * 1.5, np.sin(tilt[i]) * np.sin(phi[i]) * 1.5])
-        return np.array(Ts).reshape(-1, 4, 4), np.array(feats).reshape(-1, 5)
+            Ts.append(tf.make_transform(R, centre[i] - R @ mid))
+            P.append(tf.transform_points(Ts[-1], outline))
+            Pr.append(self.rig.to_right(P[-1]))
+        # Both views of the outlines in front of the cameras, projected together (row by row, as
+        # one at a time gives them).
+        P, Pr = np.array(P), np.array(Pr)
+        front = np.flatnonzero(~np.any(P[:, :, 2] < 100.0, axis=1))
+        seen = np.zeros(m, bool)
+        if front.size:
+            left, right = self.rig.left, self.rig.right
+            seen[front] = (left.in_image(left.project(P[front].reshape(-1, 3)), BOARD_MARGIN_PX).reshape(-1, 4).all(1)
+                           & right.in_image(right.project(Pr[front].reshape(-1, 3)), BOARD_MARGIN_PX)
+                           .reshape(-1, 4).all(1))
+        keep = np.flatnonzero(seen)
+        feats = [[uv[i, 0] / cam.width, uv[i, 1] / cam.height,
+                  (depth[i] - BOARD_DEPTH[0]) / (BOARD_DEPTH[1] - BOARD_DEPTH[0]),
+                  np.sin(tilt[i]) * np.cos(phi[i]) * 1.5, np.sin(tilt[i]) * np.sin(phi[i]) * 1.5] for i in keep]
+        return np.array([Ts[i] for i in keep]).reshape(-1, 4, 4), np.array(feats).reshape(-1, 5)
 
     # -- rendering ----------------------------------------------------------------------
     @property

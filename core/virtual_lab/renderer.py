@@ -257,26 +257,60 @@ class ImageComposer:
         if win is None:
             return
         x0, y0, x1, y1 = win
-        rays = self.rays[y0 + 1:y1 + 1, x0 + 1:x1 + 1].astype(np.float64)
+        # Evaluated in place on a few window-sized float64 buffers (the same operations in the
+        # same order as the plain expressions in the comments, so the same values).
+        x = self.rays[y0 + 1:y1 + 1, x0 + 1:x1 + 1, 0].astype(np.float64)
+        y = self.rays[y0 + 1:y1 + 1, x0 + 1:x1 + 1, 1].astype(np.float64)
         Hm = self._plane_homography(cam_from_board)
-        x, y = rays[..., 0], rays[..., 1]
-        den = Hm[2, 0] * x + Hm[2, 1] * y + Hm[2, 2]
+        tmp = np.empty_like(x)
+
+        def affine(row):                            # Hm[row, 0]·x + Hm[row, 1]·y + Hm[row, 2]
+            out = np.multiply(x, Hm[row, 0])
+            out += np.multiply(y, Hm[row, 1], out=tmp)
+            out += Hm[row, 2]
+            return out
+
+        den = affine(2)
         ok = den > 0
-        den = np.where(ok, den, 1.0)
-        u = (Hm[0, 0] * x + Hm[0, 1] * y + Hm[0, 2]) / den
-        v = (Hm[1, 0] * x + Hm[1, 1] * y + Hm[1, 2]) / den
-        # |grad u|, |grad v| in mm per pixel (pinhole part; distortion changes it by < 5 %).
-        fx, fy = self.camera.fx, self.camera.fy
-        gu = np.hypot((Hm[0, 0] - u * Hm[2, 0]) / (den * fx), (Hm[0, 1] - u * Hm[2, 1]) / (den * fy))
-        gv = np.hypot((Hm[1, 0] - v * Hm[2, 0]) / (den * fx), (Hm[1, 1] - v * Hm[2, 1]) / (den * fy))
+        all_ok = bool(ok.all())
+        if not all_ok:
+            den[~ok] = 1.0                          # np.where(ok, den, 1.0)
+        u = affine(0)
+        u /= den
+        v = affine(1)
+        v /= den
+        # |grad u|, |grad v| in mm per pixel (pinhole part; distortion changes it by < 5 %):
+        # hypot((Hm[r, 0] − P·Hm[2, 0]) / (den·fx), (Hm[r, 1] − P·Hm[2, 1]) / (den·fy)), P = u, v.
+        den_x, den_y = den * self.camera.fx, np.multiply(den, self.camera.fy, out=den)
+        del den
+
+        def grad(P, row, out):
+            a = np.multiply(P, Hm[2, 0], out=out)
+            np.subtract(Hm[row, 0], a, out=a)
+            a /= den_x
+            b = np.multiply(P, Hm[2, 1], out=tmp)
+            np.subtract(Hm[row, 1], b, out=b)
+            b /= den_y
+            return np.hypot(a, b, out=a)
+
+        gu = grad(u, 0, x)
+        gv = grad(v, 1, y)
+        del x, y, den_x, den_y, tmp
         eu, ou, au = _checker_axis(u, gu, sq, board.cols, margin)
         ev, ov, av = _checker_axis(v, gv, sq, board.rows, margin)
-        alpha = np.where(ok, au * av, 0.0)
-        blackness = np.where(ok, eu * ev + ou * ov, 0.0)
+        alpha = np.multiply(au, av, out=au)         # np.where(ok, au·av, 0)
+        blackness = np.multiply(eu, ev, out=eu)     # np.where(ok, eu·ev + ou·ov, 0)
+        blackness += np.multiply(ou, ov, out=ov)
+        if not all_ok:
+            alpha[~ok] = 0.0
+            blackness[~ok] = 0.0
         bg = self.canvas[y0:y1, x0:x1]
-        out = bg + alpha * (white - bg) - (white - black) * blackness
-        self.canvas[y0:y1, x0:x1] = out.astype(np.float32)
+        out = np.multiply(alpha, white - bg, out=av)  # bg + alpha·(white − bg) − (white − black)·blackness
+        out += bg
+        blackness *= white - black
+        out -= blackness
         self._hide_after_blur(y0, y1, x0, x1, alpha)
+        self.canvas[y0:y1, x0:x1] = out
 
     def draw_plate(self, texture: PlateTexture, world_from_plate: np.ndarray,
                    supersample: int = SUPERSAMPLE) -> None:
@@ -314,7 +348,8 @@ class ImageComposer:
         def averaged(levels):
             tex = cv2.remap(levels[level], mx, my, cv2.INTER_LINEAR,
                             borderMode=cv2.BORDER_CONSTANT, borderValue=texture.fill)
-            return _pixel_means(a[..., None] * tex if tex.ndim == 3 else a * tex, w, h)
+            tex *= a[..., None] if tex.ndim == 3 else a           # a · tex, in place
+            return _pixel_means(tex, w, h)
 
         self._hide_after_blur(y0, y1, x0, x1, alpha)
         if texture.square is None:
@@ -426,9 +461,12 @@ class ImageComposer:
         for p in pts:
             q = np.round((p - [x0, y0]) * (1 << shift)).astype(np.int32)
             cv2.fillConvexPoly(mask, q, 255, cv2.LINE_AA, shift)
-        a = mask.astype(np.float32) / 255.0
+        a = mask.astype(np.float32)
+        a /= 255.0
         region = self.canvas[y0:y1, x0:x1]
-        self.canvas[y0:y1, x0:x1] = region + a * (value - region)
+        mixed = np.subtract(value, region)          # region + a·(value − region), in place
+        mixed *= a
+        region += mixed
         self._hide_after_blur(y0, y1, x0, x1, a)
 
     # finishing ---------------------------------------------------------------------------
@@ -442,11 +480,14 @@ class ImageComposer:
         amplitude `gradient` (over the image width) in direction `gradient_angle` (rad), and
         by `exposure`. Noise: read noise of std `noise` grey levels plus shot noise whose
         variance grows linearly with brightness (equal to the read noise variance at 255)."""
-        img = self.canvas
+        # In place on one image buffer and one scratch buffer: the same float32 operations in
+        # the same order as the expressions in the comments, so the same image.
         if self.blur_sigma > 0:
-            img = cv2.GaussianBlur(img, (0, 0), self.blur_sigma, borderType=cv2.BORDER_REPLICATE)
+            img = cv2.GaussianBlur(self.canvas, (0, 0), self.blur_sigma, borderType=cv2.BORDER_REPLICATE)
+        else:
+            img = self.canvas.copy()
         if self._after_blur is not None:
-            img = img + self._after_blur
+            img += self._after_blur
         cam = self.camera
         light = vignetting(cam, vignetting_strength)
         if gradient:
@@ -454,14 +495,25 @@ class ImageComposer:
             gy = np.sin(gradient_angle) * gradient / cam.width
             xs = (np.arange(cam.width, dtype=np.float32) - cam.cx) * np.float32(gx)
             ys = (np.arange(cam.height, dtype=np.float32) - cam.cy) * np.float32(gy)
-            light = light * (1.0 + ys[:, None] + xs[None, :])
-        img = img * (light * np.float32(exposure))
+            light = np.multiply(light, np.add(1.0 + ys[:, None], xs[None, :]))   # light·(1 + ys + xs)
+            light *= np.float32(exposure)
+        else:
+            light = light * np.float32(exposure)
+        img *= light                                                              # img·(light·exposure)
         if noise > 0:
             if rng is None:
                 raise ValueError("a random generator is needed for noise")
-            std = np.float32(noise) * np.sqrt(1.0 + np.maximum(img, 0.0) * np.float32(1.0 / 255.0))
-            img = img + std * rng.standard_normal(img.shape, dtype=np.float32)
-        return np.clip(np.rint(img), 0, 255).astype(np.uint8)
+            # std = noise·√(1 + max(img, 0)/255); img + std·z, z standard normal
+            std = np.maximum(img, 0.0, out=light)
+            std *= np.float32(1.0 / 255.0)
+            std += 1.0
+            np.sqrt(std, out=std)
+            std *= np.float32(noise)
+            std *= rng.standard_normal(img.shape, dtype=np.float32)
+            img += std
+        np.rint(img, out=img)
+        np.clip(img, 0, 255, out=img)
+        return img.astype(np.uint8)
 
 
 def _pixel_means(samples: np.ndarray, w: int, h: int) -> np.ndarray:
@@ -472,13 +524,24 @@ def _pixel_means(samples: np.ndarray, w: int, h: int) -> np.ndarray:
 
 def _apply_homography(rays: np.ndarray, H: np.ndarray):
     """(…, 2) float32 points through a 3x3 homography -> (X, Y, ok) float32 (ok: in front)."""
-    x, y = rays[..., 0], rays[..., 1]
+    x, y = np.ascontiguousarray(rays[..., 0]), np.ascontiguousarray(rays[..., 1])
     H = H.astype(np.float32)
-    den = H[2, 0] * x + H[2, 1] * y + H[2, 2]
+    tmp = np.empty_like(x)
+
+    def affine(row):                                # H[row, 0]·x + H[row, 1]·y + H[row, 2], float32
+        out = np.multiply(x, H[row, 0])
+        out += np.multiply(y, H[row, 1], out=tmp)
+        out += H[row, 2]
+        return out
+
+    den = affine(2)
     ok = den > 0
-    inv = np.float32(1.0) / np.where(ok, den, np.float32(1.0))
-    X = (H[0, 0] * x + H[0, 1] * y + H[0, 2]) * inv
-    Y = (H[1, 0] * x + H[1, 1] * y + H[1, 2]) * inv
+    den[~ok] = 1.0
+    inv = np.divide(np.float32(1.0), den, out=den)  # 1 / np.where(ok, den, 1)
+    X = affine(0)
+    X *= inv
+    Y = affine(1)
+    Y *= inv
     return X, Y, ok
 
 
@@ -530,15 +593,31 @@ def _checker_axis(u: np.ndarray, g: np.ndarray, sq: float, count: int, margin: f
     by even-index squares, odd-index squares (squares −1..count−1, i.e. the checkered area),
     and by the whole board including its margin."""
     fu = u / sq
-    k = np.floor(fu + 0.5)                     # nearest grid line
-    d = (fu - k) * sq / g                      # signed distance to it, px (+: square k side)
-    c = np.clip(0.5 + d, 0.0, 1.0)             # coverage of square k (right of the line)
+    k = np.add(fu, 0.5)
+    np.floor(k, out=k)                         # nearest grid line
+    c = np.subtract(fu, k, out=fu)             # signed distance to it, px (+: square k side):
+    c *= sq                                    # d = (fu − k)·sq / g
+    c /= g
+    c += 0.5                                   # coverage of square k (right of the line)
+    np.clip(c, 0.0, 1.0, out=c)
     right_in = (k >= -1) & (k <= count - 1)
-    left_in = (k - 1 >= -1) & (k - 1 <= count - 1)
-    k_even = (k % 2) == 0
-    even = np.where(right_in & k_even, c, 0.0) + np.where(left_in & ~k_even, 1.0 - c, 0.0)
-    odd = np.where(right_in & ~k_even, c, 0.0) + np.where(left_in & k_even, 1.0 - c, 0.0)
+    left_in = (k >= 0) & (k <= count)          # k − 1 in −1 … count − 1 (k a whole number)
+    half = np.multiply(k, 0.5, out=k)
+    k_even = np.floor(half) == half            # (k % 2) == 0, without the slow float modulo
+    right = np.where(right_in, c, 0.0)         # square k's share, if it is on the board
+    left = np.subtract(1.0, c, out=c)          # square k − 1's share
+    left[~left_in] = 0.0
+    even = np.where(k_even, right, left)
+    odd = np.where(k_even, left, right)
     lo = -(1.0 + margin) * sq
     hi = (count + margin) * sq
-    board = np.clip(0.5 + (u - lo) / g, 0.0, 1.0) * np.clip(0.5 + (hi - u) / g, 0.0, 1.0)
+    board = np.subtract(u, lo, out=right)      # clip(0.5 + (u − lo)/g, 0, 1) · clip(0.5 + (hi − u)/g, 0, 1)
+    board /= g
+    board += 0.5
+    np.clip(board, 0.0, 1.0, out=board)
+    upper = np.subtract(hi, u, out=left)
+    upper /= g
+    upper += 0.5
+    np.clip(upper, 0.0, 1.0, out=upper)
+    board *= upper
     return even, odd, board

@@ -43,14 +43,22 @@ def visible(lab):
     return lambda Q: lab.visibility(Q).visible
 
 
+@pytest.fixture(scope="module")
+def grids(lab, calibration):
+    """The workspace grids of 20 and of 5 points for the calibration, built once for the tests that
+    use each (deterministic; read only: the accuracy map copies the points it reaches)."""
+    meas, model = calibration
+    return {count: workspace_grid(model, meas.Q, count=count, keep=visible(lab)) for count in (20, 5)}
+
+
 def truth_error(lab, model, Q, target="marker"):
     """|true − model| marker position at Q (mm): the calibrated model's own error."""
     return np.linalg.norm(lab.true_robot.target_positions(Q, target) - model.target_positions(Q, target), axis=1)
 
 
-def test_grid_lies_in_the_measured_workspace_and_is_reachable(lab, calibration):
+def test_grid_lies_in_the_measured_workspace_and_is_reachable(lab, calibration, grids):
     meas, model = calibration
-    grid = workspace_grid(model, meas.Q, count=20, keep=visible(lab))
+    grid = grids[20]
     assert len(grid.points) == 20 and len(np.unique(grid.points.round(3), axis=0)) == 20
     np.testing.assert_allclose(model.target_positions(grid.hints, "marker"), grid.points, atol=1e-5)
     assert lab.visibility(grid.hints).visible.all() and model.within_limits(grid.hints).all()
@@ -61,9 +69,9 @@ def test_grid_lies_in_the_measured_workspace_and_is_reachable(lab, calibration):
         workspace_grid(model, meas.Q[:3])
 
 
-def test_on_the_lab_the_calibrated_model_lands_where_its_own_error_says(lab, calibration, tmp_path):
-    meas, model = calibration
-    grid = workspace_grid(model, meas.Q, count=20, keep=visible(lab))
+def test_on_the_lab_the_calibrated_model_lands_where_its_own_error_says(lab, calibration, grids, tmp_path):
+    _, model = calibration
+    grid = grids[20]
     amap = run_accuracy_map(lab.nominal_robot, model, grid, ideal_measure(lab, sigma_mm=0.0),
                             measured_by="virtual lab, true marker position")
     assert amap.both.sum() >= 18 and not amap.cancelled
@@ -83,9 +91,9 @@ def test_on_the_lab_the_calibrated_model_lands_where_its_own_error_says(lab, cal
     np.testing.assert_allclose(back.q_after[both], amap.q_after[both], atol=1e-9)
 
 
-def test_through_rendered_images(lab, calibration, locator):
-    meas, model = calibration
-    grid = workspace_grid(model, meas.Q, count=5, keep=visible(lab))
+def test_through_rendered_images(lab, calibration, locator, grids):
+    _, model = calibration
+    grid = grids[5]
     rng = np.random.default_rng(2)
 
     def measure(q):
@@ -97,9 +105,9 @@ def test_through_rendered_images(lab, calibration, locator):
     assert amap.rms_after_mm < 0.3 and amap.rms_before_mm > 2.0
 
 
-def test_over_sim_robot_on_a_pty(lab, calibration, locator):
-    meas, model = calibration
-    grid = workspace_grid(model, meas.Q, count=5, keep=visible(lab))
+def test_over_sim_robot_on_a_pty(lab, calibration, locator, grids):
+    _, model = calibration
+    grid = grids[5]
     rng = np.random.default_rng(3)
     with ControllerSim(lab.true_robot, time_scale=0.01) as sim:
         driver = SerialRobot(lab.nominal_robot, sim.port, reply_timeout=5.0, move_timeout=20.0)

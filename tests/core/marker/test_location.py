@@ -33,9 +33,15 @@ def pairs():
     return out
 
 
-def test_point_within_hundredths_of_a_millimetre(locator, pairs):
-    for T, left, right in pairs:
-        loc = locator.locate(left, right)
+@pytest.fixture(scope="module")
+def located(locator, pairs):
+    """The locator's result for each of `pairs`, located once for the tests that read them: locate
+    is deterministic and keeps no state, and the tests only read the results."""
+    return [locator.locate(left, right) for _, left, right in pairs]
+
+
+def test_point_within_hundredths_of_a_millimetre(pairs, located):
+    for (T, _, _), loc in zip(pairs, located):
         assert loc.ok, loc.reason
         err = np.linalg.norm(loc.point - T[:3, 3])
         assert err < 0.05
@@ -50,9 +56,8 @@ def test_point_within_hundredths_of_a_millimetre(locator, pairs):
         assert c.window[1] >= min(0.9 * np.ptp(loc.left.outline.corners_ideal[:, 0]), 151)   # the marker's size
 
 
-def test_json_summary(locator, pairs):
-    T, left, right = pairs[0]
-    d = locator.locate(left, right).to_dict()
+def test_json_summary(located):
+    d = located[0].to_dict()
     for key in ("x", "y", "z", "sigma", "covariance", "disparity", "disparity_ssd", "criteria_minimum",
                 "reliability", "window", "sigma_px", "epipolar_error", "size_mm"):
         assert d[key] is not None, key
@@ -157,7 +162,7 @@ def test_stale_calibration_is_caught(pairs):
     assert not loc.ok and loc.stage == "check" and "epipolar line" in loc.reason
 
 
-def test_corner_disparities_off_one_plane(locator, pairs):
+def test_corner_disparities_off_one_plane(pairs, located):
     """The four corners' disparities lie on a plane (affine in u, v); one corner 0.2 px off
     leaves a quarter of it at every corner of a square (one residual degree of freedom)."""
     left = np.array([[100.0, 100.0], [300.0, 100.0], [300.0, 300.0], [100.0, 300.0]])
@@ -166,8 +171,8 @@ def test_corner_disparities_off_one_plane(locator, pairs):
     bent = right.copy()
     bent[0, 0] += 0.2
     assert corner_planarity(left, bent) == pytest.approx(0.05, abs=1e-9)
-    for T, l_img, r_img in pairs:
-        assert locator.locate(l_img, r_img).corner_planarity < 0.02      # px (nominal: ~0.002)
+    for loc in located:
+        assert loc.corner_planarity < 0.02      # px (nominal: ~0.002)
     strict = MarkerLocator(scenes.trained(), StereoRectification.from_rig(scenes.lab().rig),
                            LocatorOptions(max_corner_planarity=1e-6)).locate(*pairs[0][1:])
     assert not strict.ok and strict.stage == "check" and "off one plane" in strict.reason
@@ -203,9 +208,9 @@ def test_tracking_from_a_predicted_pose_and_from_the_last_one(locator, pairs):
     assert loc.ok and loc.left.area.mode == "predicted"
 
 
-def test_window_sweep_at_the_located_point(locator, pairs):
+def test_window_sweep_at_the_located_point(locator, pairs, located):
     _, left, right = pairs[0]
-    loc = locator.locate(left, right)
+    loc = located[0]
     sweep = locator.window_sweep(left, right, loc)
     assert list(sweep.sizes) == list(range(5, 38, 2))
     assert np.all(np.isfinite(sweep.minima))

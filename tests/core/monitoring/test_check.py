@@ -1,4 +1,5 @@
 import os
+import pickle
 import subprocess
 import sys
 from pathlib import Path
@@ -61,13 +62,13 @@ def test_cancel_keeps_the_points_measured(tmp_path):
 
 
 KILL_SCRIPT = """
-import os, signal, sys
+import os, pickle, signal, sys
 sys.path.insert(0, {root!r})
-from tests.core.monitoring.cell import SIGMA, cell
-from core.monitoring.check import check_limits, run_check
+from core.monitoring.check import run_check
 from core.virtual_lab.ideal_measurements import ideal_measure
-c = cell()
-ideal = ideal_measure(c.lab, sigma_mm=SIGMA, seed=1)
+with open({cell!r}, "rb") as fh:
+    c = pickle.load(fh)
+ideal = ideal_measure(c.lab, sigma_mm={sigma!r}, seed=1)
 n = []
 def measure(q):
     n.append(1)
@@ -80,7 +81,11 @@ run_check(c.model, c.unc, c.Q, measure, log={log!r})
 
 def test_killed_check_loses_nothing_it_measured(tmp_path):
     log = tmp_path / "checks.csv"
-    proc = subprocess.run([sys.executable, "-c", KILL_SCRIPT.format(root=str(ROOT), log=str(log))],
+    # the child checks the shared cell as this process has it (pickled), instead of calibrating it again
+    shared = tmp_path / "cell.pickle"
+    shared.write_bytes(pickle.dumps(cell()))
+    script = KILL_SCRIPT.format(root=str(ROOT), log=str(log), cell=str(shared), sigma=SIGMA)
+    proc = subprocess.run([sys.executable, "-c", script],
                           env={**os.environ, "PYTHONPATH": str(ROOT)}, capture_output=True, timeout=120)
     assert proc.returncode == -9, proc.stderr.decode()[-500:]
     logged = read_check_log(log)
