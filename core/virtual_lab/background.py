@@ -14,7 +14,7 @@ import numpy as np
 
 from core import transforms as tf
 from core.stereo.rig import StereoRig
-from core.virtual_lab.renderer import ImageComposer, ray_map
+from core.virtual_lab.renderer import ImageComposer, sampled_rays
 
 _LETTERS = "ABCDEFGHKLMNPRSTUVWXYZ0123456789-/#"
 
@@ -126,7 +126,7 @@ def make_room(rng: np.random.Generator, rig: StereoRig, *, wall_depth: float = 2
     """A room for `rig`: a wall at `wall_depth` (mm, left camera z) covering both views, and
     a table top at y = `table_height` (mm, left camera y, i.e. below the optical axis) from
     depth `table_near` to the wall (None: no table)."""
-    rays = np.concatenate([ray_map(rig.left).reshape(-1, 2)[::97], ray_map(rig.right).reshape(-1, 2)[::97]])
+    rays = np.concatenate([sampled_rays(rig.left, 97), sampled_rays(rig.right, 97)])
     lo, hi = rays.min(axis=0), rays.max(axis=0)
     c = rig.right_centre
     x0 = min(lo[0] * wall_depth, c[0] + lo[0] * wall_depth) - 0.15 * wall_depth

@@ -53,16 +53,22 @@ def _camera_key(camera: CameraModel) -> tuple:
     return (camera.K.tobytes(), camera.dist.tobytes(), int(camera.width), int(camera.height))
 
 
+def _rays(K: np.ndarray, dist: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """(N, 2) float32 ideal normalised coordinates of the pixels (xs, ys) (float64): each pixel's
+    ray is computed on its own, so a pixel has the same ray in any set of pixels."""
+    pts = np.stack([xs.ravel(), ys.ravel()], axis=1).reshape(-1, 1, 2)
+    criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-12)
+    xy = cv2.undistortPoints(pts, K, dist, R=np.eye(3), P=np.eye(3), criteria=criteria)
+    return xy.reshape(-1, 2).astype(np.float32)
+
+
 @lru_cache(maxsize=8)
 def _ray_map_cached(key: tuple) -> np.ndarray:
     K = np.frombuffer(key[0]).reshape(3, 3)
     dist = np.frombuffer(key[1])
     width, height = key[2], key[3]
     ys, xs = np.mgrid[-1:height + 1, -1:width + 1].astype(np.float64)
-    pts = np.stack([xs.ravel(), ys.ravel()], axis=1).reshape(-1, 1, 2)
-    criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-12)
-    xy = cv2.undistortPoints(pts, K, dist, R=np.eye(3), P=np.eye(3), criteria=criteria)
-    out = xy.reshape(height + 2, width + 2, 2).astype(np.float32)
+    out = _rays(K, dist, xs, ys).reshape(height + 2, width + 2, 2)
     out.setflags(write=False)
     return out
 
@@ -74,6 +80,16 @@ def ray_map(camera: CameraModel, padded: bool = False) -> np.ndarray:
     has one extra pixel on every side ((H + 2, W + 2, 2), index [v + 1, u + 1])."""
     m = _ray_map_cached(_camera_key(camera))
     return m if padded else m[1:-1, 1:-1]
+
+
+def sampled_rays(camera: CameraModel, step: int) -> np.ndarray:
+    """`ray_map(camera).reshape(-1, 2)[::step]`, every `step`-th pixel in row order, without
+    computing the whole map (the same values)."""
+    key = _camera_key(camera)
+    width, height = key[2], key[3]
+    flat = np.arange(0, width * height, step)
+    return _rays(np.frombuffer(key[0]).reshape(3, 3), np.frombuffer(key[1]), (flat % width).astype(np.float64),
+                 (flat // width).astype(np.float64))
 
 
 @lru_cache(maxsize=8)
