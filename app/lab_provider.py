@@ -9,7 +9,8 @@ waits for it.
     labs.reset("why")                           # the robot changed: forget the lab and its build
 
 Every caller that waits meanwhile waits for the same build (`changed(lab)` is emitted when the
-lab is there or forgotten). Building the lab takes about 2 s, never on the GUI thread.
+lab is there or forgotten). Building the lab takes about 0.3 s (its first rendering ~1 s more),
+never on the GUI thread.
 """
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Expensive, deterministic test inputs and results built once per test session (with
-pytest-xdist: once per worker process) and handed out as deep copies: virtual labs (~2 s), trained
+pytest-xdist: once per worker process) and handed out as deep copies: virtual labs (~0.3 s), trained
 markers (~0.6 s), and the SIFT features and checkerboard corners of an image (~0.1 s each); and
 memoised for each distinct input: the lab's stereo renderings, markers trained from an image and
 the marker located in a pair.

@@ -8,7 +8,7 @@ from tests.session_cache import create_labs_once
 
 @pytest.fixture(autouse=True)
 def _virtual_labs_built_once(monkeypatch):
-    """A virtual lab is built once per session (~2 s each time the wizard or a command built it);
+    """A virtual lab is built once per session (~0.3 s each time the wizard or a command built it);
     every test gets its own copy (tests/session_cache.py). VirtualLab.create itself is tested
     in tests/core/virtual_lab."""
     create_labs_once(monkeypatch)

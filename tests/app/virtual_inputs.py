@@ -1,5 +1,5 @@
 """Inputs the Marker and Measurement page tests share: the virtual lab (built once per test
-session, ~2 s, each caller gets its own copy: tests/session_cache.py), a stereo.yaml of its true rig (the calibration itself is tested elsewhere),
+session, each caller gets its own copy: tests/session_cache.py), a stereo.yaml of its true rig (the calibration itself is tested elsewhere),
 and a state with a temporary project that has adopted the lab."""
 from __future__ import annotations
 

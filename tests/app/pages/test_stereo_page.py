@@ -31,7 +31,7 @@ WAIT_MS = 90000
 
 @pytest.fixture(scope="module")
 def lab(built_lab):
-    """One virtual lab for the whole file (a copy of the session's: building one takes ~2 s)."""
+    """One virtual lab for the whole file (a copy of the session's)."""
     return built_lab(seed=0)
 
 
