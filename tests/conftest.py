@@ -16,8 +16,8 @@
 - SIFT features and checkerboard corners are computed once per session for each distinct image
   (the virtual lab renders the same images in many tests) and handed out as copies; so are the
   lab's stereo renderings (for each distinct lab, pose and random state), markers trained from an
-  image and the marker's locations in a pair, outside the renderer's and the locator's own tests and tests marked
-  no_session_cache (tests/session_cache.py).
+  image and the marker's locations in a pair, outside the renderer's and the marker's own tests
+  and tests marked no_session_cache (tests/session_cache.py).
 - With pytest-xdist (`make test` runs `-n auto --dist loadscope`), the longest modules are
   handed out first (their seconds in the last run, from pytest's cache) and the modules that
   share the in-process demo walk run on one worker (tests/scheduling.py).
@@ -223,9 +223,10 @@ def pytest_unconfigure(config):
 def pytest_configure(config):
     config.addinivalue_line("markers", "slow: over ~20 s alone (a whole demo walk, a fuzzed command line, a chain of "
                                        "commands on rendered images); `make test-quick` leaves them out")
-    config.addinivalue_line("markers", "no_session_cache: the virtual lab's renderings and the marker's locations "
-                                       "are computed again, not handed out from the session's (a test of repeatability, or of what "
-                                       "happens while a run is under way: each pose takes its real time)")
+    config.addinivalue_line("markers", "no_session_cache: the virtual lab's renderings, the marker's locations and "
+                                       "trainings are computed again, not handed out from the session's (a test of "
+                                       "repeatability, or of what happens while a run is under way: each pose takes "
+                                       "its real time)")
     if config.pluginmanager.hasplugin("xdist") and not hasattr(config, "workerinput"):
         config.pluginmanager.register(WorkerExitStatus(), "robocal-worker-exit-status")
         if config.getvalue("dist") == "loadscope":

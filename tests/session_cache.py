@@ -17,6 +17,7 @@ import hashlib
 import os
 import pickle
 import threading
+import weakref
 
 _built: dict = {}
 _original_create: list = []          # VirtualLab.create before `create_labs_once` replaced it
@@ -158,23 +159,27 @@ def trained_once_per_image(monkeypatch) -> None:
         monkeypatch.setattr(user, "train_marker", cached)
 
 
-
 _renders: "OrderedDict" = None       # key -> (left, right, rng state after the render); set on first use
 _render_originals: dict = {}
 _render_lock = threading.Lock()
 RENDERS_KEPT = 300                    # the last 300 distinct pairs: ~0.8 GB per process at most
-_room_digests: dict = {}             # id(room) -> (room, digest): a room is never changed in place
+_room_digests: dict = {}             # id(room) -> (weak reference, digest): a room is never changed in place
+
+
+def _digest_once(digests: dict, thing, make) -> str:
+    """make(thing), remembered for as long as `thing` lives (by identity, without keeping it alive)."""
+    with _render_lock:
+        known = digests.get(id(thing))
+        if known is not None and known[0]() is thing:
+            return known[1]
+    digest = make(thing)
+    with _render_lock:
+        digests[id(thing)] = (weakref.ref(thing), digest)
+    return digest
 
 
 def _room_digest(room) -> str:
-    with _render_lock:
-        known = _room_digests.get(id(room))
-        if known is not None and known[0] is room:
-            return known[1]
-    digest = hashlib.sha1(pickle.dumps(room)).hexdigest()
-    with _render_lock:
-        _room_digests[id(room)] = (room, digest)
-    return digest
+    return _digest_once(_room_digests, room, lambda r: hashlib.sha1(pickle.dumps(r)).hexdigest())
 
 
 def _render_key(name: str, lab, args, kwargs, rng) -> tuple | None:
@@ -236,18 +241,12 @@ def rendered_once_per_input(monkeypatch) -> None:
 _locations: "OrderedDict" = None     # key -> MarkerLocation; set on first use
 _locator_original: list = []
 LOCATIONS_KEPT = 2000
-_locator_digests: dict = {}          # id(locator) -> (locator, digest of its marker and rectification)
+_locator_digests: dict = {}          # id(locator) -> (weak reference, digest of its marker and rectification)
 
 
 def _locator_digest(locator) -> str:
-    with _pixel_lock:
-        known = _locator_digests.get(id(locator))
-        if known is not None and known[0] is locator:
-            return known[1]
-    digest = hashlib.sha1(pickle.dumps((locator.trained.to_bytes(), locator.rect))).hexdigest()
-    with _pixel_lock:
-        _locator_digests[id(locator)] = (locator, digest)
-    return digest
+    return _digest_once(_locator_digests, locator,
+                        lambda loc: hashlib.sha1(pickle.dumps((loc.trained.to_bytes(), loc.rect))).hexdigest())
 
 
 def located_once_per_input(monkeypatch) -> None:
