@@ -279,21 +279,14 @@ class ImageComposer:
         y = self.rays[y0 + 1:y1 + 1, x0 + 1:x1 + 1, 1].astype(np.float64)
         Hm = self._plane_homography(cam_from_board)
         tmp = np.empty_like(x)
-
-        def affine(row):                            # Hm[row, 0]·x + Hm[row, 1]·y + Hm[row, 2]
-            out = np.multiply(x, Hm[row, 0])
-            out += np.multiply(y, Hm[row, 1], out=tmp)
-            out += Hm[row, 2]
-            return out
-
-        den = affine(2)
+        den = _homography_row(Hm, 2, x, y, tmp)
         ok = den > 0
         all_ok = bool(ok.all())
         if not all_ok:
             den[~ok] = 1.0                          # np.where(ok, den, 1.0)
-        u = affine(0)
+        u = _homography_row(Hm, 0, x, y, tmp)
         u /= den
-        v = affine(1)
+        v = _homography_row(Hm, 1, x, y, tmp)
         v /= den
         # |grad u|, |grad v| in mm per pixel (pinhole part; distortion changes it by < 5 %):
         # hypot((Hm[r, 0] − P·Hm[2, 0]) / (den·fx), (Hm[r, 1] − P·Hm[2, 1]) / (den·fy)), P = u, v.
@@ -538,25 +531,27 @@ def _pixel_means(samples: np.ndarray, w: int, h: int) -> np.ndarray:
     return cv2.resize(samples, (w, h), interpolation=cv2.INTER_AREA)
 
 
+def _homography_row(H: np.ndarray, row: int, x: np.ndarray, y: np.ndarray, scratch: np.ndarray) -> np.ndarray:
+    """H[row, 0]·x + H[row, 1]·y + H[row, 2] in a new array, in x's precision (`scratch`: a
+    buffer like x, overwritten)."""
+    out = np.multiply(x, H[row, 0])
+    out += np.multiply(y, H[row, 1], out=scratch)
+    out += H[row, 2]
+    return out
+
+
 def _apply_homography(rays: np.ndarray, H: np.ndarray):
     """(…, 2) float32 points through a 3x3 homography -> (X, Y, ok) float32 (ok: in front)."""
     x, y = np.ascontiguousarray(rays[..., 0]), np.ascontiguousarray(rays[..., 1])
     H = H.astype(np.float32)
     tmp = np.empty_like(x)
-
-    def affine(row):                                # H[row, 0]·x + H[row, 1]·y + H[row, 2], float32
-        out = np.multiply(x, H[row, 0])
-        out += np.multiply(y, H[row, 1], out=tmp)
-        out += H[row, 2]
-        return out
-
-    den = affine(2)
+    den = _homography_row(H, 2, x, y, tmp)
     ok = den > 0
     den[~ok] = 1.0
     inv = np.divide(np.float32(1.0), den, out=den)  # 1 / np.where(ok, den, 1)
-    X = affine(0)
+    X = _homography_row(H, 0, x, y, tmp)
     X *= inv
-    Y = affine(1)
+    Y = _homography_row(H, 1, x, y, tmp)
     Y *= inv
     return X, Y, ok
 
