@@ -19,20 +19,16 @@ from core.robot.file import read_robot
 from core.robot.model import robot_path
 from core.virtual_lab.changes import apply_change
 from tests.app.virtual_inputs import marker_dataset
-from tests.session_cache import create_labs_once
 
 SEED = 3
 
 
 @pytest.fixture(scope="module")
 def cell(tmp_path_factory, built_lab):
-    """(folder, dataset, calibrated.json, lab): the README chain on a 36-pose dataset of lab seed 3.
-    The dataset's lab and the module's are copies of the lab built once per session
-    (tests/session_cache.py: the same lab a build gives)."""
+    """(folder, dataset, calibrated.json, lab): the README chain on a 36-pose dataset of lab seed 3
+    (the module's lab: a copy of the session's)."""
     root = tmp_path_factory.mktemp("checkfiles")
-    with pytest.MonkeyPatch.context() as patch:
-        create_labs_once(patch)
-        ds = marker_dataset(root, poses=36, seed=SEED)
+    ds = marker_dataset(root, poses=36, seed=SEED)
     assert main(["measure", "--stereo", str(ds / "stereo.yaml"), "--marker", str(ds / "marker" / "training.png"),
                  "--images", str(ds / "poses"), "--joints", str(ds / "poses" / "joints.csv"),
                  "--out", str(root / "meas.csv")]) == 0

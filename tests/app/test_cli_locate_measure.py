@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 from app.cli import main
-from tests.session_cache import create_labs_once
 
 
 @pytest.fixture(scope="session")
@@ -23,9 +22,7 @@ def dataset(tmp_path_factory):
 
     root = tmp_path_factory.mktemp("marker_cli")
     out = root / "ds"
-    with pytest.MonkeyPatch.context() as patch:
-        create_labs_once(patch)          # the lab of seed 3 built once per session, copied (tests/session_cache.py)
-        simulate_dataset(out, seed=3, pairs=0, poses=6)
+    simulate_dataset(out, seed=3, pairs=0, poses=6)
     truth = json.loads((out / "truth.json").read_text())
     s = truth["stereo"]
     size = (s["image_width"], s["image_height"])

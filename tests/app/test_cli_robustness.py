@@ -98,10 +98,7 @@ def test_ctrl_c_while_starting_is_one_line_and_exit_130(monkeypatch, capsys):
 @pytest.fixture(scope="module")
 def marker_ds(tmp_path_factory):
     from tests.app.virtual_inputs import marker_dataset
-    from tests.session_cache import create_labs_once
-    with pytest.MonkeyPatch.context() as patch:
-        create_labs_once(patch)          # the lab of seed 3 built once per session, copied (tests/session_cache.py)
-        return marker_dataset(tmp_path_factory.mktemp("robust_ds"), poses=6)
+    return marker_dataset(tmp_path_factory.mktemp("robust_ds"), poses=6)
 
 
 def _measure(ds, out, *more):

@@ -10,7 +10,6 @@ import pytest
 from app.cli import main
 from core.stereo.file import read_stereo_yaml
 from tests.core.stereo import foreign_files as ff
-from tests.session_cache import create_labs_once
 
 
 @pytest.fixture(scope="module")
@@ -21,9 +20,7 @@ def dataset(tmp_path_factory):
     from core.virtual_lab.dataset import simulate_dataset
 
     out = tmp_path_factory.mktemp("import_cli") / "ds"
-    with pytest.MonkeyPatch.context() as patch:
-        create_labs_once(patch)          # the lab of seed 3 built once per session, copied (tests/session_cache.py)
-        simulate_dataset(out, seed=3, pairs=0, poses=2)
+    simulate_dataset(out, seed=3, pairs=0, poses=2)
     s = json.loads((out / "truth.json").read_text())["stereo"]
     size = (s["image_width"], s["image_height"])
     rig = StereoRig(CameraModel(s["K1"], s["D1"], *size), CameraModel(s["K2"], s["D2"], *size), s["R"], s["T"])
