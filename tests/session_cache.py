@@ -18,9 +18,15 @@ import os
 import pickle
 import threading
 import weakref
+from collections import OrderedDict
 
 _built: dict = {}
-_original_create: list = []          # VirtualLab.create before `create_labs_once` replaced it
+_originals: dict = {}                # (owner, name) -> what owner.name was before this module replaced it
+
+
+def _unpatched(owner, name: str):
+    """`owner.name` as it was before this module first replaced it for a test."""
+    return _originals.setdefault((owner, name), getattr(owner, name))
 
 
 def shared_copy(key, build):
@@ -48,7 +54,7 @@ def lab_copy(robot=None, seed: int = 0, noise: float = 0.5, **options):
     educational 6R arm, a robot file or a RobotModel)."""
     from core.virtual_lab.lab import VirtualLab
 
-    create = _original_create[0] if _original_create else VirtualLab.create
+    create = _unpatched(VirtualLab, "create")
     key = ("lab", _robot_key(robot), int(seed), float(noise), tuple(sorted(options.items())))
     return shared_copy(key, lambda: create(robot, seed=seed, noise=noise, **options))
 
@@ -59,9 +65,7 @@ def create_labs_once(monkeypatch) -> None:
     A lab given a rig, board or marker object is built as before."""
     from core.virtual_lab.lab import VirtualLab
 
-    if not _original_create:
-        _original_create.append(VirtualLab.create)
-    original = _original_create[0]
+    original = _unpatched(VirtualLab, "create")
 
     def create(cls, robot=None, seed=0, noise=0.5, *more, **options):
         if more or any(not isinstance(v, (bool, int, float, str, type(None))) for v in options.values()):
@@ -80,10 +84,31 @@ def trained_marker_copy(lab):
     return shared_copy(key, lambda: train_marker(lab.render_training_image(), outer_size=lab.marker.outer_size))
 
 
-_pixel_results: dict = {}
-_pixel_originals: dict = {}
-_pixel_lock = threading.Lock()
-PIXEL_RESULTS_KEPT = 4000      # about 1 GB of SIFT features and corners at most per process
+class KeptResults:
+    """Results by key, at most `limit` of them (the least recently used is forgotten first), safe
+    to use from the worker threads that compute in parallel."""
+
+    def __init__(self, limit: int):
+        self.limit = limit
+        self._kept: OrderedDict = OrderedDict()
+        self._lock = threading.Lock()
+
+    def get(self, key):
+        """The result kept for `key`, or None."""
+        with self._lock:
+            found = self._kept.get(key)
+            if found is not None:
+                self._kept.move_to_end(key)
+            return found
+
+    def keep(self, key, result) -> None:
+        with self._lock:
+            self._kept[key] = result
+            while len(self._kept) > self.limit:
+                self._kept.popitem(last=False)
+
+
+_pixel_results = KeptResults(4000)   # about 1 GB of SIFT features and corners at most per process
 
 
 def _pixel_key(name: str, image, args, kwargs) -> tuple:
@@ -105,26 +130,21 @@ def computed_once_per_image(monkeypatch) -> None:
 
     for module, name, users in ((marker_detection, "sift_features", (marker_detection,)),
                                 (board_detection, "detect_corners", (board_detection, screening))):
-        original = _pixel_originals.setdefault(name, getattr(module, name))
+        original = _unpatched(module, name)
 
         def cached(image, *args, _name=name, _original=original, **kwargs):
             key = _pixel_key(_name, image, args, kwargs)
-            with _pixel_lock:                # worker threads detect in parallel
-                result = _pixel_results.get(key)
+            result = _pixel_results.get(key)
             if result is None:
                 result = _original(image, *args, **kwargs)
-                with _pixel_lock:
-                    if len(_pixel_results) >= PIXEL_RESULTS_KEPT:
-                        _pixel_results.pop(next(iter(_pixel_results)))
-                    _pixel_results[key] = result
+                _pixel_results.keep(key, result)
             return copy.deepcopy(result)
 
         for user in users:
             monkeypatch.setattr(user, name, cached)
 
 
-_trained: dict = {}
-_train_original: list = []
+_trained = KeptResults(200)
 
 
 def trained_once_per_image(monkeypatch) -> None:
@@ -139,41 +159,35 @@ def trained_once_per_image(monkeypatch) -> None:
     import core.virtual_lab.marker_comparison
     from core.marker import training
 
-    if not _train_original:
-        _train_original.append(training.train_marker)
-    original = _train_original[0]
+    original = _unpatched(training, "train_marker")
 
     def cached(image, outline=None, *, progress=None, cancelled=None, **options):
         if progress is not None or cancelled is not None:
             return original(image, outline, progress=progress, cancelled=cancelled, **options)
         key = _pixel_key("train_marker", image, (None if outline is None else np.asarray(outline).tolist(),), options)
-        with _pixel_lock:
-            kept = _trained.get(key)
+        kept = _trained.get(key)
         if kept is None:
             kept = original(image, outline, **options)
-            with _pixel_lock:
-                _trained[key] = kept
+            _trained.keep(key, kept)
         return copy.deepcopy(kept)
 
     for user in (training, core.marker, app.jobs.marker, core.virtual_lab.marker_comparison):
         monkeypatch.setattr(user, "train_marker", cached)
 
 
-_renders: "OrderedDict" = None       # key -> (left, right, rng state after the render); set on first use
-_render_originals: dict = {}
-_render_lock = threading.Lock()
-RENDERS_KEPT = 300                    # the last 300 distinct pairs: ~0.8 GB per process at most
+_renders = KeptResults(300)          # (left, right, rng state after the render): ~0.8 GB per process at most
+_digest_lock = threading.Lock()
 _room_digests: dict = {}             # id(room) -> (weak reference, digest): a room is never changed in place
 
 
 def _digest_once(digests: dict, thing, make) -> str:
     """make(thing), remembered for as long as `thing` lives (by identity, without keeping it alive)."""
-    with _render_lock:
+    with _digest_lock:
         known = digests.get(id(thing))
         if known is not None and known[0]() is thing:
             return known[1]
     digest = make(thing)
-    with _render_lock:
+    with _digest_lock:
         digests[id(thing)] = (weakref.ref(thing), digest)
     return digest
 
@@ -201,35 +215,23 @@ def rendered_once_per_input(monkeypatch) -> None:
     room and noise, the pose and options, and the random generator's state) are rendered once per
     session for each distinct input and handed out as copies; the caller's generator is left in the
     state the rendering would have left it in. Renderings without a generator or seed are not kept."""
-    global _renders
-    from collections import OrderedDict
-
     import numpy as np
 
     from core.virtual_lab.lab import VirtualLab
 
-    if _renders is None:
-        _renders = OrderedDict()
     for name in ("render_checkerboard_pair", "render_marker_pair", "render_marker_at"):
-        original = _render_originals.setdefault(name, getattr(VirtualLab, name))
+        original = _unpatched(VirtualLab, name)
 
         def cached(lab, pose, rng=None, *args, _name=name, _original=original, **kwargs):
             key = _render_key(_name, lab, args, kwargs, rng)
             if key is None:
                 return _original(lab, pose, rng, *args, **kwargs)
             key = key + (hashlib.sha1(np.ascontiguousarray(pose, dtype=float)).hexdigest(),)
-            with _render_lock:
-                kept = _renders.get(key)
-                if kept is not None:
-                    _renders.move_to_end(key)
+            kept = _renders.get(key)
             if kept is None:
                 generator = rng if isinstance(rng, np.random.Generator) else None
                 left, right = _original(lab, pose, rng, *args, **kwargs)
-                kept = (left.copy(), right.copy(), generator and generator.bit_generator.state)
-                with _render_lock:
-                    _renders[key] = kept
-                    while len(_renders) > RENDERS_KEPT:
-                        _renders.popitem(last=False)
+                _renders.keep(key, (left.copy(), right.copy(), generator and generator.bit_generator.state))
                 return left, right
             if isinstance(rng, np.random.Generator):
                 rng.bit_generator.state = kept[2]
@@ -238,9 +240,7 @@ def rendered_once_per_input(monkeypatch) -> None:
         monkeypatch.setattr(VirtualLab, name, cached)
 
 
-_locations: "OrderedDict" = None     # key -> MarkerLocation; set on first use
-_locator_original: list = []
-LOCATIONS_KEPT = 2000
+_locations = KeptResults(2000)       # MarkerLocation by images, marker, rectification and options
 _locator_digests: dict = {}          # id(locator) -> (weak reference, digest of its marker and rectification)
 
 
@@ -254,18 +254,11 @@ def located_once_per_input(monkeypatch) -> None:
     images, the trained marker, the rectification, the options and the predicted homographies)
     is computed once per session for each distinct input and handed out as a copy; a call that
     reports progress or can be cancelled is always computed."""
-    global _locations
-    from collections import OrderedDict
-
     import numpy as np
 
     from core.marker.location import MarkerLocator
 
-    if _locations is None:
-        _locations = OrderedDict()
-    if not _locator_original:
-        _locator_original.append(MarkerLocator.locate)
-    original = _locator_original[0]
+    original = _unpatched(MarkerLocator, "locate")
 
     def cached(locator, left, right, *, predicted=None, progress=None, cancelled=None):
         if progress is not None or cancelled is not None:
@@ -277,16 +270,10 @@ def located_once_per_input(monkeypatch) -> None:
             images.update(image)
         key = (_locator_digest(locator), images.hexdigest(),
                hashlib.sha1(pickle.dumps((locator.options, predicted))).hexdigest())
-        with _pixel_lock:
-            kept = _locations.get(key)
-            if kept is not None:
-                _locations.move_to_end(key)
+        kept = _locations.get(key)
         if kept is None:
             kept = original(locator, left, right, predicted=predicted)
-            with _pixel_lock:
-                _locations[key] = kept
-                while len(_locations) > LOCATIONS_KEPT:
-                    _locations.popitem(last=False)
+            _locations.keep(key, kept)
         return copy.deepcopy(kept)
 
     monkeypatch.setattr(MarkerLocator, "locate", cached)
