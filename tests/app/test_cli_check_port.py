@@ -277,10 +277,11 @@ def test_ctrl_c_stops_the_robot_and_makes_no_move_ahead(cell, rendered, tmp_path
     def on_rest(q):
         if len(running) == 1 and not signalled.is_set() and sim.moves == 3:
             at_signal.append(sim.moves)
+            sim.time_scale = 0.5         # the move the command may start ahead takes its time
             signalled.set()
             threading.Timer(0.05, running[0].send_signal, (signal.SIGINT,)).start()
 
-    with ControllerSim(lab.true_robot, time_scale=0.5, on_rest=on_rest) as sim:
+    with ControllerSim(lab.true_robot, time_scale=0.01, on_rest=on_rest) as sim:
         # a test run started in the background (`make test &`, nohup) ignores SIGINT, and a child
         # inherits an ignored signal, so Python would never raise KeyboardInterrupt there: the
         # child gets a handled SIGINT instead, which exec resets to the default, as in a terminal
