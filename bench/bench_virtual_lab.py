@@ -5,9 +5,15 @@ default noise). Times are ratios to a plain renderer timed in the same run: a ch
 texture put in the image by cv2.warpPerspective, blurred and given Gaussian noise (no lens
 distortion, lighting, background or marker plate), and for `simulate` that same image written
 as a PNG (cv2.imwrite) once per image of the dataset; the absolute times are beside them.
+Image memory: 12 marker pairs rendered and searched by SIFT in a fresh process with RoboCal's
+allocator settings (core/__init__.py), as a ratio to the same work in a fresh process with glibc's
+defaults (GLIBC_TUNABLES set, which leaves them alone); the better of two runs each.
 """
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -23,6 +29,38 @@ SUBPIX_CRITERIA = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 30, 1e-3)
 N_POSES = 10
 RENDER_RATIO = 4.0         # about 2x the measured ratio (1.8)
 SIMULATE_RATIO = 7.0       # about 2x the measured ratio (3.5)
+MEMORY_RATIO = 0.9         # RoboCal's allocator settings: faster than glibc's defaults (measured 0.75)
+
+# 12 marker pairs rendered and their left images searched by SIFT; prints seconds and page faults
+_IMAGE_WORK = """
+import resource, time
+import numpy as np
+from core.marker.detection import sift_features
+from core.virtual_lab.lab import VirtualLab
+lab = VirtualLab.create(seed=3)
+lab.render_marker_pair(np.zeros(6), np.random.default_rng(0))
+before, t = resource.getrusage(resource.RUSAGE_SELF).ru_minflt, time.perf_counter()
+for i in range(12):
+    sift_features(lab.render_marker_pair(np.full(6, 0.03 * i), np.random.default_rng(i))[0])
+print(time.perf_counter() - t, resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)
+"""
+
+
+def _image_work(defaults: bool) -> tuple[float, int]:
+    """(seconds, page faults) of _IMAGE_WORK in a fresh process, with glibc's allocator defaults
+    or RoboCal's settings; the faster of two runs."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith("MALLOC_") and k != "GLIBC_TUNABLES"}
+    if defaults:
+        env["GLIBC_TUNABLES"] = ""
+    root = str(Path(__file__).resolve().parents[1])
+    env["PYTHONPATH"] = root + os.pathsep + env.get("PYTHONPATH", "")
+    runs = []
+    for _ in range(2):
+        out = subprocess.run([sys.executable, "-c", _IMAGE_WORK], capture_output=True, text=True, check=True,
+                             env=env, cwd=root)
+        seconds, faults = out.stdout.split()
+        runs.append((float(seconds), int(faults)))
+    return min(runs)
 
 
 def _plain_image(rng: np.random.Generator) -> np.ndarray:
@@ -104,3 +142,10 @@ def run(report) -> None:
                f"render + PNG of {n_images} images", elapsed / plain_dataset, "<=", SIMULATE_RATIO, "x",
                note=f"{elapsed:.2f} vs {plain_dataset:.2f} s")
     report.info("  dataset size on disk", size / 1e6, "MB")
+
+    if sys.platform.startswith("linux"):
+        kept, default = _image_work(defaults=False), _image_work(defaults=True)
+        report.add("12 marker pairs rendered and searched (SIFT), freed image memory kept / glibc's defaults",
+                   kept[0] / default[0], "<", MEMORY_RATIO, "x", note=f"{kept[0]:.2f} vs {default[0]:.2f} s")
+        report.info("  page faults, freed image memory kept", kept[1])
+        report.info("  page faults, glibc's defaults", default[1])
