@@ -8,12 +8,11 @@ Two settings for the whole process, made when `core` is first imported:
   on one. The environment sets it for the BLAS libraries loaded from now on (numpy's, scipy's
   own copy), threadpoolctl for any loaded already.
 - Freed image memory is kept for the next image (glibc's allocator, Linux). An image's working
-  arrays (1280 × 1024 float32: 5 MB each, ray maps and SIFT's scale space up to ~100 MB) are
-  otherwise mapped from the system and given back at every image, and each new page is a page
-  fault: measured, 12 marker pairs rendered and searched by SIFT took 630 000 page faults and
-  1.5 s of system time (4.1 s in all), against 66 000 and 0.3 s (3.0 s in all) with these
-  settings. Blocks under 32 MB come from the heap, and up to 256 MB freed at its top stays
-  there. A MALLOC_*_ or GLIBC_TUNABLES variable in the environment leaves glibc's defaults
+  arrays (1280 × 1024 float32: 5 MB each; ray maps and SIFT's scale space more) are otherwise
+  mapped from the system and given back at every image, and each new page is a page fault:
+  12 marker pairs rendered and searched by SIFT took 638 000 page faults and 3.3 s with glibc's
+  defaults, 61 000 and 2.3 s with these settings (`make bench`, virtual_lab). Blocks under
+  32 MB come from the heap, and up to 256 MB freed at its top stays there. A MALLOC_*_ or GLIBC_TUNABLES variable in the environment leaves glibc's defaults
   alone, for whoever tunes the allocator themselves.
 """
 import ctypes
