@@ -43,6 +43,7 @@ no point standing out is what a systematic change gives).
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from itertools import combinations
@@ -182,18 +183,22 @@ def absolute_test(e: np.ndarray, L: np.ndarray, Jw: np.ndarray, p: int, sigma_do
     return AbsoluteTest(prob, float(stat), list(aside), len(aside), dof - 3 * len(aside))
 
 
-_NULLS: dict = {}                   # the last few null distributions, by their inputs
-NULLS_KEPT = 8
+NULLS_KEPT = 8                      # null distributions remembered, the least recently used forgotten first
 
 
 def _null_distribution(L: np.ndarray, Jw: np.ndarray, k: int, dof: int, sigma_dof: float):
     """The point sets, flag limits and null statistics of the absolute test for S = L·Lᵀ and Jw: a
     function of these alone (seeded draws), so computed once for the errors of several checks
     judged against the same calibration and hypothesis."""
-    key = (L.shape, L.tobytes(), Jw.shape, Jw.tobytes(), k, dof, float(sigma_dof))
-    known = _NULLS.get(key)
-    if known is not None:
-        return known
+    L, Jw = np.ascontiguousarray(L), np.ascontiguousarray(Jw)
+    return _null_distribution_of((L.shape, L.dtype.str, L.tobytes()), (Jw.shape, Jw.dtype.str, Jw.tobytes()),
+                                 k, dof, float(sigma_dof))
+
+
+@functools.lru_cache(maxsize=NULLS_KEPT)
+def _null_distribution_of(L_key: tuple, Jw_key: tuple, k: int, dof: int, sigma_dof: float):
+    """_null_distribution of the matrices given as (shape, dtype, bytes)."""
+    L, Jw = (np.frombuffer(data, dtype=dtype).reshape(shape) for shape, dtype, data in (L_key, Jw_key))
     n = len(L)
     sets = _PointSets(residual_maker(L, Jw), n // 3, k, dof)
     rng = np.random.default_rng(NULL_SEED)
@@ -202,9 +207,6 @@ def _null_distribution(L: np.ndarray, Jw: np.ndarray, k: int, dof: int, sigma_do
         null *= np.sqrt(sigma_dof / rng.chisquare(sigma_dof, NULL_DRAWS))
     limits = sets.flag_limits(null)
     null_stat, _ = sets.statistic(null, limits)
-    if len(_NULLS) >= NULLS_KEPT:
-        _NULLS.pop(next(iter(_NULLS)))
-    _NULLS[key] = (sets, limits, null_stat)
     return sets, limits, null_stat
 
 
