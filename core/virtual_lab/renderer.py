@@ -292,18 +292,8 @@ class ImageComposer:
         # hypot((Hm[r, 0] − P·Hm[2, 0]) / (den·fx), (Hm[r, 1] − P·Hm[2, 1]) / (den·fy)), P = u, v.
         den_x, den_y = den * self.camera.fx, np.multiply(den, self.camera.fy, out=den)
         del den
-
-        def grad(P, row, out):
-            a = np.multiply(P, Hm[2, 0], out=out)
-            np.subtract(Hm[row, 0], a, out=a)
-            a /= den_x
-            b = np.multiply(P, Hm[2, 1], out=tmp)
-            np.subtract(Hm[row, 1], b, out=b)
-            b /= den_y
-            return np.hypot(a, b, out=a)
-
-        gu = grad(u, 0, x)
-        gv = grad(v, 1, y)
+        gu = _gradient_norm(u, Hm, 0, den_x, den_y, out=x, scratch=tmp)
+        gv = _gradient_norm(v, Hm, 1, den_x, den_y, out=y, scratch=tmp)
         del x, y, den_x, den_y, tmp
         eu, ou, au = _checker_axis(u, gu, sq, board.cols, margin)
         ev, ov, av = _checker_axis(v, gv, sq, board.rows, margin)
@@ -540,6 +530,19 @@ def _homography_row(H: np.ndarray, row: int, x: np.ndarray, y: np.ndarray, scrat
     return out
 
 
+def _gradient_norm(P: np.ndarray, H: np.ndarray, row: int, den_x: np.ndarray, den_y: np.ndarray, *,
+                   out: np.ndarray, scratch: np.ndarray) -> np.ndarray:
+    """hypot((H[row, 0] − P·H[2, 0]) / den_x, (H[row, 1] − P·H[2, 1]) / den_y) in `out`
+    (`scratch`: a buffer like it, overwritten)."""
+    a = np.multiply(P, H[2, 0], out=out)
+    np.subtract(H[row, 0], a, out=a)
+    a /= den_x
+    b = np.multiply(P, H[2, 1], out=scratch)
+    np.subtract(H[row, 1], b, out=b)
+    b /= den_y
+    return np.hypot(a, b, out=a)
+
+
 def _apply_homography(rays: np.ndarray, H: np.ndarray):
     """(…, 2) float32 points through a 3x3 homography -> (X, Y, ok) float32 (ok: in front)."""
     x, y = np.ascontiguousarray(rays[..., 0]), np.ascontiguousarray(rays[..., 1])
@@ -608,9 +611,7 @@ def _checker_axis(u: np.ndarray, g: np.ndarray, sq: float, count: int, margin: f
     np.floor(k, out=k)                         # nearest grid line
     c = np.subtract(fu, k, out=fu)             # signed distance to it, px (+: square k side):
     c *= sq                                    # d = (fu − k)·sq / g
-    c /= g
-    c += 0.5                                   # coverage of square k (right of the line)
-    np.clip(c, 0.0, 1.0, out=c)
+    c = _coverage(c, g)                        # coverage of square k (right of the line)
     right_in = (k >= -1) & (k <= count - 1)
     left_in = (k >= 0) & (k <= count)          # k − 1 in −1 … count − 1 (k a whole number)
     half = np.multiply(k, 0.5, out=k)
@@ -622,13 +623,14 @@ def _checker_axis(u: np.ndarray, g: np.ndarray, sq: float, count: int, margin: f
     odd = np.where(k_even, left, right)
     lo = -(1.0 + margin) * sq
     hi = (count + margin) * sq
-    board = np.subtract(u, lo, out=right)      # clip(0.5 + (u − lo)/g, 0, 1) · clip(0.5 + (hi − u)/g, 0, 1)
-    board /= g
-    board += 0.5
-    np.clip(board, 0.0, 1.0, out=board)
-    upper = np.subtract(hi, u, out=left)
-    upper /= g
-    upper += 0.5
-    np.clip(upper, 0.0, 1.0, out=upper)
-    board *= upper
+    board = _coverage(np.subtract(u, lo, out=right), g)    # clip(0.5 + (u − lo)/g, 0, 1)
+    board *= _coverage(np.subtract(hi, u, out=left), g)     # · clip(0.5 + (hi − u)/g, 0, 1)
     return even, odd, board
+
+
+def _coverage(d: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """clip(0.5 + d/g, 0, 1), in place on d: how much of a pixel lies beyond an edge at signed
+    distance d (in the units of g, the length of a pixel there)."""
+    d /= g
+    d += 0.5
+    return np.clip(d, 0.0, 1.0, out=d)
