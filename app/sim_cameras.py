@@ -11,12 +11,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from app.lab import VirtualLab
-from core.errors import RoboCalError
 from core.files import atomic_write_bytes
+from core.images import encode_png
 
 FRAME = "frame.png"
 
@@ -43,8 +42,5 @@ class SimulatedCellCameras:
         q = self.lab.true_robot.q_from_file(np.asarray(q_file, dtype=float))
         pair = self.lab.render_marker_pair(q, self.rng)
         for side, image in zip((self.left, self.right), pair):
-            ok, data = cv2.imencode(".png", image)
-            if not ok:
-                raise RoboCalError("the simulated camera image could not be encoded", source=side / FRAME)
-            atomic_write_bytes(side / FRAME, data.tobytes())
+            atomic_write_bytes(side / FRAME, encode_png(image, "the simulated camera image", side / FRAME))
         self.frames += 1

@@ -25,7 +25,7 @@ from app.pages.measurement_inputs import TRAINING_FILE, VERIFICATION_FORMAT, mar
 from core.errors import RoboCalError
 from core.files import atomic_write_json, atomic_write_many, read_json
 from core.locks import output_lock, output_locks
-from core.images import load_gray
+from core.images import encode_png, load_gray
 from core.marker.correspondence import WindowSweep
 from core.marker.details_file import DETAILS_FILE, LIVE_IMAGES, MarkerDetails
 from core.marker.location import MarkerLocation, MarkerLocator
@@ -470,10 +470,7 @@ def _crop(image: np.ndarray, det) -> tuple[bytes, dict]:
         crop = cv2.resize(crop, (max(1, round(crop.shape[1] * scale)), max(1, round(crop.shape[0] * scale))),
                           interpolation=cv2.INTER_AREA)
         scale = crop.shape[1] / (x1 - x0)
-    ok, png = cv2.imencode(".png", crop)
-    if not ok:
-        raise RoboCalError("cannot encode the live pair's crop as PNG")
-    return png.tobytes(), {"origin": [x0, y0], "scale": round(float(scale), 6), "image_size": [w, h]}
+    return encode_png(crop, "the live pair's crop"), {"origin": [x0, y0], "scale": round(float(scale), 6), "image_size": [w, h]}
 
 
 def _detection_details(det) -> dict:

@@ -9,12 +9,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
 
-import cv2
 import numpy as np
 
-from core.errors import RoboCalError
 from core.files import atomic_write_bytes
-from core.images import load_gray
+from core.images import encode_png, load_gray
 from core.stereo.board import Board
 from core.stereo.screening import detect_pair
 from core.stereo.detection import PairDetection
@@ -22,7 +20,6 @@ from core.task import Monitor
 from core.thumbnails import compose_pair_thumbnail
 
 THUMB_WIDTH = 100           # px per camera in a thumbnail
-PNG_PARAMS = [cv2.IMWRITE_PNG_COMPRESSION, 1]
 _PAIR_NAME = re.compile(r"^pair_(\d+)\.png$")
 
 
@@ -105,10 +102,7 @@ def render_pairs(lab, poses: Sequence[np.ndarray], seeds: Sequence[Sequence[int]
                 monitor.step(i / max(n, 1), f"rendering pair {first + i + 1} of {total}")
                 left, right = lab.render_checkerboard_pair(pose, np.random.default_rng(list(key)))
                 for img, p in ((left, lp), (right, rp)):
-                    ok, buf = cv2.imencode(".png", img, PNG_PARAMS)
-                    if not ok:
-                        raise RoboCalError("could not encode a rendered image as PNG", source=p)
-                    atomic_write_bytes(p, buf.tobytes())
+                    atomic_write_bytes(p, encode_png(img, "a rendered image", p))
                     written.append(Path(p))
                 # the images just written (PNG keeps every grey level): detected without reading them back
                 results.append((pool.submit(detect_pair, lp, rp, board, read=((left, None), (right, None))), left, right))

@@ -18,11 +18,11 @@ import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from core.errors import RoboCalError, UsageError
 from core.files import atomic_write_bytes, atomic_write_json, atomic_write_text
+from core.images import encode_png
 from core.robot.model import RobotModel
 from core.robot.file import robot_to_dict
 from core.task import Monitor
@@ -31,7 +31,6 @@ from core.virtual_lab.lab import VirtualLab
 from core.virtual_lab.rig import rig_to_dict
 
 TRUTH_FORMAT = "robocal.truth/1"
-PNG_PARAMS = [cv2.IMWRITE_PNG_COMPRESSION, 3]
 # Random streams, one per purpose, so each part depends only on the seed and its index.
 _BOARD_POSES, _ROBOT_POSES, _BOARD_IMAGES, _POSE_IMAGES, _TRAINING = range(1, 6)
 
@@ -86,13 +85,6 @@ class SimulationResult:
 def _stream(seed: int, purpose: int, index: int | None = None) -> np.random.Generator:
     key = [int(seed), purpose] if index is None else [int(seed), purpose, int(index)]
     return np.random.default_rng(np.random.SeedSequence(key))
-
-
-def _png(img: np.ndarray) -> bytes:
-    ok, buf = cv2.imencode(".png", img, PNG_PARAMS)
-    if not ok:
-        raise RoboCalError("could not encode an image as PNG")
-    return buf.tobytes()
 
 
 def _check_output(out: Path) -> None:
@@ -215,14 +207,14 @@ def _write(lab: VirtualLab, tmp: Path, out: Path, seed: int, pairs: int, poses: 
         left, right = lab.render_checkerboard_pair(pose, _stream(seed, _BOARD_IMAGES, i))
         name = f"pair_{i:03d}.png"
         for side, img, paths in (("left", left, res.checkerboard_left), ("right", right, res.checkerboard_right)):
-            atomic_write_bytes(tmp / "checkerboard" / side / name, _png(img))
+            atomic_write_bytes(tmp / "checkerboard" / side / name, encode_png(img))
             paths.append(out / "checkerboard" / side / name)
         board_entries.append({"left": f"checkerboard/left/{name}", "right": f"checkerboard/right/{name}",
                               "pose": np.asarray(pose).tolist()})
         step(f"checkerboard pair {i + 1}/{pairs}")
 
     training = lab.render_training_image(_stream(seed, _TRAINING))
-    atomic_write_bytes(tmp / "marker" / "training.png", _png(training))
+    atomic_write_bytes(tmp / "marker" / "training.png", encode_png(training))
     res.training_image = out / "marker" / "training.png"
     step("marker training image")
 
@@ -235,7 +227,7 @@ def _write(lab: VirtualLab, tmp: Path, out: Path, seed: int, pairs: int, poses: 
         left, right = lab.render_marker_pair(q, _stream(seed, _POSE_IMAGES, i))
         name = f"pose_{i:03d}.png"
         for side, img, paths in (("left", left, res.pose_left), ("right", right, res.pose_right)):
-            atomic_write_bytes(tmp / "poses" / side / name, _png(img))
+            atomic_write_bytes(tmp / "poses" / side / name, encode_png(img))
             paths.append(out / "poses" / side / name)
         pose_entries.append({"pose": i, "left": f"poses/left/{name}", "right": f"poses/right/{name}",
                              "q": [float(v) for v in q_file[i]],

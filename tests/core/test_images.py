@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from core.errors import RoboCalError
-from core.images import decode_gray, require_gray8, to_gray8
+from core.images import decode_gray, encode_png, require_gray8, to_gray8
 from core.marker.training import train_marker
 
 
@@ -25,6 +25,19 @@ def test_missing_or_shapeless_images_are_refused_clearly():
         require_gray8(None, "left image")
     with pytest.raises(RoboCalError, match="not an image"):
         require_gray8(np.zeros(5), "left image")
+
+
+def test_png_encoding_keeps_every_grey_level_and_refuses_what_png_cannot_hold(tmp_path):
+    noisy = np.random.default_rng(0).integers(0, 256, (48, 64), dtype=np.uint8)
+    data = encode_png(noisy)
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    assert np.array_equal(decode_gray(data)[0], noisy)
+    bgr = cv2.cvtColor(noisy, cv2.COLOR_GRAY2BGR)
+    assert np.array_equal(cv2.imdecode(np.frombuffer(encode_png(bgr), np.uint8), cv2.IMREAD_UNCHANGED), bgr)
+    for bad in (np.zeros((0, 0), np.uint8), np.zeros((4, 4, 2), np.uint8)):
+        with pytest.raises(RoboCalError, match="could not encode the left image as PNG") as err:
+            encode_png(bad, "the left image", tmp_path / "pair_001.png")
+        assert "pair_001.png" in str(err.value)
 
 
 def test_a_16_bit_training_image_trains_like_the_8_bit_one(built_lab):

@@ -7,13 +7,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import cv2
 import numpy as np
 
-from app.jobs.stereo import PNG_PARAMS, detect_files, next_free_number
+from app.jobs.stereo import detect_files, next_free_number
 from app.jobs.stereo_pairs import Shown
-from core.errors import RoboCalError
 from core.files import atomic_write_bytes
+from core.images import encode_png
 from core.stereo.board import Board
 from core.task import Monitor
 
@@ -28,9 +27,6 @@ def save_checkerboard_pair(left: np.ndarray, right: np.ndarray, folder: Path, bo
     n = next_free_number(folder)
     paths = (folder / "left" / f"pair_{n:03d}.png", folder / "right" / f"pair_{n:03d}.png")
     for image, path in zip((left, right), paths):
-        ok, buf = cv2.imencode(".png", image, PNG_PARAMS)
-        if not ok:
-            raise RoboCalError("could not encode the camera image as PNG", source=path)
-        atomic_write_bytes(path, buf.tobytes())
+        atomic_write_bytes(path, encode_png(image, "the camera image", path))
     shown(detect_files([paths], board, "cameras", progress=monitor.sub(0.3, 1.0), cancelled=cancelled))
     return 1
