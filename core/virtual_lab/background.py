@@ -4,10 +4,15 @@ Both are textured planes in the world (left camera) frame, so the left and right
 them with the right parallax. Textures are procedural and seeded: a smooth lighting field,
 grey rectangles (posters, boxes, shelves), circles, lines (cables), text-like blobs and a
 fine paper-like grain on the wall; soft wood-like streaks on the table.
+
+A room is never changed once made (its textures are read-only): labs of the same seed and rig
+share one (`seeded_room`), a copy of a lab keeps its room, and the room as each camera of a rig
+sees it is drawn once (`Room.canvases`).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import cv2
 import numpy as np
@@ -15,6 +20,7 @@ import numpy as np
 from core import transforms as tf
 from core.stereo.rig import StereoRig
 from core.virtual_lab.renderer import ImageComposer, sampled_rays
+from core.virtual_lab.rig import RigKey, right_from_left
 
 _LETTERS = "ABCDEFGHKLMNPRSTUVWXYZ0123456789-/#"
 
@@ -27,16 +33,35 @@ class TexturedPlane:
     rect: tuple[float, float, float, float] | None = None   # drawn region in plane mm, None = all
 
 
-@dataclass
+@dataclass(eq=False)
 class Room:
+    """The wall and the table; equal only to itself (a cache key), and shared by a lab's copies."""
+
     wall: TexturedPlane
     table: TexturedPlane | None
+
+    def __deepcopy__(self, memo) -> "Room":
+        return self
 
     def draw(self, composer: ImageComposer) -> None:
         composer.draw_wall(self.wall.texture, self.wall.world_from_plane, self.wall.px_per_mm)
         if self.table is not None:
             composer.draw_plane(self.table.texture, self.table.world_from_plane, self.table.px_per_mm,
                                 self.table.rect)
+
+    def canvases(self, rig: StereoRig) -> tuple[np.ndarray, np.ndarray]:
+        """The room as the left and right cameras of `rig` see it (float32 canvases, read-only)."""
+        return _room_canvases(self, RigKey(rig))
+
+
+@lru_cache(maxsize=8)
+def _room_canvases(room: Room, rig: RigKey) -> tuple[np.ndarray, np.ndarray]:
+    left = ImageComposer(rig.rig.left, None)
+    right = ImageComposer(rig.rig.right, right_from_left(rig.rig))
+    for composer in (left, right):
+        room.draw(composer)
+        composer.canvas.setflags(write=False)
+    return left.canvas, right.canvas
 
 
 def _smooth_field(rng: np.random.Generator, shape, cells: int, lo: float, hi: float) -> np.ndarray:
@@ -148,4 +173,19 @@ def make_room(rng: np.random.Generator, rig: StereoRig, *, wall_depth: float = 2
         table = TexturedPlane(make_table_texture(rng, tw, th), tpx,
                               tf.make_transform(R, [x0, table_height, table_near]),
                               rect=(0.0, x1 - x0, 0.0, depth))
+    for plane in (wall, table):
+        if plane is not None:
+            plane.texture.setflags(write=False)
     return Room(wall, table)
+
+
+def seeded_room(seed: np.random.SeedSequence, rig: StereoRig, **options) -> Room:
+    """make_room with a generator of `seed`, made once for each of the last 8 different inputs
+    (a wall texture takes about 0.1 s)."""
+    return _seeded_room(seed.entropy, tuple(seed.spawn_key), RigKey(rig), tuple(sorted(options.items())))
+
+
+@lru_cache(maxsize=8)
+def _seeded_room(entropy, spawn_key: tuple, rig: RigKey, options: tuple) -> Room:
+    seed = np.random.SeedSequence(entropy, spawn_key=spawn_key)
+    return make_room(np.random.default_rng(seed), rig.rig, **dict(options))

@@ -20,7 +20,7 @@ from core.errors import RoboCalError
 from core.robot.model import RobotModel, robot_path
 from core.robot.file import read_robot
 from core.stereo.rig import StereoRig
-from core.virtual_lab.background import Room, make_room
+from core.virtual_lab.background import Room, seeded_room
 from core.virtual_lab.conditions import ImagingConditions, draw_occluder
 from core.marker.description import MarkerDescription
 from core.virtual_lab.renderer import ImageComposer, PlateTexture
@@ -111,7 +111,6 @@ class VirtualLab:
         self.target = target
         self._right_from_left = right_from_left(rig)
         self._texture: PlateTexture | None = None
-        self._room_canvas: tuple[np.ndarray, np.ndarray] | None = None
         self._reach = robot_reach(nominal_robot)
         self._table = table_level(nominal_robot)
 
@@ -153,9 +152,9 @@ class VirtualLab:
         true.base = nominal.base @ base_error
         marker = marker if marker is not None else MarkerDescription.default()
         table_y = float((nominal.base @ tf.make_transform(None, [0.0, 0.0, table_level(nominal)]))[1, 3])
-        room = make_room(np.random.default_rng(streams[3]), rig,
-                         wall_depth=max(2500.0, float(nominal.base[2, 3]) + 1.5 * robot_reach(nominal)),
-                         table_height=table_y)
+        room = seeded_room(streams[3], rig,
+                           wall_depth=max(2500.0, float(nominal.base[2, 3]) + 1.5 * robot_reach(nominal)),
+                           table_height=table_y)
         return cls(rig, nominal, true, board or DEFAULT_BOARD, marker, room, errors=errors,
                    base_error=base_error, noise=noise, seed=seed)
 
@@ -291,16 +290,10 @@ class VirtualLab:
         return self._texture
 
     def _composers(self) -> tuple[ImageComposer, ImageComposer]:
-        """Composers for both cameras, starting from the room (rendered once per camera)."""
+        """Composers for both cameras, starting from the room (drawn once per rig: Room.canvases)."""
         left = ImageComposer(self.rig.left, None)
         right = ImageComposer(self.rig.right, self._right_from_left)
-        if self._room_canvas is None:
-            for c in (left, right):
-                self.room.draw(c)
-            self._room_canvas = (left.canvas.copy(), right.canvas.copy())
-        else:
-            left.canvas[...] = self._room_canvas[0]
-            right.canvas[...] = self._room_canvas[1]
+        left.canvas[...], right.canvas[...] = self.room.canvases(self.rig)
         return left, right
 
     def _finish(self, left: ImageComposer, right: ImageComposer, rng, noise,

@@ -233,7 +233,6 @@ def test_rational_distortion_model():
     dist = [-0.28, 0.12, 0.0005, -0.0003, 0.01, 0.15, -0.05, 0.02]
     lab.rig = StereoRig(CameraModel(lab.rig.left.K, dist, *lab.rig.left.size),
                         CameraModel(lab.rig.right.K, dist, *lab.rig.right.size), lab.rig.R, lab.rig.T)
-    lab._room_canvas = None
     T = scenes.pose_at(1000, 300, 600, 30, 30)
     left, right = lab.render_marker_at(T, np.random.default_rng(1))
     loc = MarkerLocator(scenes.trained(), StereoRectification.from_rig(lab.rig)).locate(left, right)
