@@ -201,16 +201,13 @@ class MainWindow(QMainWindow):
 
     def save_screenshot(self, path: str | Path) -> Path:
         """The whole window as a PNG, written atomically (RoboCalError if it cannot be)."""
-        from PySide6.QtCore import QBuffer, QByteArray, QIODevice
-
         from core.files import atomic_write_bytes
+        from widgets.png import png_bytes
 
-        data = QByteArray()
-        buffer = QBuffer(data)
-        buffer.open(QIODevice.OpenModeFlag.WriteOnly)
-        if not self.grab().save(buffer, "PNG"):
+        data = png_bytes(self.grab().toImage())
+        if not data:
             raise RoboCalError("cannot encode the screenshot", source=path)
-        return atomic_write_bytes(path, bytes(data))
+        return atomic_write_bytes(path, data)
 
     def _about(self) -> None:
         show_info(self, "RoboCal makes a robot arm more accurate with two ordinary cameras: "

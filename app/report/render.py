@@ -17,11 +17,12 @@ from PySide6.QtCore import QBuffer, QByteArray, QIODevice, QMarginsF, QRectF, QS
 from PySide6.QtGui import (QFont, QPageLayout, QPageSize, QPainter, QPdfWriter, QTextCursor, QTextDocument,
                            QTextFormat)
 
-from app.report.figures import PRINT_SCALE, png_bytes, render_png
+from app.report.figures import PRINT_SCALE, render_png
 from core.errors import UsageError
 from core.files import atomic_write_many, ensure_writable_dir
 from core.report import Report, build_report, render_html
 from core.task import Monitor
+from widgets.png import png_bytes
 
 PAGE_SIZES = {"a4": QPageSize.PageSizeId.A4, "letter": QPageSize.PageSizeId.Letter}
 SUFFIXES = (".html", ".htm", ".pdf")
