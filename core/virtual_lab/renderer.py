@@ -62,7 +62,7 @@ def _rays(K: np.ndarray, dist: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np
     return xy.reshape(-1, 2).astype(np.float32)
 
 
-@lru_cache(maxsize=8)
+@lru_cache(maxsize=16)        # 10.5 MB and about 0.3 s each at 1280 × 1024: the cameras of 8 rigs
 def _ray_map_cached(key: tuple) -> np.ndarray:
     K = np.frombuffer(key[0]).reshape(3, 3)
     dist = np.frombuffer(key[1])
