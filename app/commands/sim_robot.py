@@ -45,10 +45,7 @@ def add_arguments(parser) -> None:
 def run(args) -> CommandResult:
     from core.robot.controller_sim import ControllerSim, FaultPlan
     from core.robot.file import read_robot
-    from app.lab import build_lab
-
-    from app.jobs.check import CHANGE_SEED          # the same direction of a tool or base change as the Check page's lab
-    from app.lab import apply_change, parse_change
+    from app.lab import apply_change, build_lab, parse_change
     from app.sim_cameras import SimulatedCellCameras
     from core.errors import UsageError
 
@@ -62,7 +59,7 @@ def run(args) -> CommandResult:
     if change is not None:
         if change.kind == "mount":
             raise UsageError("--change mount:TOOL is not a change of the robot", hint="Use tool, base, jointK or linkK.")
-        apply_change(lab, change, seed=CHANGE_SEED)
+        apply_change(lab, change)           # the same direction of the change as the Check step's lab
     cameras = SimulatedCellCameras(lab, args.cameras, seed=args.seed) if args.cameras else None
     sim = ControllerSim(lab.true_robot, protocol=args.protocol, faults=plan, seed=args.seed,
                         time_scale=args.time_scale, link=args.link,

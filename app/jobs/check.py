@@ -211,9 +211,6 @@ def write_keeping_previous(re: Reidentification, out: Path, kept: Path | None) -
         raise
 
 
-CHANGE_SEED = 0     # one direction per simulated change, so every check sees the same change
-
-
 def lab_measure(lab, change: str | None, *, sigma_mm: float, seed: int = 0, images=None, target: str | None = None):
     """`measure(q)` on the virtual lab as if `change` (tool:MM, base:MM, jointK:DEG, linkK:MM,
     mount:TOOL or None) had happened, with the marker `target` (the mounted tool's; None: the
@@ -229,7 +226,7 @@ def lab_measure(lab, change: str | None, *, sigma_mm: float, seed: int = 0, imag
         lab = copy.copy(lab)
         lab.target = target or lab.target
     if change:
-        apply_change(lab, change, seed=CHANGE_SEED)
+        apply_change(lab, change)
     if images is not None:
         from core.marker.location import MarkerLocator
         return image_measure(lab, MarkerLocator(*images).locate, seed=seed)

@@ -62,7 +62,6 @@ from typing import Callable, Sequence
 
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve
-from scipy.optimize import minimize
 
 from core.errors import RoboCalError
 from core.bounds import Bound
@@ -299,6 +298,8 @@ def evidence_weights(lin: Linearised, term: PriorTerm, search: Sequence[str] = (
         raise RoboCalError("the prior's weights cannot be estimated from these measurements: some parameters "
                            "are determined neither by the measurements nor by the prior",
                            hint="Give the prior's weight (--prior WEIGHT) or fix those parameters.")
+    from scipy.optimize import minimize         # 0.4 s to import, and every command's options import this module
+
     x = minimize(neg, x0, method="L-BFGS-B", bounds=[(lo, hi)] * len(kinds)).x
     return term.weights.replaced(dict(zip(kinds, np.exp(x).tolist())))
 

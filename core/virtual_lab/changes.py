@@ -100,7 +100,10 @@ def mount_tool(lab, tool: str) -> None:
     lab.target = tools[tool][0]
 
 
-def apply_change(lab, change: LabChange | str, *, seed: int = 0) -> LabChange:
+CHANGE_SEED = 0     # one direction per simulated change: the Check step's lab and sim-robot see the same one
+
+
+def apply_change(lab, change: LabChange | str, *, seed: int = CHANGE_SEED) -> LabChange:
     """Change `lab`'s true robot in place (see the module); returns the change applied."""
     true = lab.true_robot
     if isinstance(change, str):
