@@ -470,7 +470,8 @@ def _crop(image: np.ndarray, det) -> tuple[bytes, dict]:
         crop = cv2.resize(crop, (max(1, round(crop.shape[1] * scale)), max(1, round(crop.shape[0] * scale))),
                           interpolation=cv2.INTER_AREA)
         scale = crop.shape[1] / (x1 - x0)
-    return encode_png(crop, "the live pair's crop"), {"origin": [x0, y0], "scale": round(float(scale), 6), "image_size": [w, h]}
+    return encode_png(crop, "the live pair's crop"), {"origin": [x0, y0], "scale": round(float(scale), 6),
+                                                     "image_size": [w, h]}
 
 
 def _detection_details(det) -> dict:
