@@ -19,8 +19,8 @@ import numpy as np
 
 from core import transforms as tf
 from core.stereo.rig import StereoRig
-from core.virtual_lab.renderer import ImageComposer, sampled_rays
-from core.virtual_lab.rig import RigKey, right_from_left
+from core.virtual_lab.renderer import ImageComposer, camera_key, sampled_rays
+from core.virtual_lab.rig import right_from_left
 
 _LETTERS = "ABCDEFGHKLMNPRSTUVWXYZ0123456789-/#"
 
@@ -31,6 +31,22 @@ class TexturedPlane:
     px_per_mm: float
     world_from_plane: np.ndarray   # 4x4; plane (X, Y) mm -> texture px = px_per_mm · (X, Y)
     rect: tuple[float, float, float, float] | None = None   # drawn region in plane mm, None = all
+
+
+class _RigKey:
+    """A rig as a cache key: equal when its cameras and pose are equal; `rig` is the rig itself."""
+
+    __slots__ = ("rig", "_key")
+
+    def __init__(self, rig: StereoRig):
+        self.rig = rig
+        self._key = (camera_key(rig.left), camera_key(rig.right), rig.R.tobytes(), rig.T.tobytes())
+
+    def __hash__(self) -> int:
+        return hash(self._key)
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, _RigKey) and self._key == other._key
 
 
 @dataclass(eq=False)
@@ -51,11 +67,11 @@ class Room:
 
     def canvases(self, rig: StereoRig) -> tuple[np.ndarray, np.ndarray]:
         """The room as the left and right cameras of `rig` see it (float32 canvases, read-only)."""
-        return _room_canvases(self, RigKey(rig))
+        return _room_canvases(self, _RigKey(rig))
 
 
 @lru_cache(maxsize=8)
-def _room_canvases(room: Room, rig: RigKey) -> tuple[np.ndarray, np.ndarray]:
+def _room_canvases(room: Room, rig: _RigKey) -> tuple[np.ndarray, np.ndarray]:
     left = ImageComposer(rig.rig.left, None)
     right = ImageComposer(rig.rig.right, right_from_left(rig.rig))
     for composer in (left, right):
@@ -182,10 +198,10 @@ def make_room(rng: np.random.Generator, rig: StereoRig, *, wall_depth: float = 2
 def seeded_room(seed: np.random.SeedSequence, rig: StereoRig, **options) -> Room:
     """make_room with a generator of `seed`, made once for each of the last 8 different inputs
     (a wall texture takes about 0.1 s)."""
-    return _seeded_room(seed.entropy, tuple(seed.spawn_key), RigKey(rig), tuple(sorted(options.items())))
+    return _seeded_room(seed.entropy, tuple(seed.spawn_key), _RigKey(rig), tuple(sorted(options.items())))
 
 
 @lru_cache(maxsize=8)
-def _seeded_room(entropy, spawn_key: tuple, rig: RigKey, options: tuple) -> Room:
+def _seeded_room(entropy, spawn_key: tuple, rig: _RigKey, options: tuple) -> Room:
     seed = np.random.SeedSequence(entropy, spawn_key=spawn_key)
     return make_room(np.random.default_rng(seed), rig.rig, **dict(options))

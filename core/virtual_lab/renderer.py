@@ -49,7 +49,8 @@ _SQRT_2PI = float(np.sqrt(2.0 * np.pi))
 
 # -- per-camera cached maps -------------------------------------------------------------------
 
-def _camera_key(camera: CameraModel) -> tuple:
+def camera_key(camera: CameraModel) -> tuple:
+    """The camera as a cache key: its intrinsics' and distortion's bytes and its image size."""
     return (camera.K.tobytes(), camera.dist.tobytes(), int(camera.width), int(camera.height))
 
 
@@ -78,14 +79,14 @@ def ray_map(camera: CameraModel, padded: bool = False) -> np.ndarray:
 
     The viewing ray of pixel (u, v) is (x, y, 1) in the camera frame. With `padded`, the map
     has one extra pixel on every side ((H + 2, W + 2, 2), index [v + 1, u + 1])."""
-    m = _ray_map_cached(_camera_key(camera))
+    m = _ray_map_cached(camera_key(camera))
     return m if padded else m[1:-1, 1:-1]
 
 
 def sampled_rays(camera: CameraModel, step: int) -> np.ndarray:
     """`ray_map(camera).reshape(-1, 2)[::step]`, every `step`-th pixel in row order, without
     computing the whole map (the same values)."""
-    key = _camera_key(camera)
+    key = camera_key(camera)
     width, height = key[2], key[3]
     flat = np.arange(0, width * height, step)
     return _rays(np.frombuffer(key[0]).reshape(3, 3), np.frombuffer(key[1]), (flat % width).astype(np.float64),
@@ -109,7 +110,7 @@ def _vignetting_cached(key: tuple, strength: float) -> np.ndarray:
 def vignetting(camera: CameraModel, strength: float = 0.25) -> np.ndarray:
     """(H, W) float32 relative illumination: 1 at the principal point, 1 − strength at the
     farthest corner (cos⁴ fall-off)."""
-    return _vignetting_cached(_camera_key(camera), float(strength))
+    return _vignetting_cached(camera_key(camera), float(strength))
 
 
 # -- textures -----------------------------------------------------------------------------

@@ -79,21 +79,3 @@ def rig_to_dict(rig: StereoRig) -> dict:
 def right_from_left(rig: StereoRig) -> np.ndarray:
     """4x4 transform taking left-camera coordinates to right-camera coordinates."""
     return tf.make_transform(rig.R, rig.T)
-
-
-class RigKey:
-    """A rig as a cache key (functools.lru_cache): two keys are equal when their rigs' cameras
-    (intrinsics, distortion, image size) and pose are equal; `rig` is the rig itself."""
-
-    __slots__ = ("rig", "_bytes")
-
-    def __init__(self, rig: StereoRig):
-        self.rig = rig
-        cameras = tuple((c.K.tobytes(), c.dist.tobytes(), int(c.width), int(c.height)) for c in (rig.left, rig.right))
-        self._bytes = cameras + (rig.R.tobytes(), rig.T.tobytes())
-
-    def __hash__(self) -> int:
-        return hash(self._bytes)
-
-    def __eq__(self, other) -> bool:
-        return isinstance(other, RigKey) and self._bytes == other._bytes
