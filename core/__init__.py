@@ -12,8 +12,9 @@ Two settings for the whole process, made when `core` is first imported:
   mapped from the system and given back at every image, and each new page is a page fault:
   12 marker pairs rendered and searched by SIFT took 638 000 page faults and 3.3 s with glibc's
   defaults, 61 000 and 2.3 s with these settings (`make bench`, virtual_lab). Blocks under
-  32 MB come from the heap, and up to 256 MB freed at its top stays there. A MALLOC_*_ or GLIBC_TUNABLES variable in the environment leaves glibc's defaults
-  alone, for whoever tunes the allocator themselves.
+  32 MB come from the heap, and up to 256 MB freed at its top stays there. A MALLOC_*_ or
+  GLIBC_TUNABLES variable in the environment leaves glibc's defaults alone, for whoever tunes
+  the allocator themselves.
 """
 import ctypes
 import os
