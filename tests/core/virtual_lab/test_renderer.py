@@ -2,13 +2,15 @@
 the marker's outer-square edges lie where the camera model projects them."""
 from __future__ import annotations
 
+import threading
+
 import cv2
 import numpy as np
 import pytest
 
 from core import transforms as tf
 from core.virtual_lab.lab import VirtualLab
-from core.virtual_lab.renderer import ImageComposer, ray_map
+from core.virtual_lab.renderer import ImageComposer, ray_map, standard_normal_image
 from core.virtual_lab.rig import default_rig
 
 SUBPIX_CRITERIA = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 30, 1e-3)
@@ -75,6 +77,26 @@ def test_noise_level_follows_the_setting(lab):
     # Read noise 3 plus shot noise growing with brightness: between 3 and 3·sqrt(2).
     assert 2.8 < diff.std() < 4.4
     assert abs(diff.mean()) < 0.1
+
+
+def test_sensor_noise_is_standard_normal_independent_and_follows_the_generator():
+    shape = (1024, 1280)
+    z = standard_normal_image(np.random.default_rng(5), shape)
+    assert z.dtype == np.float32 and z.shape == shape
+    n = z.size                                          # 1.3 million samples
+    assert abs(z.mean()) < 4 / np.sqrt(n) and abs(z.std() - 1) < 4 / np.sqrt(2 * n)
+    assert abs((np.abs(z) > 3).mean() - 0.0027) < 4 * np.sqrt(0.0027 / n)     # the normal's tails
+    for a, b in ((z[:, 1:], z[:, :-1]), (z[1:], z[:-1])):   # neighbours along rows and columns
+        assert abs(np.corrcoef(a.ravel(), b.ravel())[0, 1]) < 4 / np.sqrt(n)
+    rng = np.random.default_rng(5)
+    first, second = standard_normal_image(rng, shape), standard_normal_image(rng, shape)
+    assert np.array_equal(first, z)                     # the same generator state, the same noise
+    assert abs(np.corrcoef(first.ravel(), second.ravel())[0, 1]) < 4 / np.sqrt(n)
+    on_thread = []                                      # on a worker thread too
+    worker = threading.Thread(target=lambda: on_thread.append(standard_normal_image(np.random.default_rng(5), shape)))
+    worker.start()
+    worker.join()
+    assert np.array_equal(on_thread[0], z)
 
 
 def test_ray_map_reprojects_to_pixel_centres():

@@ -69,13 +69,13 @@ def test_sweep_can_be_cancelled():
                          cancelled=lambda: True)
 
 
-@pytest.mark.parametrize("seed, index", [(1, 40), (3, 51)])
+@pytest.mark.parametrize("seed, index", [(1, 23), (3, 51)])
 def test_an_outline_found_differently_in_the_two_images_is_rejected(seed, index):
     """Two views the sweep found (30 % covered over a corner). Fitted through the covered
     stretch, the outline's first corner lies on different rectified rows in the two images: the
     reference points alone pass every other check and would give a point more than 1 mm off
-    (measured 1.43 / 1.28 mm); the corners' row check rejects it. Leaving the covered stretch
-    out locates it (measured 0.007 / 0.011 mm)."""
+    (measured 1.88 / 1.13 mm); the corners' row check rejects it. Leaving the covered stretch
+    out locates it (measured 0.011 / 0.029 mm)."""
     T, left, right = next(_views(0.3, seed, [index]))
     loc = _locator(_through_covered()).locate(left, right)
     assert not loc.ok and loc.stage == "check" and "corner 1 of the outer square" in loc.reason
