@@ -20,7 +20,9 @@
   and tests marked no_session_cache (tests/session_cache.py).
 - With pytest-xdist (`make test` runs `-n auto --dist loadscope`), the longest modules are
   handed out first (their seconds in the last run, from pytest's cache) and the modules that
-  share the in-process demo walk run on one worker (tests/scheduling.py).
+  share the in-process demo walk run on one worker (tests/scheduling.py). The demo walked in a
+  fresh process starts in the background at a lower priority as soon as a worker has collected
+  its test module, which is handed out last (tests/app/gui_process.py).
 - At the end of the session each process deletes what its tests left of Qt (windows, menus,
   graphics items outside a scene, parentless objects) in order, with every module still
   loaded, so PySide has only the application left to delete at the interpreter's exit.
@@ -43,6 +45,7 @@ import pytest
 from hypothesis import settings
 
 from tests import scheduling
+from tests.app.gui_process import WalkInBackground
 from tests.session_cache import (computed_once_per_image, lab_copy, located_once_per_input,
                                  rendered_once_per_input, trained_once_per_image)
 
@@ -229,6 +232,7 @@ def pytest_configure(config):
                                        "its real time)")
     if config.pluginmanager.hasplugin("xdist") and not hasattr(config, "workerinput"):
         config.pluginmanager.register(WorkerExitStatus(), "robocal-worker-exit-status")
+        config.pluginmanager.register(WalkInBackground(config), "robocal-demo-walk-in-background")
         if config.getvalue("dist") == "loadscope":
             config.pluginmanager.register(scheduling.ModuleSeconds(config), "robocal-module-seconds")
 

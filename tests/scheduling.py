@@ -6,6 +6,8 @@ left to do (xdist's own order, most tests first, started the one-minute demo wal
   in pytest's cache: .pytest_cache), else the estimate in SECONDS, else 0.4 s a test.
 - Modules that share one expensive session input run on the same worker (SAME_WORKER), so it is
   built once: the in-process demo walk (tests/app/demo_walk.py).
+- Modules that read what a background process made are handed out last (LAST), so that the
+  process has had the whole run to end: the demo walked in a fresh process (tests/app/gui_process.py).
 
 Only the order and the grouping change: every test runs, each module on one worker as before.
 """
@@ -14,6 +16,8 @@ from __future__ import annotations
 from collections import defaultdict
 
 from xdist.scheduler import LoadScopeScheduling
+
+from tests.app import gui_process
 
 CACHE_KEY = "robocal/module_seconds"
 SECONDS_PER_TEST = 0.4
@@ -24,9 +28,12 @@ SAME_WORKER = {
     "tests/app/test_small_screens.py": "demo walk",
 }
 
+#: modules handed out after every other (they wait for a process started with the session)
+LAST = {gui_process.MODULE}
+
 #: seconds of the long modules in a full run on this 2-core machine, for a run without a cache (CI)
 SECONDS = {
-    "demo walk": 96.0,
+    "demo walk": 56.0,
     "tests/app/test_cli_check_port.py": 32.0,
     "tests/app/test_cli_check_files.py": 26.0,
     "tests/app/pages/test_measurement_page.py": 20.0,
@@ -64,6 +71,8 @@ class LongestFirstScheduling(LoadScopeScheduling):
         return scope_of(nodeid)
 
     def length(self, scope: str) -> float:
+        if scope in LAST:
+            return -1.0
         if scope in self.seconds:
             return self.seconds[scope]
         return SECONDS_PER_TEST * len(self.workqueue[scope])

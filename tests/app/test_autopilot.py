@@ -1,60 +1,14 @@
-"""`robocal gui --demo --autopilot --screenshots DIR` in a fresh process: exits 0 and writes
-one PNG per page (the classroom demo; also catches crashes at interpreter exit)."""
+"""The autopilot (`robocal gui --demo --autopilot`): the classroom demo walked in-process on a
+project folder (the session's demo walk), a page that fails, raises or hangs, and a project
+folder that is missing or unreadable (in a fresh process). The walk in a fresh process:
+tests/app/test_autopilot_fresh_process.py."""
 from __future__ import annotations
-
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import pytest
 
 from app.pages.steps import Step
 from core.measurement.file import read_measurements
-
-ROOT = Path(__file__).resolve().parents[2]
-
-
-def run_gui(*args, timeout=900, **env_extra):
-    """`robocal gui ARGS` in a fresh process (a whole demo walk: ~1.5 min alone, over 5 min on a
-    machine busy with other work, hence the long timeout)."""
-    env = dict(os.environ, QT_QPA_PLATFORM="offscreen", **env_extra)
-    return subprocess.run([sys.executable, "-m", "app.cli", "gui", *args], cwd=ROOT, env=env,
-                          capture_output=True, text=True, timeout=timeout)
-
-
-@pytest.fixture(scope="module")
-def demo_run(tmp_path_factory):
-    """One `gui --demo --autopilot --screenshots DIR` run (the whole classroom walk, the longest
-    test input of the suite) that the next two tests read: (process, screenshots, its TMPDIR)."""
-    root = tmp_path_factory.mktemp("demo")
-    shots, temp = root / "shots", root / "tmp"
-    temp.mkdir()
-    return run_gui("--demo", "--autopilot", "--screenshots", str(shots), TMPDIR=str(temp)), shots, temp
-
-
-@pytest.mark.slow
-def test_autopilot_runs_every_page_and_writes_screenshots(demo_run):
-    proc, shots, _ = demo_run
-    assert proc.returncode == 0, proc.stdout + proc.stderr
-    expected = [f"{s.number:02d}-{s.slug}.png" for s in Step]
-    assert sorted(p.name for p in shots.iterdir()) == expected
-    import cv2
-    for name in expected:
-        image = cv2.imread(str(shots / name))
-        assert image is not None and image.shape[0] >= 600 and image.shape[1] >= 1000, name
-        assert image.std() > 5, f"{name} looks uniform"
-    for step in Step:
-        assert f"[{step.number}/{len(Step)}] {step.info.title}:" in proc.stdout
-    assert "every page finished" in proc.stdout
-    assert "Traceback" not in proc.stderr
-
-
-@pytest.mark.slow
-def test_demo_temp_project_is_removed_at_exit(demo_run):
-    proc, _, temp = demo_run
-    assert proc.returncode == 0, proc.stderr
-    assert not list(temp.glob("robocal-demo-*"))
+from tests.app.gui_process import run_gui
 
 
 @pytest.mark.slow
