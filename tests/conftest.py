@@ -65,7 +65,9 @@ def visible_top_level_windows() -> list:
     from PySide6.QtWidgets import QApplication
 
     app = QApplication.instance()
-    if app is None:
+    # a shown widget window has a visible native window: without one, the thousands of hidden
+    # top-level widgets (every plot's context menus) need not be looked at one by one
+    if app is None or not any(window.isVisible() for window in app.topLevelWindows()):
         return []
     return [w for w in app.topLevelWidgets() if w.isVisible() and w.isWindow()
             and w.windowType() not in _popup_types()]
