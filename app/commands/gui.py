@@ -17,6 +17,7 @@ from pathlib import Path
 
 from app.commands import CommandResult
 from core.errors import RoboCalError, UsageError
+from core.project import PROJECT_FILE, open_project
 
 HELP = "Open the wizard (--demo: on the virtual lab; --autopilot: run every page on its own)"
 
@@ -36,7 +37,6 @@ def add_arguments(parser) -> None:
 def prepare_state(state, args) -> None:
     """Open or create the project `args` names (PROJECT, --demo) in `state`, the demo arm chosen for --demo."""
     from app.pages.setup.page import DEMO_PRESET
-    from core.project import PROJECT_FILE
 
     if args.project:
         folder = Path(args.project)
@@ -62,6 +62,8 @@ def run(args) -> CommandResult:
         ensure_writable_dir(screenshots)
     if args.project and not args.demo and not Path(args.project).exists():
         raise UsageError(f"no such project folder: {args.project}")
+    if args.project and (not args.demo or (Path(args.project) / PROJECT_FILE).exists()):
+        open_project(args.project)      # a project file that cannot be read is said before Qt loads
 
     from app.qt_libs import DISPLAY_PLATFORMS, check_qt_libraries, platform_in_use
     if platform_in_use() in DISPLAY_PLATFORMS:       # Qt would abort with its own words: say what to do first

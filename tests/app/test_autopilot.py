@@ -4,11 +4,14 @@ folder that is missing or unreadable (in a fresh process). The walk in a fresh p
 tests/app/test_autopilot_fresh_process.py."""
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import pytest
 
 from app.pages.steps import Step
 from core.measurement.file import read_measurements
-from tests.app.gui_process import run_gui
+from tests.app.gui_process import ROOT, run_gui
 
 
 @pytest.mark.slow
@@ -31,6 +34,15 @@ def test_opening_a_bad_project_is_one_line_exit_1(tmp_path):
     proc = run_gui(str(tmp_path), timeout=60)
     assert proc.returncode == 1
     assert proc.stderr.count("\n") == 1 and "project.json" in proc.stderr and "format" in proc.stderr
+
+
+def test_a_bad_project_is_refused_before_the_window_libraries_load(tmp_path):
+    (tmp_path / "project.json").write_text("{}")
+    proc = subprocess.run([sys.executable, "-c", "import sys; from app.cli import main; "
+                           "print(main(['gui', sys.argv[1]]), 'PySide6' in sys.modules)", str(tmp_path)],
+                          cwd=ROOT, capture_output=True, text=True, timeout=60, check=False)
+    assert proc.stdout.split() == ["1", "False"], proc.stdout + proc.stderr
+    assert "project.json" in proc.stderr and "format" in proc.stderr
 
 
 # -- the same walk in-process, for the failure paths -------------------------------------
