@@ -4,7 +4,7 @@
 With pytest-xdist the demo walk starts in the background as soon as a worker has collected
 tests/app/test_autopilot_fresh_process.py: the controller process, idle otherwise, starts it at a
 lower priority (nice 10), so it runs mostly while the test workers wait (on a robot simulator's
-replies, a timer, a child process) and never holds up a worker that has work. That module is
+replies, a timer, a child process) and takes little from a worker that has work. That module is
 handed out last (tests/scheduling.py) and reads the walk's result, waiting for the rest of it if
 it has not ended yet. Without xdist its fixture walks the demo itself, in the foreground.
 
