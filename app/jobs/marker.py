@@ -374,9 +374,10 @@ def save_trained(project, trained: TrainedMarker) -> Path:
     record belongs to the old marker and is removed. Returns the path of marker.npz."""
     path = marker_file(project)
     files = {path: trained.to_bytes()}
-    ok, png = cv2.imencode(".png", trained.image)
-    if ok:
-        files[Path(project.folder) / TRAINING_FILE] = png.tobytes()
+    try:
+        files[Path(project.folder) / TRAINING_FILE] = encode_png(trained.image, "the training image")
+    except RoboCalError:
+        pass                                    # marker.npz holds the image too: the PNG is only a copy to look at
     with output_locks(files):                   # not while a robocal command writes them
         atomic_write_many(files)                # both, or neither changed
     record_marker_inputs(project)
