@@ -44,7 +44,7 @@ class AccuracyMapPlot(QWidget):
     def __init__(self, parent=None):
         super().__init__(parent)
         self.setObjectName("accuracyMapPlot")
-        self.vectors = pg.PlotWidget(background="w")
+        self.vectors = pg.PlotWidget(background="w", enableMenu=False)
         vec = self.vectors.getPlotItem()
         style_plot(vec, "x in the robot base frame (mm)", "y in the robot base frame (mm)", "Error vectors")
         vec.setAspectLocked(True, ratio=1.0)
@@ -57,7 +57,7 @@ class AccuracyMapPlot(QWidget):
             vec.addItem(item)
         self.vector_legend = legend(vec)
 
-        self.histogram = pg.PlotWidget(background="w", axisItems=readable_axes())
+        self.histogram = pg.PlotWidget(background="w", axisItems=readable_axes(), enableMenu=False)
         hist = self.histogram.getPlotItem()
         style_plot(hist, "position error (mm, logarithmic)", "targets", "Error lengths")
         hist.setLogMode(x=True, y=False)

@@ -16,7 +16,7 @@ OUT = "#d93025"     # red: beyond the limit
 
 class ControlChart(pg.PlotWidget):
     def __init__(self, title: str = "", parent=None, *, with_legend: bool = True, y_label: str = "error (mm)"):
-        super().__init__(parent=parent, background="w")
+        super().__init__(parent=parent, background="w", enableMenu=False)
         self.setObjectName("controlChart")
         plot = self.getPlotItem()
         style_plot(plot, "check number", y_label, title or None)

@@ -14,7 +14,7 @@ TINY = 1e-30     # a zero cost (noise-free data) still has a place on the log ax
 
 class ConvergencePlot(pg.PlotWidget):
     def __init__(self, y_label: str = "cost Σ w·e² (mm²)", parent=None):
-        super().__init__(parent=parent, background="w", axisItems=readable_axes())
+        super().__init__(parent=parent, background="w", axisItems=readable_axes(), enableMenu=False)
         style_plot(self.getPlotItem(), "iteration", y_label)
         self.setObjectName("convergencePlot")
         self.curve = pg.PlotDataItem(pen=pg.mkPen(AFTER, width=2), symbol="o", symbolSize=7,

@@ -41,7 +41,7 @@ class ErrorBarChart(pg.GraphicsLayoutWidget):
         self.legend = pg.LegendItem(colCount=4, labelTextColor=TEXT, labelTextSize="8.5pt",
                                     horSpacing=14, verSpacing=-4)
         self.addItem(self.legend, row=0, col=0)
-        self.plot = plot = self.addPlot(row=1, col=0)
+        self.plot = plot = self.addPlot(row=1, col=0, enableMenu=False)
         self.ci.layout.setRowStretchFactor(1, 1)
         style_plot(plot, x_label, y_label)
         plot.setMouseEnabled(x=False, y=False)

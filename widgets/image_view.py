@@ -17,7 +17,7 @@ class ImageView(pg.GraphicsLayoutWidget):
         super().__init__(parent=parent)
         self.setObjectName("imageView")
         self.setBackground("w")
-        self.plot = self.addPlot()
+        self.plot = self.addPlot(enableMenu=False)
         self.plot.setMenuEnabled(False)
         self.plot.hideButtons()
         self.plot.invertY(True)

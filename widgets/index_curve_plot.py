@@ -18,7 +18,7 @@ from widgets.plot_theme import AFTER, AXIS, BEFORE, TEXT, colour, legend, readab
 
 class IndexCurvePlot(pg.PlotWidget):
     def __init__(self, parent=None):
-        super().__init__(parent=parent, background="w", axisItems=readable_axes())
+        super().__init__(parent=parent, background="w", axisItems=readable_axes(), enableMenu=False)
         self.setObjectName("indexCurvePlot")
         self.plot_item = self.getPlotItem()
         style_plot(self.plot_item, "number of poses N", "index")

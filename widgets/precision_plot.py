@@ -17,7 +17,7 @@ from widgets.plot_theme import AFTER, AXIS, colour, legend, style_plot
 
 class PrecisionPlot(pg.PlotWidget):
     def __init__(self, parent=None):
-        super().__init__(parent=parent, background="w")
+        super().__init__(parent=parent, background="w", enableMenu=False)
         self.setObjectName("precisionPlot")
         self.plot_item = self.getPlotItem()
         style_plot(self.plot_item, "marker depth z (mm)", "3D distance (mm)", "Precision of the located points")

@@ -32,7 +32,7 @@ class ResidualBarChart(pg.PlotWidget):
     """Error of every pose before (orange) and after (blue) calibration, side by side."""
 
     def __init__(self, parent=None):
-        super().__init__(parent=parent, background="w", axisItems=readable_axes())
+        super().__init__(parent=parent, background="w", axisItems=readable_axes(), enableMenu=False)
         style_plot(self.getPlotItem(), "pose", "position error (mm)")
         self.setObjectName("residualBarChart")
         self._log = True
@@ -105,7 +105,7 @@ class ResidualHistogram(pg.PlotWidget):
     """How many points have which error, before and after calibration (same bins)."""
 
     def __init__(self, parent=None):
-        super().__init__(parent=parent, background="w", axisItems=readable_axes())
+        super().__init__(parent=parent, background="w", axisItems=readable_axes(), enableMenu=False)
         style_plot(self.getPlotItem(), "position error (mm)", "points")
         self.setObjectName("residualHistogram")
         self._log = True

@@ -24,7 +24,7 @@ def _xy(a) -> np.ndarray:
 
 class ResidualScatter(pg.PlotWidget):
     def __init__(self, parent=None, *, names: tuple[str, str] = ("left camera", "right camera")):
-        super().__init__(parent=parent, background="w")
+        super().__init__(parent=parent, background="w", enableMenu=False)
         self.setObjectName("residualScatter")
         plot = self.getPlotItem()
         style_plot(plot, "residual x (px)", "residual y (px)")

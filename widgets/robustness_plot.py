@@ -23,8 +23,8 @@ class RobustnessPlot(pg.GraphicsLayoutWidget):
         # one legend above both plots, in its own row, so it never hides a curve
         self.legend = pg.LegendItem(offset=None, labelTextColor=TEXT, labelTextSize="8.5pt", colCount=2)
         self.addItem(self.legend, row=0, col=0)
-        self.rate_plot = self.addPlot(row=1, col=0)
-        self.error_plot = self.addPlot(row=2, col=0)
+        self.rate_plot = self.addPlot(row=1, col=0, enableMenu=False)
+        self.error_plot = self.addPlot(row=2, col=0, enableMenu=False)
         self.error_plot.setXLink(self.rate_plot)
         # styled once: styling again would keep a stale SI-prefix scale on the axes
         style_plot(self.rate_plot, "", "detected (%)", "Marker detection")

@@ -35,7 +35,7 @@ class CriteriaPlot(pg.PlotWidget):
     """C(d) versus the disparity d (Fig. 16)."""
 
     def __init__(self, parent=None):
-        super().__init__(parent=parent, background="w")
+        super().__init__(parent=parent, background="w", enableMenu=False)
         self.setObjectName("criteriaPlot")
         self.plot_item = self.getPlotItem()
         style_plot(self.plot_item, "disparity (px)", CRITERIA_UNIT, "Criteria along the epipolar line (Fig. 16)")
@@ -121,7 +121,7 @@ class WindowSweepPlot(pg.PlotWidget):
     """Minimum criteria versus the window size (Fig. 17)."""
 
     def __init__(self, parent=None):
-        super().__init__(parent=parent, background="w")
+        super().__init__(parent=parent, background="w", enableMenu=False)
         self.setObjectName("windowSweepPlot")
         self.plot_item = self.getPlotItem()
         style_plot(self.plot_item, "window size (px, square window)", "minimum criteria (grey level², per pixel)",

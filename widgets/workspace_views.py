@@ -55,7 +55,7 @@ class OrthoView(pg.PlotWidget):
 
     def __init__(self, h: str, v: str, title: str, *, invert_v: bool = False, wedge_key: str = "top",
                  parent=None):
-        super().__init__(parent=parent, background="w")
+        super().__init__(parent=parent, background="w", enableMenu=False)
         self.h, self.v = AXES[h], AXES[v]
         self.wedge_key = wedge_key
         self.plot_item = self.getPlotItem()

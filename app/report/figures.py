@@ -272,7 +272,7 @@ def plot_widget(fig: Figure) -> pg.GraphicsLayoutWidget:
     w.resize(*fig.size)
     legends = []
     for i, p in enumerate(fig.panels):
-        plot = w.addPlot(row=0, col=i)
+        plot = w.addPlot(row=0, col=i, enableMenu=False)
         _style_axes(plot, p)
         entries = _DRAW[p["kind"]](plot, p)
         if p["kind"] == "histogram":
