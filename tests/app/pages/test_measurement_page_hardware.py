@@ -239,6 +239,7 @@ def test_the_stop_key_ends_a_run_over_a_pty(qtbot, hardware, lab):
             assert "Robot stopped" in page.status.text() and "Resume after stop" in page.status.text()
             first = measured_ids(page)
             assert first and len(first) < N_POSES
+            sim.time_scale = 0.01       # slow motions only for the Stop key to land in one; the rest at test speed
             win.resume_robot()
             assert page.start_run()
             qtbot.waitUntil(lambda: not page.task.busy, timeout=60000)
