@@ -34,16 +34,22 @@ def add_arguments(parser) -> None:
                         help="save DIR/NN-<step>.png of the window for every page shown")
 
 
+def _opens_existing_project(args) -> bool:
+    """PROJECT names a project to open (with --demo, only one whose project file is there already;
+    otherwise the demo creates it)."""
+    return bool(args.project) and (not args.demo or (Path(args.project) / PROJECT_FILE).exists())
+
+
 def prepare_state(state, args) -> None:
     """Open or create the project `args` names (PROJECT, --demo) in `state`, the demo arm chosen for --demo."""
     from app.pages.setup.page import DEMO_PRESET
 
     if args.project:
         folder = Path(args.project)
-        if args.demo and not (folder / PROJECT_FILE).exists():
-            state.new_project(folder)
-        else:
+        if _opens_existing_project(args):
             state.open_project(folder)
+        else:
+            state.new_project(folder)
         if args.demo and state.robot is None:
             state.choose_preset(DEMO_PRESET)
     elif args.demo:
@@ -62,7 +68,7 @@ def run(args) -> CommandResult:
         ensure_writable_dir(screenshots)
     if args.project and not args.demo and not Path(args.project).exists():
         raise UsageError(f"no such project folder: {args.project}")
-    if args.project and (not args.demo or (Path(args.project) / PROJECT_FILE).exists()):
+    if _opens_existing_project(args):
         open_project(args.project)      # a project file that cannot be read is said before Qt loads
 
     from app.qt_libs import DISPLAY_PLATFORMS, check_qt_libraries, platform_in_use
