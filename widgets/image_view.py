@@ -18,7 +18,6 @@ class ImageView(pg.GraphicsLayoutWidget):
         self.setObjectName("imageView")
         self.setBackground("w")
         self.plot = self.addPlot(enableMenu=False)
-        self.plot.setMenuEnabled(False)
         self.plot.hideButtons()
         self.plot.invertY(True)
         self.plot.setAspectLocked(True)
