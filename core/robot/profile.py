@@ -96,6 +96,21 @@ class ProtocolProfile:
             parts = [a + p for a, p in zip(self.axes, parts)]
         return self.move.send[0].replace("{joints}", self.move_separator.join(parts))
 
+    def expects_reply(self, commands: tuple[str, ...]) -> bool:
+        """False when the profile says `commands` get no reply: a speed level's real-time byte
+        (GRBL's overrides), or a speed, stop or resume command whose reply pattern is null (the
+        speed's {percent} filled in)."""
+        commands = tuple(commands)
+        if len(commands) == 1 and any(commands[0] == level for _, level in self.speed_levels):
+            return False
+        for ex in (self.speed, self.stop, self.resume):
+            if ex is None or ex.reply is not None or len(ex.send) != len(commands):
+                continue
+            templates = [re.escape(t).replace(re.escape("{percent}"), r"[-+0-9.eE]+") for t in ex.send]
+            if all(re.fullmatch(t, c) for t, c in zip(templates, commands)):
+                return False
+        return True
+
     def parse_values(self, text: str) -> list[float]:
         """The numbers of a `values` group (raises ValueError when one is not a number)."""
         items = [t for t in (text.split(self.separator) if self.separator.strip() else text.split()) if t.strip()]

@@ -48,6 +48,7 @@ class ReplyLine:
 class ProbeExchange:
     sent: tuple[str, ...]            # the commands written (a one-character one without a line end)
     replies: list[ReplyLine]
+    reply_expected: bool = True      # False: the profile says these commands get no reply
 
 
 def templates(profile: ProtocolProfile, joints=None, percent: float = 25.0) -> dict[str, tuple[str, ...]]:
@@ -124,8 +125,9 @@ class ProfileProbe:
              quiet_s: float = QUIET_S, timeout_s: float | None = None, cancelled=None) -> ProbeExchange:
         """Write `commands` (a one-character command as a real-time byte, others with the line
         end) and collect the replies until none came for `quiet_s` seconds — for a move until
-        its done or error reply, within `timeout_s`. `allowed_move`: the move template's text,
-        the only move line accepted."""
+        its done or error reply, within `timeout_s`; commands the profile says get no reply
+        (ProtocolProfile.expects_reply) end after `quiet_s` without one. `allowed_move`: the
+        move template's text, the only move line accepted."""
         commands = (commands,) if isinstance(commands, str) else tuple(commands)
         if not commands or not any(c.strip() or len(c) == 1 for c in commands):
             raise RoboCalError("nothing to send", hint="Choose a template or type a command.")
@@ -146,9 +148,10 @@ class ProfileProbe:
         replies: list[ReplyLine] = []
         deadline, last = t0 + timeout_s, t0
         wait_done = moving and self.profile.done_reply is not None
+        expected = moving or self.profile.expects_reply(commands)
         while True:
             now = time.monotonic()
-            if now >= deadline or (replies and not wait_done and now - last >= quiet_s) \
+            if now >= deadline or ((replies or not expected) and not wait_done and now - last >= quiet_s) \
                     or (cancelled is not None and cancelled()):
                 break
             event = self.link.get(min(0.05, deadline - now))
@@ -160,4 +163,4 @@ class ProfileProbe:
             replies.append(ReplyLine(kind, text, last - t0, matches))
             if kind == DISCONNECTED or (wait_done and {m.pattern for m in matches} & {"done", "error", "stop"}):
                 break
-        return ProbeExchange(commands, replies)
+        return ProbeExchange(commands, replies, expected)

@@ -200,7 +200,9 @@ class ProtocolPanel(QGroupBox):
                     parts.append(f"<span style='color:#137333'>✓ {esc(m.pattern)}</span>"
                                  + (f" ({groups})" if groups else ""))
                 lines.append(head + " " + " · ".join(parts))
-        if not ex.replies:
+        if not ex.replies and not ex.reply_expected:
+            lines.append("&nbsp;&nbsp;<span style='color:#666'>no reply, as the profile says for this command</span>")
+        elif not ex.replies:
             lines.append("&nbsp;&nbsp;<span style='color:#c5221f'>no reply</span>")
         self.log.append("<br>".join(lines))
         self.page._set_status(f"Sent {shown(ex.sent)}: {len(ex.replies)} repl{'y' if len(ex.replies) == 1 else 'ies'}.",

@@ -98,6 +98,7 @@ def test_grbl_profile_status_and_real_time_bytes(page, qtbot):
         assert "✓ position (values 0 0 0 0 0 0)" in log and "✓ done" in log
         log = send(page, qtbot, "speed")
         assert "→ \\x97" in log and sim.speed == 25.0
+        assert log.endswith("no reply, as the profile says for this command")    # GRBL's overrides say nothing
         log = send(page, qtbot, text="M3")
         assert "✓ error (code=error:20)" in log
         log = send(page, qtbot, "move (to the joints read)")

@@ -70,9 +70,12 @@ def test_grbl_status_query_matches_position_and_idle(model):
         assert status.matches[1].values == (0.0,) * 6 and status.matches[0].groups["state"] == "Idle"
         unlocked = probe.send("$X").replies
         assert [(r.text, names(r)) for r in unlocked] == [("ok", ["move ok", "resume ok", "tolerated during a stop"])]
-        err = probe.send("M3").replies[0]
-        assert names(err) == ["error"] and err.matches[0].groups["code"] == "error:20"
+        typed = probe.send("M3")
+        err = typed.replies[0]
+        assert names(err) == ["error"] and err.matches[0].groups["code"] == "error:20" and typed.reply_expected
         assert sim.received[-2:] == ["$X", "M3"]                     # `?` went as a real-time byte, no line
+        speed = probe.send(t["speed"])                                # the rapid override: GRBL never replies
+        assert speed.replies == [] and not speed.reply_expected and sim.speed == 25.0
     finally:
         probe.close()
         sim.close()

@@ -42,3 +42,13 @@ def test_broken_profiles_name_the_field(tmp_path, change, field):
     with pytest.raises(RoboCalError) as info:
         read_profile(path)
     assert info.value.field == field and str(path) in info.value.message
+
+
+def test_the_commands_a_profile_says_get_no_reply():
+    grbl, robocal, meca = (builtin_profile(n) for n in ("grbl_joint_arm", "robocal_v1", "mecademic_meca500"))
+    assert not grbl.expects_reply(("\x97",)) and not grbl.expects_reply(("\x95",))     # rapid overrides
+    assert grbl.expects_reply(("?",)) and grbl.expects_reply(("!", "\x18")) and grbl.expects_reply(("$X",))
+    assert robocal.expects_reply(("SPEED 25",)) and robocal.expects_reply(("STOP",))
+    assert not meca.expects_reply(("SetJointVel(25)",)) and not meca.expects_reply(("SetJointVel(12.5)",))
+    assert meca.expects_reply(("SetJointVel(25); x",)) and meca.expects_reply(("ResumeMotion",))
+
