@@ -96,6 +96,17 @@ class ProtocolProfile:
             parts = [a + p for a, p in zip(self.axes, parts)]
         return self.move.send[0].replace("{joints}", self.move_separator.join(parts))
 
+    def speed_command(self, percent: float) -> tuple[str, ...] | None:
+        """The command(s) that set the speed to `percent` (% of full speed): the highest speed
+        level at or below it (the lowest level when none is), or the speed template filled in;
+        None without either."""
+        if self.speed_levels:
+            fitting = [cmd for level, cmd in self.speed_levels if level <= percent + 1e-9]
+            return (fitting[-1] if fitting else self.speed_levels[0][1],)
+        if self.speed is not None:
+            return tuple(c.replace("{percent}", f"{percent:g}") for c in self.speed.send)
+        return None
+
     def expects_reply(self, commands: tuple[str, ...]) -> bool:
         """False when the profile says `commands` get no reply: a speed level's real-time byte
         (GRBL's overrides), or a speed, stop or resume command whose reply pattern is null (the

@@ -57,11 +57,9 @@ def templates(profile: ProtocolProfile, joints=None, percent: float = 25.0) -> d
     out = {"identify": profile.hello.send, "position": profile.position.send}
     if profile.done_poll is not None:
         out["motion state"] = profile.done_poll.send
-    if profile.speed_levels:
-        fitting = [cmd for level, cmd in profile.speed_levels if level <= percent + 1e-9]
-        out["speed"] = (fitting[-1] if fitting else profile.speed_levels[0][1],)
-    elif profile.speed is not None:
-        out["speed"] = tuple(c.replace("{percent}", f"{percent:g}") for c in profile.speed.send)
+    speed = profile.speed_command(percent)
+    if speed is not None:
+        out["speed"] = speed
     if joints is not None:
         out["move (to the joints read)"] = (profile.format_move(joints),)
     out["stop"] = profile.stop.send

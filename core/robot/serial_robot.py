@@ -135,15 +135,13 @@ class SerialRobot(RobotDriver):
         p = self.profile
         if not self.connected:
             return
+        command = p.speed_command(percent)
+        if command is None:
+            return
         with self._tx:
-            if p.speed_levels:
-                fitting = [cmd for level, cmd in p.speed_levels if level <= percent + 1e-9]
-                self._send((fitting[-1] if fitting else p.speed_levels[0][1],))
-            elif p.speed is not None:
-                text = f"{percent:g}"
-                self._send(tuple(c.replace("{percent}", text) for c in p.speed.send))
-                if p.speed.reply is not None:
-                    self._expect({"ok": p.speed.reply}, self.reply_timeout, what="the speed")
+            self._send(command)
+            if not p.speed_levels and p.speed.reply is not None:
+                self._expect({"ok": p.speed.reply}, self.reply_timeout, what="the speed")
 
     def _move(self, q: np.ndarray) -> None:
         self._require_link()

@@ -51,4 +51,3 @@ def test_the_commands_a_profile_says_get_no_reply():
     assert robocal.expects_reply(("SPEED 25",)) and robocal.expects_reply(("STOP",))
     assert not meca.expects_reply(("SetJointVel(25)",)) and not meca.expects_reply(("SetJointVel(12.5)",))
     assert meca.expects_reply(("SetJointVel(25); x",)) and meca.expects_reply(("ResumeMotion",))
-
