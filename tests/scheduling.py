@@ -5,7 +5,8 @@ left to do (xdist's own order, most tests first, started the one-minute demo wal
 - A module's length: its seconds in the last run (setup, call and teardown of its tests, saved
   in pytest's cache: .pytest_cache), else the estimate in SECONDS, else 0.4 s a test.
 - Modules that share one expensive session input run on the same worker (SAME_WORKER), so it is
-  built once: the in-process demo walk (tests/app/demo_walk.py).
+  built once: the in-process demo walk (tests/app/demo_walk.py), the simulated dataset of
+  `locate` and `measure` (tests/app/commands/conftest.py).
 - Modules that read what a background process made are handed out last (LAST), so that the
   process has had the whole run to end: the demo walked in a fresh process (tests/app/gui_process.py).
 
@@ -26,6 +27,8 @@ SECONDS_PER_TEST = 0.4
 SAME_WORKER = {
     "tests/app/test_autopilot.py": "demo walk",
     "tests/app/test_small_screens.py": "demo walk",
+    "tests/app/commands/test_locate.py": "6-pose dataset",
+    "tests/app/commands/test_measure.py": "6-pose dataset",
 }
 
 #: modules handed out after every other (they wait for a process started with the session)
@@ -34,8 +37,8 @@ LAST = {gui_process.MODULE}
 #: seconds of the long modules in a full run on this 2-core machine, for a run without a cache (CI)
 SECONDS = {
     "demo walk": 56.0,
-    "tests/app/test_cli_check_port.py": 32.0,
-    "tests/app/test_cli_check_files.py": 26.0,
+    "tests/app/commands/test_check_port.py": 32.0,
+    "tests/app/commands/test_check_files.py": 26.0,
     "tests/app/pages/test_measurement_page.py": 20.0,
     "tests/app/pages/test_stereo_page.py": 19.0,
     "tests/app/pages/test_check_real_cell.py": 17.0,

@@ -1,6 +1,7 @@
 """The size of the rooms a newcomer reads: every module of app/pages at most 300 lines, and no
 class of app/ or widgets/ with more than 30 methods, counting those it inherits from the
-project's own classes (mixins and bases; Qt's are not counted). Read from the sources (AST)."""
+project's own classes (mixins and bases; Qt's are not counted). Read from the sources (AST).
+And where a command's tests are: app/commands/X.py is tested in tests/app/commands/test_X.py."""
 from __future__ import annotations
 
 import ast
@@ -51,3 +52,13 @@ def test_no_class_has_more_than_30_methods_with_its_project_bases():
     big = {f"{path}:{name}": len(methods_with_bases((path, name), classes)) for path, name in classes}
     assert 10 <= big["app/pages/base.py:WizardPage"] <= CLASS_METHODS
     assert not {k: v for k, v in big.items() if v > CLASS_METHODS}, {k: v for k, v in big.items() if v > CLASS_METHODS}
+
+
+def test_every_module_of_app_commands_has_its_test_module():
+    modules = {p.stem for p in (ROOT / "app" / "commands").glob("*.py") if p.stem != "__init__"}
+    tests = {p.stem.removeprefix("test_") for p in (ROOT / "tests" / "app" / "commands").glob("test_*.py")}
+    assert {"check", "identify", "options", "paths"} <= modules
+    assert not modules - tests, sorted(modules - tests)
+    # beside them, only the command line as a whole (app/cli.py): bad values in files, output and signals
+    assert {p.name for p in (ROOT / "tests" / "app").glob("test_cli*.py")} == {"test_cli_bad_values.py",
+                                                                              "test_cli_robustness.py"}

@@ -1,17 +1,13 @@
 """The autopilot (`robocal gui --demo --autopilot`): the classroom demo walked in-process on a
-project folder (the session's demo walk), a page that fails, raises or hangs, and a project
-folder that is missing or unreadable (in a fresh process). The walk in a fresh process:
-tests/app/test_autopilot_fresh_process.py."""
+project folder (the session's demo walk), and a page that fails, raises or hangs. The walk in a
+fresh process: tests/app/test_autopilot_fresh_process.py; a project folder that is missing or
+unreadable: tests/app/commands/test_gui.py."""
 from __future__ import annotations
-
-import subprocess
-import sys
 
 import pytest
 
 from app.pages.steps import Step
 from core.measurement.file import read_measurements
-from tests.app.gui_process import ROOT, run_gui
 
 
 @pytest.mark.slow
@@ -21,28 +17,6 @@ def test_autopilot_on_a_project_folder(demo_walk):
     assert (demo_walk.project / "project.json").is_file()
     assert (demo_walk.project / "robot.json").is_file()
     assert demo_walk.window.state.project.folder == demo_walk.project
-
-
-def test_opening_a_missing_project_is_a_usage_error(tmp_path):
-    proc = run_gui(str(tmp_path / "nowhere"), timeout=60)
-    assert proc.returncode == 2
-    assert "no such project folder" in proc.stderr and "Traceback" not in proc.stderr
-
-
-def test_opening_a_bad_project_is_one_line_exit_1(tmp_path):
-    (tmp_path / "project.json").write_text("{}")
-    proc = run_gui(str(tmp_path), timeout=60)
-    assert proc.returncode == 1
-    assert proc.stderr.count("\n") == 1 and "project.json" in proc.stderr and "format" in proc.stderr
-
-
-def test_a_bad_project_is_refused_before_the_window_libraries_load(tmp_path):
-    (tmp_path / "project.json").write_text("{}")
-    proc = subprocess.run([sys.executable, "-c", "import sys; from app.cli import main; "
-                           "print(main(['gui', sys.argv[1]]), 'PySide6' in sys.modules)", str(tmp_path)],
-                          cwd=ROOT, capture_output=True, text=True, timeout=60, check=False)
-    assert proc.stdout.split() == ["1", "False"], proc.stdout + proc.stderr
-    assert "project.json" in proc.stderr and "format" in proc.stderr
 
 
 # -- the same walk in-process, for the failure paths -------------------------------------

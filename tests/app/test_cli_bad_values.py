@@ -1,6 +1,6 @@
-"""Absurd values are one clear line naming the file and field (or the option), exit 1 (2 for
-options), and no output file: huge finite numbers, out-of-range ids, oversized fields,
-pathological JSON, truncated marker files."""
+"""Absurd values in files are one clear line naming the file and field, exit 1, and no output
+file: huge finite numbers, out-of-range ids, oversized fields, pathological JSON, truncated marker
+files. Absurd option values: tests/app/commands/test_options.py."""
 from __future__ import annotations
 
 import json
@@ -14,6 +14,7 @@ from core.measurement.file import write_measurements
 from core.robot.file import read_robot
 from core.robot.model import robot_path
 from core.virtual_lab.synthetic import perturbed_model, simulate_measurements
+from tests.app.commands.cli_output import one_line
 
 ROBOT = robot_path("educational_6r")
 
@@ -44,13 +45,6 @@ def robot_with(src, dst, edit):
     edit(data)
     dst.write_text(json.dumps(data))
     return dst
-
-
-def one_line(capsys) -> str:
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1, err
-    assert "internal error" not in err[0] and "Traceback" not in err[0]
-    return err[0]
 
 
 @pytest.mark.parametrize("column, value, says", [
@@ -90,28 +84,6 @@ def test_deeply_nested_json_is_refused(tmp_path, capsys):
     robot.write_text("[" * 100_000 + "]" * 100_000)
     assert main(["export", "--robot", str(robot), "--format", "urdf", "--out", str(tmp_path / "r.urdf")]) == 1
     assert "nested too deeply" in one_line(capsys)
-
-
-@pytest.mark.parametrize("argv, option", [
-    (["simulate", "--out", "{tmp}/lab", "--noise", "inf"], "--noise"),
-    (["simulate", "--out", "{tmp}/lab", "--seed", "-1"], "--seed"),
-    (["identify", "--robot", "{robot}", "--measurements", "{m}", "--out", "{tmp}/c.json", "--huber", "inf"], "--huber"),
-    (["identify", "--robot", "{robot}", "--measurements", "{m}", "--out", "{tmp}/c.json", "--prior", "-1"], "--prior"),
-    (["identify", "--robot", "{robot}", "--measurements", "{m}", "--out", "{tmp}/c.json", "--prior", "often"],
-     "--prior"),
-    (["select-poses", "--robot", "{robot}", "--count", "5", "--out", "{tmp}/p.csv", "--plate", "-5"], "--plate"),
-    (["select-poses", "--robot", "{robot}", "--count", "5", "--out", "{tmp}/p.csv", "--margin", "nan"], "--margin"),
-    (["select-poses", "--robot", "{robot}", "--count", "5", "--out", "{tmp}/p.csv", "--lab-seed", "-3"], "--lab-seed"),
-    (["select-poses", "--robot", "{robot}", "--count", "5", "--out", "{tmp}/p.csv", "--random-trials", "1000000000"],
-     "--random-trials"),
-    (["select-poses", "--robot", "{robot}", "--count", "5", "--out", "{tmp}/p.csv", "--candidates", "1000000000"],
-     "--candidates"),
-])
-def test_absurd_options_are_usage_errors(good, tmp_path, capsys, argv, option):
-    args = [a.format(tmp=tmp_path, robot=ROBOT, m=good / "m.csv") for a in argv]
-    assert main(args) == 2
-    assert f"argument {option}:" in one_line(capsys)
-    assert list(tmp_path.iterdir()) == []
 
 
 def test_truncated_or_misshaped_marker_file(tmp_path, capsys):

@@ -1,10 +1,10 @@
-"""The command line never shows a traceback and never overwrites what it reads: outputs that
-are inputs, two runs into one output, a closed / full / broken stdout, Ctrl-C at start-up."""
+"""The command line never shows a traceback and never overwrites what it reads: two runs into one
+output, a closed / full / broken stdout, Ctrl-C at start-up. Outputs that are inputs:
+tests/app/commands/test_paths.py."""
 from __future__ import annotations
 
 import os
 import resource
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -27,32 +27,6 @@ def run_shell(cmd: str, tmp_path: Path) -> subprocess.CompletedProcess:
 
 
 ROBOCAL = f"{sys.executable} -m app.cli"
-
-
-@pytest.mark.parametrize("argv, message", [
-    (["identify", "--robot", "{robot}", "--measurements", "{m}", "--out", "{m}"],
-     "--out is the same file as --measurements"),
-    (["export", "--robot", "{robot}", "--format", "urdf", "--out", "{robot}"], "--out is the same file as --robot"),
-    (["select-poses", "--robot", "{robot}", "--count", "5", "--out", "{robot}"], "--out is the same file as --robot"),
-    (["stereo-calibrate", "--left", "{left}", "--right", "{left}", "--board", "9x6", "--square", "25",
-      "--out", "{image}"], "is an image inside the --left folder"),
-    (["stereo-calibrate", "--left", "{left}", "--right", "{left}", "--board", "9x6", "--square", "25",
-      "--out", "{tmp}/s.yaml", "--export-json", "{tmp}/s.yaml"], "--out and --export-json name the same file"),
-])
-def test_an_output_that_would_overwrite_an_input_is_a_usage_error(argv, message, tmp_path, capsys):
-    robot = tmp_path / "robot.json"
-    shutil.copy(ROBOT, robot)
-    m = tmp_path / "m.csv"
-    m.write_text("# robocal.measurements/1\npose,target,q1,q2,q3,q4,q5,q6,x,y,z\n")
-    left = tmp_path / "left"
-    left.mkdir()
-    (left / "l01.png").write_bytes(b"not really a png")
-    values = {"robot": robot, "m": m, "left": left, "image": left / "l01.png", "tmp": tmp_path}
-    before = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
-    assert main([a.format(**values) for a in argv]) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and message in err[0], err
-    assert {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()} == before
 
 
 def test_a_second_writer_of_the_same_output_is_refused(tmp_path, capsys):

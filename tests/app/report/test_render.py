@@ -1,5 +1,6 @@
 """The report drawn with Qt: figures as images, the self-contained HTML, the PDF (pages,
-page numbers, page sizes), `robocal report`, and a failing writer leaving the previous report."""
+page numbers, page sizes), a read-only project or output folder, and a failing writer leaving the
+previous report. `robocal report`'s own tests: tests/app/commands/test_report.py."""
 from __future__ import annotations
 
 import contextlib
@@ -15,12 +16,10 @@ from PySide6.QtGui import QImage
 from app.cli import main
 from app.report.render import draw_figures, pdf_document, write_report
 from core.errors import RoboCalError
-from core.project import create_project, open_project
+from core.project import open_project
 from core.report import build_report
+from tests.app.report.pdf_files import HAVE_POPPLER, pdf_pages, pdf_text
 from tests.core.report.sample_project import make_project
-
-HAVE_POPPLER = shutil.which("pdftotext") is not None and shutil.which("pdfinfo") is not None
-
 
 @pytest.fixture(scope="module")
 def project(tmp_path_factory):
@@ -41,17 +40,6 @@ def draw(drawn):
     tests of what is written around the figures."""
     images = drawn[1]
     return lambda fig, cancelled=None: images[fig.key]
-
-
-def pdf_text(path) -> str:
-    text = subprocess.run(["pdftotext", "-layout", str(path), "-"], capture_output=True, text=True,
-                          check=True).stdout
-    return text.replace("\ufb01", "fi").replace("\ufb02", "fl")        # the font's ligatures
-
-
-def pdf_pages(path) -> tuple[int, str]:
-    info = subprocess.run(["pdfinfo", str(path)], capture_output=True, text=True, check=True).stdout
-    return int(re.search(r"Pages:\s+(\d+)", info).group(1)), re.search(r"Page size:\s+(.*)", info).group(1)
 
 
 def test_every_drawable_figure_is_an_image_with_ink(drawn):
@@ -112,27 +100,6 @@ def test_pdf_pages_are_filled_and_few(qapp, project, tmp_path, draw):
         assert body > 0.5 * height, (i, body, height)
     text = pdf_text(out)
     assert "Ana Student" in text and "RCS6-0421" in text and "not available" not in text
-
-
-@pytest.mark.skipif(not HAVE_POPPLER, reason="poppler-utils (pdftotext, pdfinfo) not installed")
-def test_cli_report_of_a_project_with_steps_not_done(qapp, tmp_path, capsys):
-    folder = create_project(tmp_path / "fresh").folder
-    (folder / "stereo.yaml").write_text("not: [an, opencv, file\n")
-    code = main(["report", str(folder), "--out", str(tmp_path / "r.pdf"), "--out", str(tmp_path / "r.html")])
-    assert code == 0, capsys.readouterr().err
-    text = pdf_text(tmp_path / "r.pdf")
-    assert "Not done: Stereo calibration, Marker, Pose sequence, Measurements, Identification" in " ".join(
-        text.split())
-    assert "stereo.yaml cannot be read" in text
-    assert "Not done (no calibrated.json" in (tmp_path / "r.html").read_text()
-
-
-def test_cli_refuses_another_suffix_and_a_missing_folder(qapp, tmp_path, capsys):
-    folder = create_project(tmp_path / "p").folder
-    assert main(["report", str(folder), "--out", str(tmp_path / "r.docx")]) == 2
-    assert "--out must end in .html or .pdf" in capsys.readouterr().err
-    assert main(["report", str(tmp_path / "nowhere"), "--out", str(tmp_path / "r.pdf")]) == 2
-    assert not (tmp_path / "r.pdf").exists()
 
 
 def test_a_full_disk_keeps_the_previous_report(qapp, project, tmp_path, monkeypatch, draw):
@@ -200,38 +167,3 @@ def test_a_read_only_project_is_reported_and_left_as_it_was(qapp, project, tmp_p
     assert len(err.strip().splitlines()) <= 2                   # one message (and its hint)
     assert sorted(p.relative_to(folder) for p in folder.rglob("*")) == before
     assert (tmp_path / "r.pdf").read_bytes().startswith(b"%PDF")
-
-
-def test_cli_report_of_a_command_line_folder_with_author_and_course(qapp, tmp_path, capsys):
-    """A folder the command-line chain wrote (a dataset's truth.json, measurements.csv,
-    calibrated.json, no project.json): its report, with the student's name and course."""
-    import json as _json
-
-    from core.identification.file import write_calibrated_model
-    from core.identification.solver import identify
-    from core.robot.file import robot_to_dict
-    from core.virtual_lab.ideal_measurements import ideal_lab_measurements, write_ideal_measurements
-    from core.virtual_lab.lab import VirtualLab
-
-    lab = VirtualLab.create(seed=5)
-    folder = tmp_path / "lab"
-    folder.mkdir()
-    meas = ideal_lab_measurements(lab, 30, sigma_mm=0.05, seed=1)
-    write_ideal_measurements(meas, folder / "measurements.csv")
-    write_calibrated_model(identify(lab.nominal_robot, meas), folder / "calibrated.json")
-    (folder / "truth.json").write_text(_json.dumps({"format": "robocal.truth/1", "seed": 5,
-                                                    "nominal_robot": robot_to_dict(lab.nominal_robot)}))
-    out = tmp_path / "hand-in.html"
-    code = main(["report", str(folder), "--out", str(out), "--author", "Ana Student", "--course", "Robotics 2"])
-    assert code == 0, capsys.readouterr().err
-    text = " ".join(re.sub(r"<[^>]+>", " ", out.read_text()).split())
-    assert "Student / operator Ana Student Course Robotics 2" in text and "Cell the virtual lab" in text
-    assert "Educational 6R" in text
-    # the front page's RMS against the true robot, nominal and calibrated model
-    before, after = (re.search(rf"true robot at \d+ fresh poses \(virtual lab\), {m} model [\d.]+ ([\d.]+)", text).group(1)
-                     for m in ("nominal", "calibrated"))
-    assert float(after) < 0.1 < float(before)                  # the lab of seed 5, not of seed 0
-    empty = tmp_path / "empty"
-    empty.mkdir()
-    assert main(["report", str(empty), "--out", str(tmp_path / "e.html")]) == 1
-    assert "no results of the command line" in capsys.readouterr().err

@@ -3,8 +3,6 @@ measurements): the second tool refused until identified, identified from its pro
 then within limits; the wrong tool mounted found; poses proposed for a real robot."""
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
 
@@ -17,6 +15,7 @@ from core.monitoring.log import read_check_log
 from core.poses.file import read_poses
 from core.robot.file import read_robot, write_robot
 from tests.core.tools.two_tools import two_tool_robot
+from tests.app.commands.cli_output import run_json
 
 
 @pytest.fixture(scope="module")
@@ -27,12 +26,6 @@ def cell(tmp_path_factory, built_lab):
     write_calibrated_model(identify(lab.nominal_robot, ideal_lab_measurements(lab, 50, sigma_mm=0.05, seed=4)),
                            folder / "calibrated.json")
     return folder / "calibrated.json", robot
-
-
-def run_json(capsys, argv):
-    code = main(argv + ["--json"])
-    out, err = capsys.readouterr()
-    return code, (json.loads(out) if out.strip() else None), err
 
 
 def test_identify_the_second_tool_then_check_with_it(cell, tmp_path, capsys):

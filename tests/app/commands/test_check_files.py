@@ -18,6 +18,7 @@ from core.poses.file import read_poses
 from core.robot.file import read_robot
 from core.robot.model import robot_path
 from core.virtual_lab.changes import apply_change
+from tests.app.commands.cli_output import run_json
 from tests.app.virtual_inputs import marker_dataset
 
 SEED = 3
@@ -60,12 +61,6 @@ def capture(lab, poses_csv, folder, change=None, seed=0):
     finally:
         lab.true_robot = true
     return folder
-
-
-def run_json(capsys, argv):
-    code = main(argv + ["--json"])
-    out, err = capsys.readouterr()
-    return code, (json.loads(out) if out.strip() else None), err
 
 
 @pytest.mark.slow
@@ -149,17 +144,7 @@ def test_usage_errors(cell, tmp_path, capsys, argv, message):
     assert code == 2 and message in capsys.readouterr().err
 
 
-def test_reidentify_without_a_check_is_one_line(cell, tmp_path, capsys):
-    root, ds, calibrated, lab = cell
-    (tmp_path / "c.csv").write_text("")
-    code = main(["reidentify", "--robot", str(calibrated), "--log", str(tmp_path / "c.csv"), "--change", "tool",
-                 "--measurements", str(root / "meas.csv"), "--out", str(tmp_path / "u.json")])
-    err = capsys.readouterr().err
-    assert code == 1 and "check log" in err and len(err.strip().splitlines()) == 1
-    assert not (tmp_path / "u.json").exists()
-
-
-IRB = Path(__file__).resolve().parents[3] / "shared" / "data" / "irb120-laser-tracker"
+IRB = Path(__file__).resolve().parents[4] / "shared" / "data" / "irb120-laser-tracker"
 
 
 @pytest.mark.skipif(not IRB.is_dir(), reason=f"IRB 120 laser-tracker data not found at {IRB}")

@@ -1,7 +1,5 @@
-"""`robocal identify`, `evaluate` and `export` on synthetic measurements (no Qt)."""
+"""`robocal identify` on synthetic measurements (no Qt): the calibrated file, its options, bad input."""
 from __future__ import annotations
-
-import json
 
 import pytest
 
@@ -10,6 +8,7 @@ from core.robot.model import robot_path
 from core.measurement.file import write_measurements
 from core.robot.file import read_robot
 from core.virtual_lab.synthetic import perturbed_model, simulate_measurements
+from tests.app.commands.cli_output import run_json
 
 ROBOT = str(robot_path("educational_6r"))
 
@@ -21,12 +20,6 @@ def data(tmp_path_factory):
     true = perturbed_model(nominal, 4)
     write_measurements(simulate_measurements(true, 40, rng=5), folder / "m.csv")
     return folder
-
-
-def run_json(capsys, argv):
-    code = main(argv + ["--json"])
-    out, err = capsys.readouterr()
-    return code, (json.loads(out) if out.strip() else None), err
 
 
 def test_identify_json_and_calibrated_file(data, tmp_path, capsys):
@@ -43,13 +36,6 @@ def test_identify_json_and_calibrated_file(data, tmp_path, capsys):
     assert result["parameters"]["J2.a"]["std"] > 0 and result["parameters"]["J1.theta"]["std"] is None
     calibrated = read_robot(out)
     assert calibrated.calibration["statistics"]["rms_after_mm"] == pytest.approx(result["rms_after_mm"])
-    # the calibrated model evaluates well on all measurements; the nominal one does not
-    code, ev, _ = run_json(capsys, ["evaluate", "--robot", str(out), "--measurements", str(data / "m.csv")])
-    assert code == 0 and ev["n"] == 40 and ev["rms_mm"] < 0.15 and len(ev["per_pose"]) == 40
-    assert set(ev) >= {"n", "mean_mm", "rms_mm", "max_mm", "per_pose"}
-    code, ev0, _ = run_json(capsys, ["evaluate", "--robot", ROBOT, "--measurements", str(data / "m.csv"),
-                                     "--register-base"])
-    assert code == 0 and ev0["rms_mm"] > 10 * ev["rms_mm"]
 
 
 def test_identify_text_output_with_options(data, tmp_path, capsys):
@@ -61,16 +47,6 @@ def test_identify_text_output_with_options(data, tmp_path, capsys):
     assert "4-fold cross validation" in text and f"Wrote {out}" in text
     cal = read_robot(out).calibration
     assert cal["fixed"] == ["J3.a", "marker.x"] and cal["statistics"]["huber"] == 3.0
-
-
-def test_export_urdf_and_dh_csv(data, tmp_path, capsys):
-    code, res, _ = run_json(capsys, ["export", "--robot", ROBOT, "--format", "urdf", "--out", str(tmp_path / "r.urdf")])
-    assert code == 0 and res["format"] == "urdf" and (tmp_path / "r.urdf").read_text().startswith("<?xml")
-    code = main(["export", "--robot", ROBOT, "--format", "dh-csv", "--out", str(tmp_path / "dh.csv")])
-    assert code == 0 and (tmp_path / "dh.csv").read_text().startswith("joint,type,theta_deg")
-    assert "Wrote" in capsys.readouterr().out
-    code = main(["export", "--robot", ROBOT, "--format", "sdf", "--out", str(tmp_path / "x")])
-    assert code == 2 and "invalid choice" in capsys.readouterr().err
 
 
 def bad_run(capsys, tmp_path, measurements_text=None, extra=(), robot=ROBOT, meas_path=None):
@@ -99,11 +75,7 @@ def test_bad_numbers_and_joint_count(tmp_path, capsys):
     assert code == 1 and "the file has 2 joint columns (q1..q2) but the robot has 6 joints" in err
 
 
-def test_unknown_target_and_too_few_poses(tmp_path, capsys, data):
-    (tmp_path / "probe.csv").write_text(HEAD + "0,probe,1,2,3,4,5,6,10,20,30\n")
-    code = main(["evaluate", "--robot", ROBOT, "--measurements", str(tmp_path / "probe.csv")])
-    err = capsys.readouterr().err          # a model can only be evaluated at targets it defines
-    assert code == 1 and "target 'probe' is not defined in the robot" in err
+def test_too_few_poses(tmp_path, capsys):
     rows = "".join(f"{i},marker,{i},{2 * i},{3 * i},4,5,6,{10 + i},{20 - i},{30 + i * i}\n" for i in range(5))
     code, err = bad_run(capsys, tmp_path, HEAD + rows)
     assert code == 1 and "too few measurements" in err and "Measure at least" in err
@@ -130,8 +102,6 @@ def test_usage_errors(tmp_path, capsys, data):
     code = main(["identify", "--robot", ROBOT, "--measurements", m, "--out", str(tmp_path / "c.json"),
                  "--holdout", "0.2", "--kfold", "3"])
     assert code == 2 and "not allowed with argument" in capsys.readouterr().err
-    code = main(["evaluate", "--robot", ROBOT, "--measurements", str(tmp_path / "missing.csv")])
-    assert code == 1 and "file not found" in capsys.readouterr().err
 
 
 def test_an_unwritable_out_is_refused_with_one_line(tmp_path, capsys, data):

@@ -1,11 +1,10 @@
-"""`robocal compensate` (and `export --format ur-kinematics`) on a calibrated virtual-lab robot:
-targets in the camera, base and a fixture frame, a nominal joint program, corrected Cartesian
-targets for a nominal controller, G-code and move lists read back by parsers written here, bad
-input refused."""
+"""`robocal compensate` on a calibrated virtual-lab robot: targets in the camera, base and a
+fixture frame, a nominal joint program, corrected Cartesian targets for a nominal controller,
+G-code and move lists read back by parsers written here, bad input refused. The UR kinematics
+file: tests/app/commands/test_export.py."""
 from __future__ import annotations
 
 import csv
-import json
 import re
 
 import numpy as np
@@ -21,8 +20,7 @@ from core.identification.file import write_calibrated_model
 from core.identification.solver import identify
 from core.poses.file import read_pose_list, write_poses
 from core.robot.file import read_robot, write_robot
-from core.robot.model import robot_path
-import yaml
+from tests.app.commands.cli_output import run_json
 
 
 @pytest.fixture(scope="module")
@@ -49,12 +47,6 @@ def _conditioning(model, q):
     J = np.array([np.r_[np.cross(F[i, :3, 2], p - F[i, :3, 3]), 300.0 * F[i, :3, 2]] for i in range(6)]).T
     s = np.linalg.svd(J, compute_uv=False)
     return s[-1] / s[0]
-
-
-def run_json(capsys, argv):
-    code = main(argv + ["--json"])
-    out, err = capsys.readouterr()
-    return code, (json.loads(out) if out.strip() else None), err
 
 
 def _write_targets_csv(path, xyz, rpy_deg=None, q=None):
@@ -235,14 +227,3 @@ def test_bad_input(cell, tmp_path, capsys):
     assert main(["compensate", "--robot", robot, "--targets", str(good), "--frame", "world",
                  "--out", str(tmp_path / "o.csv")]) == 2
     assert "--frame 'world'" in capsys.readouterr().err
-
-
-def test_export_ur_kinematics(tmp_path, capsys):
-    code = main(["export", "--robot", str(robot_path("ur5")), "--format", "ur-kinematics",
-                 "--out", str(tmp_path / "k.yaml"), "--json"])
-    assert code == 0
-    kin = yaml.safe_load((tmp_path / "k.yaml").read_text())["kinematics"]
-    assert kin["forearm"]["x"] == pytest.approx(-0.425)
-    assert main(["export", "--robot", str(robot_path("puma560")), "--format", "ur-kinematics",
-                 "--out", str(tmp_path / "p.yaml")]) == 1
-    assert "not a Universal Robots arm" in capsys.readouterr().err and not (tmp_path / "p.yaml").exists()

@@ -266,7 +266,7 @@ def test_a_write_that_fails_on_the_last_output_changes_no_output(tmp_path, previ
 
     left, right = _copy(tmp_path, NUMBERS[:6])
     argv = [sys.executable, "-m", "app.cli", "stereo-calibrate", *map(str, _outputs_args(left, right, tmp_path))]
-    root = Path(__file__).resolve().parents[2]
+    root = Path(__file__).resolve().parents[3]
     proc = subprocess.run(argv, capture_output=True, text=True, timeout=120, preexec_fn=limit, cwd=tmp_path,
                           env={"PATH": "/usr/bin:/bin", "PYTHONPATH": str(root), "PYTHONDONTWRITEBYTECODE": "1",
                                "HOME": str(tmp_path)})

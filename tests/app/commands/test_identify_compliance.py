@@ -13,6 +13,7 @@ from core.robot.file import read_robot, write_robot
 from core.robot.model import PRISMATIC, Joint, RobotModel, robot_path
 from core.virtual_lab.robot_deflection import deflecting_robot
 from core.virtual_lab.synthetic import perturbed_model, simulate_measurements
+from tests.app.commands.cli_output import run_json
 
 ROBOT = str(robot_path("abb_irb120"))
 
@@ -30,12 +31,6 @@ def data(tmp_path_factory):
     once = simulate_measurements(true, 1, targets=["probe", "marker"], sigma_mm=0.02, rng=9)
     write_measurements(once, folder / "once.csv")
     return folder
-
-
-def run_json(capsys, argv):
-    code = main(argv + ["--json"])
-    out, err = capsys.readouterr()
-    return code, (json.loads(out) if out.strip() else None), err
 
 
 def test_auto_keeps_the_deflection_terms_and_records_the_payload(data, tmp_path, capsys):

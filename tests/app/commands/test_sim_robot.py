@@ -14,7 +14,7 @@ from core.robot.file import read_robot
 from core.robot.model import robot_path
 from core.robot.serial_robot import SerialRobot
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def test_bad_fault_spec_is_a_usage_error(capsys):

@@ -28,7 +28,7 @@ from core.robot.controller_sim import ControllerSim
 from core.virtual_lab.changes import apply_change
 from tests.app.virtual_inputs import true_stereo_yaml
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 @pytest.fixture(scope="module")

@@ -2,8 +2,6 @@
 diagnosed and re-identified, the log appended, bad input refused."""
 from __future__ import annotations
 
-import json
-
 import pytest
 
 from app.cli import main
@@ -12,6 +10,7 @@ from core.identification.file import write_calibrated_model
 from core.identification.solver import identify
 from core.monitoring.log import read_check_log
 from core.robot.file import read_robot
+from tests.app.commands.cli_output import run_json
 
 
 @pytest.fixture(scope="module")
@@ -21,12 +20,6 @@ def calibrated(tmp_path_factory, built_lab):
     write_calibrated_model(identify(lab.nominal_robot, ideal_lab_measurements(lab, 50, sigma_mm=0.05, seed=4)),
                            folder / "calibrated.json")
     return folder / "calibrated.json"
-
-
-def run_json(capsys, argv):
-    code = main(argv + ["--json"])
-    out, err = capsys.readouterr()
-    return code, (json.loads(out) if out.strip() else None), err
 
 
 def test_no_change_is_within_limits(calibrated, tmp_path, capsys):

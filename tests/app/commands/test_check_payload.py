@@ -3,8 +3,6 @@
 virtual lab of a robot file whose tool carries the probe too (the lab's truth knows where it sits)."""
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
 
@@ -15,6 +13,7 @@ from core.identification.solver import identify
 from core.measurement.file import write_measurements
 from core.robot.file import read_robot, write_robot
 from core.virtual_lab.synthetic import simulate_measurements
+from tests.app.commands.cli_output import run_json
 
 PROBE = np.array([20.0, -15.0, 40.0])       # mm on the nominal tool
 
@@ -37,12 +36,6 @@ def lab_files(tmp_path_factory):
     write_measurements(simulate_measurements(lab.true_robot, 1, targets=["probe", "marker"], sigma_mm=0.05, rng=5),
                        folder / "once.csv")
     return folder
-
-
-def run_json(capsys, argv):
-    code = main(argv + ["--json"])
-    out, err = capsys.readouterr()
-    return code, (json.loads(out) if out.strip() else None), err
 
 
 def check(folder, robot, log, *more):
