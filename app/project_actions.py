@@ -3,7 +3,7 @@
 Each action asks for a folder when none is given (New project and Save the demo take a new
 folder's name too: the folder is created), shows a RoboCalError as one message box
 line, and returns the project (or None when cancelled or failed). New project also asks which
-cell the project measures on (the virtual lab or a real cell, app/pages/setup/cell_dialog.py)
+cell the project measures on (the virtual lab or a real cell, app/cell_dialog.py)
 when it asks for the folder; given a folder and no cell, it makes a virtual-lab project."""
 from __future__ import annotations
 
@@ -12,9 +12,9 @@ from pathlib import Path
 
 from PySide6.QtWidgets import QFileDialog, QWidget
 
+from app.cell_dialog import ask_cell
 from app.messages import show_error
 from app.new_folder_dialog import ask_new_folder
-from app.pages.setup.cell_dialog import ask_cell
 from app.state import WizardState
 from core.errors import RoboCalError
 from core.project import Output, PROJECT_FILE, Project

@@ -15,8 +15,8 @@ from PySide6.QtCore import Qt, QTimer
 from PySide6.QtWidgets import QApplication, QDialogButtonBox, QLineEdit
 
 from app import project_actions
+from app.cell_dialog import CellDialog
 from app.new_folder_dialog import NewFolderDialog, ask_new_folder
-from app.pages.setup.cell_dialog import CellDialog
 from app.pages.setup.urdf_dialog import UrdfDialog
 from app.pages.steps import Step
 from core.stereo.file import read_stereo_yaml

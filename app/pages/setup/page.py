@@ -14,9 +14,9 @@ from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QFileDialog, QFrame, QScrollArea, QVBoxLayout, QWidget
 
 from app import project_actions
+from app.cell_dialog import change_cell
 from app.pages.base import WizardPage
 from app.pages.setup.cameras_panel import CameraPanel
-from app.pages.setup.cell_dialog import change_cell
 from app.pages.setup.model import SetupModel, SetupView
 from app.pages.setup.project_box import ProjectBox
 from app.pages.setup.protocol_panel import ProtocolPanel

@@ -8,8 +8,8 @@ import json
 import pytest
 
 from app import project_actions
+from app.cell_dialog import CellDialog
 from app.hardware import is_real
-from app.pages.setup.cell_dialog import CellDialog
 from app.pages.setup.page import SetupPage
 from app.state import WizardState
 from app.worker import TaskRunner
