@@ -1,6 +1,7 @@
-"""The project's cell: the dialog asked by New project (virtual lab or a real cell with its robot
+"""The project's cell: chosen when a project is made (virtual lab or a real cell with its robot
 connection and cameras), saved in project.json, shown on the Setup page and changed from there;
-the state's robot connection follows (the lab's simulated robot only in a virtual-lab project)."""
+the state's robot connection follows (the lab's simulated robot only in a virtual-lab project).
+The dialog itself: tests/app/test_cell_dialog.py."""
 from __future__ import annotations
 
 import json
@@ -8,7 +9,6 @@ import json
 import pytest
 
 from app import project_actions
-from app.cell_dialog import CellDialog
 from app.hardware import is_real
 from app.pages.setup.page import SetupPage
 from app.state import WizardState
@@ -27,24 +27,6 @@ def page(qtbot):
     p.on_leave()
     tasks.shutdown()
     state.close()
-
-
-def test_the_dialog_gives_a_real_cell_with_a_serial_robot_or_teach_mode(qtbot):
-    dialog = CellDialog()
-    qtbot.addWidget(dialog)
-    assert dialog.cell() == (projects.VIRTUAL_LAB, None, None)
-    assert not dialog.robot_box.isEnabled()
-    dialog.real_radio.setChecked(True)
-    dialog.port_edit.setText(" /dev/ttyACM0 ")
-    dialog.profile_combo.setCurrentText("grbl_joint_arm")
-    dialog.left_edit.setText("0")
-    dialog.right_edit.setText("/data/right")
-    assert dialog.cell() == (projects.HARDWARE,
-                             projects.RobotConnection("serial", port="/dev/ttyACM0", profile="grbl_joint_arm"),
-                             projects.CameraSources("sources", left="0", right="/data/right"))
-    dialog.teach_radio.setChecked(True)
-    assert not dialog.port_edit.isEnabled()
-    assert dialog.cell()[1] == projects.RobotConnection("teach")
 
 
 def test_a_new_real_cell_project_is_saved_shown_and_changed(page, tmp_path):
