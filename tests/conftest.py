@@ -18,7 +18,7 @@
   lab's stereo renderings (for each distinct lab, pose and random state), markers trained from an
   image and the marker's locations in a pair, outside the renderer's and the marker's own tests
   and tests marked no_session_cache (tests/session_cache.py).
-- With pytest-xdist (`make test` runs `-n auto --dist loadscope`), the longest modules are
+- With pytest-xdist (`make test` runs `-n <cores + 1> --dist loadscope`), the longest modules are
   handed out first (their seconds in the last run, from pytest's cache) and the modules that
   share the in-process demo walk run on one worker (tests/scheduling.py). The demo walked in a
   fresh process starts in the background at a lower priority as soon as a worker has collected
